@@ -1,0 +1,390 @@
+//! The pinhole camera model and rigid transforms (OpenCV convention).
+//!
+//! Axes: x right, y down, z forward (into the scene). A world point maps into the camera as
+//! `X_c = R X_w + t` (`camera_from_world`); the camera centre is `C = -R^T t`. Pixel centres
+//! sit at integer coordinates, so the top-left pixel's centre is `(0, 0)` and a `W x H` image
+//! spans `[-0.5, W - 0.5] x [-0.5, H - 0.5]`. Depth is z-depth in the camera, not ray length.
+
+use glam::{DMat3, DVec2, DVec3};
+use serde::{Deserialize, Serialize};
+
+/// Pinhole intrinsics in pixels. Parameter order follows COLMAP's `PINHOLE` model:
+/// `fx, fy, cx, cy`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Intrinsics {
+    /// Focal length along x, in pixels.
+    pub fx: f64,
+    /// Focal length along y, in pixels.
+    pub fy: f64,
+    /// Principal point x, in pixels (pixel centres at integers).
+    pub cx: f64,
+    /// Principal point y, in pixels (pixel centres at integers).
+    pub cy: f64,
+}
+
+impl Intrinsics {
+    /// Intrinsics of a camera with the principal point at the image centre and the given
+    /// vertical field of view.
+    pub fn from_vertical_fov(vertical_fov_rad: f64, width_px: u32, height_px: u32) -> Self {
+        let f = 0.5 * f64::from(height_px) / (0.5 * vertical_fov_rad).tan();
+        Self {
+            fx: f,
+            fy: f,
+            cx: 0.5 * f64::from(width_px) - 0.5,
+            cy: 0.5 * f64::from(height_px) - 0.5,
+        }
+    }
+
+    /// Vertical field of view in radians for an image `height_px` tall.
+    pub fn vertical_fov_rad(&self, height_px: u32) -> f64 {
+        2.0 * (0.5 * f64::from(height_px) / self.fy).atan()
+    }
+
+    /// The same camera for an image scaled by `scale` in both directions (e.g. 0.5 for half
+    /// resolution). Pixel centres stay at integers at the new resolution.
+    pub fn scaled(&self, scale: f64) -> Self {
+        Self {
+            fx: self.fx * scale,
+            fy: self.fy * scale,
+            cx: (self.cx + 0.5) * scale - 0.5,
+            cy: (self.cy + 0.5) * scale - 0.5,
+        }
+    }
+
+    /// Projects a point in camera coordinates to pixel coordinates. Returns `None` for points
+    /// at or behind the camera plane (`z <= 0`).
+    pub fn project(&self, point_camera: DVec3) -> Option<DVec2> {
+        if point_camera.z <= 0.0 {
+            return None;
+        }
+        let inv_z = 1.0 / point_camera.z;
+        Some(DVec2::new(
+            self.fx * point_camera.x * inv_z + self.cx,
+            self.fy * point_camera.y * inv_z + self.cy,
+        ))
+    }
+
+    /// Lifts a pixel with z-depth `depth_m` back to camera coordinates.
+    pub fn unproject(&self, pixel: DVec2, depth_m: f64) -> DVec3 {
+        DVec3::new(
+            (pixel.x - self.cx) / self.fx * depth_m,
+            (pixel.y - self.cy) / self.fy * depth_m,
+            depth_m,
+        )
+    }
+
+    /// The 3x3 calibration matrix `K` (column-major, as glam stores it).
+    pub fn matrix(&self) -> DMat3 {
+        DMat3::from_cols(
+            DVec3::new(self.fx, 0.0, 0.0),
+            DVec3::new(0.0, self.fy, 0.0),
+            DVec3::new(self.cx, self.cy, 1.0),
+        )
+    }
+
+    /// True when every parameter is finite and the focal lengths are positive.
+    pub fn is_valid(&self) -> bool {
+        [self.fx, self.fy, self.cx, self.cy]
+            .iter()
+            .all(|v| v.is_finite())
+            && self.fx > 0.0
+            && self.fy > 0.0
+    }
+}
+
+/// A rigid transform `p_to = rotation * p_from + translation`. Name values after the frames
+/// they connect, e.g. `camera_from_world: Rigid3`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rigid3 {
+    /// Rotation part (orthonormal, determinant +1).
+    pub rotation: DMat3,
+    /// Translation part.
+    pub translation: DVec3,
+}
+
+impl Default for Rigid3 {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+impl Rigid3 {
+    /// The identity transform.
+    pub const IDENTITY: Self = Self {
+        rotation: DMat3::IDENTITY,
+        translation: DVec3::ZERO,
+    };
+
+    /// A transform from its rotation and translation.
+    pub fn new(rotation: DMat3, translation: DVec3) -> Self {
+        Self {
+            rotation,
+            translation,
+        }
+    }
+
+    /// Applies the transform to a point.
+    pub fn transform_point(&self, point: DVec3) -> DVec3 {
+        self.rotation * point + self.translation
+    }
+
+    /// Applies only the rotation (for directions).
+    pub fn transform_vector(&self, vector: DVec3) -> DVec3 {
+        self.rotation * vector
+    }
+
+    /// The inverse transform: if `self` is `b_from_a`, returns `a_from_b`.
+    pub fn inverse(&self) -> Self {
+        let rotation_t = self.rotation.transpose();
+        Self {
+            rotation: rotation_t,
+            translation: -(rotation_t * self.translation),
+        }
+    }
+
+    /// Composition: `c_from_b.compose(&b_from_a)` is `c_from_a`.
+    pub fn compose(&self, b_from_a: &Self) -> Self {
+        Self {
+            rotation: self.rotation * b_from_a.rotation,
+            translation: self.rotation * b_from_a.translation + self.translation,
+        }
+    }
+
+    /// A camera's `camera_from_world` that sits at `eye_world` and looks at `target_world`,
+    /// with image "up" (`-y` in OpenCV axes) as close as possible to `up_world`.
+    pub fn camera_from_world_looking_at(eye_world: DVec3, target_world: DVec3, up_world: DVec3) -> Self {
+        let z_axis = (target_world - eye_world).normalize();
+        let x_axis = z_axis.cross(up_world).normalize();
+        let y_axis = z_axis.cross(x_axis);
+        // Rows of R are the camera axes expressed in world coordinates.
+        let rotation = DMat3::from_cols(x_axis, y_axis, z_axis).transpose();
+        Self {
+            rotation,
+            translation: -(rotation * eye_world),
+        }
+    }
+
+    /// For a `camera_from_world` transform: the camera centre in world coordinates,
+    /// `C = -R^T t`.
+    pub fn camera_center_world(&self) -> DVec3 {
+        -(self.rotation.transpose() * self.translation)
+    }
+
+    /// True when all entries are finite, `R R^T` is within `tolerance` of the identity
+    /// (max abs entry) and `det R` within `tolerance` of +1.
+    pub fn is_proper_rigid(&self, tolerance: f64) -> bool {
+        let r = self.rotation;
+        let finite = r.to_cols_array().iter().all(|v| v.is_finite()) && self.translation.is_finite();
+        if !finite {
+            return false;
+        }
+        let gram = r * r.transpose();
+        let off = (gram - DMat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .fold(0.0_f64, |m, v| m.max(v.abs()));
+        off <= tolerance && (r.determinant() - 1.0).abs() <= tolerance
+    }
+
+    /// Row-major 3x3 rotation entries, the order used in `scene.json`.
+    pub fn rotation_rows(&self) -> [[f64; 3]; 3] {
+        let r = self.rotation.transpose(); // columns of R^T are rows of R
+        [r.x_axis.to_array(), r.y_axis.to_array(), r.z_axis.to_array()]
+    }
+
+    /// Builds a transform from row-major rotation entries and a translation.
+    pub fn from_rotation_rows(rows: [[f64; 3]; 3], translation: [f64; 3]) -> Self {
+        let rotation = DMat3::from_cols(
+            DVec3::from_array(rows[0]),
+            DVec3::from_array(rows[1]),
+            DVec3::from_array(rows[2]),
+        )
+        .transpose();
+        Self {
+            rotation,
+            translation: DVec3::from_array(translation),
+        }
+    }
+}
+
+/// A posed pinhole camera with an image size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Intrinsics at `width_px x height_px`.
+    pub intrinsics: Intrinsics,
+    /// World-to-camera transform.
+    pub camera_from_world: Rigid3,
+    /// Image width in pixels.
+    pub width_px: u32,
+    /// Image height in pixels.
+    pub height_px: u32,
+}
+
+impl Camera {
+    /// Projects a world point to `(pixel, depth_m)`; `None` when behind the camera.
+    pub fn project_world(&self, point_world: DVec3) -> Option<(DVec2, f64)> {
+        let p = self.camera_from_world.transform_point(point_world);
+        self.intrinsics.project(p).map(|px| (px, p.z))
+    }
+
+    /// The world point seen at `pixel` with z-depth `depth_m`.
+    pub fn unproject_world(&self, pixel: DVec2, depth_m: f64) -> DVec3 {
+        let p_camera = self.intrinsics.unproject(pixel, depth_m);
+        self.camera_from_world.inverse().transform_point(p_camera)
+    }
+
+    /// The camera centre in world coordinates.
+    pub fn center_world(&self) -> DVec3 {
+        self.camera_from_world.camera_center_world()
+    }
+
+    /// True when `pixel` lies inside the image (pixel centres at integers).
+    pub fn contains(&self, pixel: DVec2) -> bool {
+        pixel.x >= -0.5
+            && pixel.y >= -0.5
+            && pixel.x < f64::from(self.width_px) - 0.5
+            && pixel.y < f64::from(self.height_px) - 0.5
+    }
+
+    /// The same camera rendered at another resolution (intrinsics scaled per axis).
+    pub fn resized(&self, width_px: u32, height_px: u32) -> Self {
+        let sx = f64::from(width_px) / f64::from(self.width_px);
+        let sy = f64::from(height_px) / f64::from(self.height_px);
+        Self {
+            intrinsics: Intrinsics {
+                fx: self.intrinsics.fx * sx,
+                fy: self.intrinsics.fy * sy,
+                cx: (self.intrinsics.cx + 0.5) * sx - 0.5,
+                cy: (self.intrinsics.cy + 0.5) * sy - 0.5,
+            },
+            width_px,
+            height_px,
+            ..*self
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn approx(a: DVec3, b: DVec3, tol: f64) -> bool {
+        (a - b).abs().max_element() <= tol
+    }
+
+    #[test]
+    fn project_hand_checked() {
+        let k = Intrinsics {
+            fx: 500.0,
+            fy: 400.0,
+            cx: 320.0,
+            cy: 240.0,
+        };
+        // (1, -0.5, 2): x = 500 * 0.5 + 320 = 570, y = 400 * -0.25 + 240 = 140.
+        let px = k.project(DVec3::new(1.0, -0.5, 2.0)).unwrap();
+        assert_eq!(px, DVec2::new(570.0, 140.0));
+        assert!(k.project(DVec3::new(0.0, 0.0, 0.0)).is_none());
+        assert!(k.project(DVec3::new(0.0, 0.0, -1.0)).is_none());
+    }
+
+    #[test]
+    fn unproject_inverts_project() {
+        let k = Intrinsics {
+            fx: 812.5,
+            fy: 799.0,
+            cx: 479.5,
+            cy: 269.5,
+        };
+        let p = DVec3::new(-0.7, 0.3, 4.25);
+        let px = k.project(p).unwrap();
+        assert!(approx(k.unproject(px, p.z), p, 1e-12));
+    }
+
+    #[test]
+    fn fov_round_trip_and_centre() {
+        let k = Intrinsics::from_vertical_fov(60f64.to_radians(), 960, 540);
+        // f = 270 / tan(30 deg) = 467.65...
+        assert!((k.fy - 270.0 / (30f64.to_radians()).tan()).abs() < 1e-9);
+        assert_eq!((k.cx, k.cy), (479.5, 269.5));
+        assert!((k.vertical_fov_rad(540) - 60f64.to_radians()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn scaled_keeps_pixel_centre_convention() {
+        let k = Intrinsics::from_vertical_fov(1.0, 64, 32);
+        let half = k.scaled(0.5);
+        // Centre of a 64-wide image is 31.5; of a 32-wide image 15.5.
+        assert_eq!(half.cx, 15.5);
+        assert_eq!(half.cy, 7.5);
+        assert_eq!(half.fx, k.fx * 0.5);
+    }
+
+    #[test]
+    fn inverse_and_centre() {
+        let rotation = DMat3::from_rotation_y(0.3) * DMat3::from_rotation_x(-0.2);
+        let t = Rigid3::new(rotation, DVec3::new(1.0, 2.0, 3.0));
+        let p = DVec3::new(0.4, -1.1, 7.0);
+        assert!(approx(t.inverse().transform_point(t.transform_point(p)), p, 1e-12));
+        // The centre maps to the camera origin.
+        assert!(approx(t.transform_point(t.camera_center_world()), DVec3::ZERO, 1e-12));
+        let id = t.compose(&t.inverse());
+        assert!(approx(id.translation, DVec3::ZERO, 1e-12));
+    }
+
+    #[test]
+    fn look_at_puts_target_on_axis_and_up_up() {
+        let eye = DVec3::new(2.0, 1.5, 6.0);
+        let target = DVec3::new(0.0, 1.0, 0.0);
+        let pose = Rigid3::camera_from_world_looking_at(eye, target, DVec3::Y);
+        assert!(pose.is_proper_rigid(1e-12));
+        let p = pose.transform_point(target);
+        assert!(p.x.abs() < 1e-12 && p.y.abs() < 1e-12 && p.z > 0.0);
+        // A point above the target is above in the image (negative y in OpenCV axes).
+        assert!(pose.transform_point(target + DVec3::Y).y < 0.0);
+        assert!(approx(pose.camera_center_world(), eye, 1e-12));
+    }
+
+    #[test]
+    fn rotation_rows_round_trip() {
+        let t = Rigid3::new(DMat3::from_rotation_z(0.7), DVec3::new(1.0, 0.0, -2.0));
+        let rows = t.rotation_rows();
+        // Row 0 of Rz(a) is (cos a, -sin a, 0).
+        assert!((rows[0][0] - 0.7f64.cos()).abs() < 1e-15);
+        assert!((rows[0][1] + 0.7f64.sin()).abs() < 1e-15);
+        let back = Rigid3::from_rotation_rows(rows, t.translation.to_array());
+        assert_eq!(back, t);
+    }
+
+    #[test]
+    fn proper_rigid_rejects_bad_matrices() {
+        let mut t = Rigid3::IDENTITY;
+        assert!(t.is_proper_rigid(1e-9));
+        t.rotation.x_axis.x = 1.1;
+        assert!(!t.is_proper_rigid(1e-3));
+        let mirror = Rigid3::new(DMat3::from_diagonal(DVec3::new(1.0, 1.0, -1.0)), DVec3::ZERO);
+        assert!(!mirror.is_proper_rigid(1e-3));
+        let nan = Rigid3::new(DMat3::IDENTITY, DVec3::new(f64::NAN, 0.0, 0.0));
+        assert!(!nan.is_proper_rigid(1e-3));
+    }
+
+    #[test]
+    fn camera_world_round_trip_and_resize() {
+        let cam = Camera {
+            intrinsics: Intrinsics::from_vertical_fov(0.9, 96, 54),
+            camera_from_world: Rigid3::camera_from_world_looking_at(
+                DVec3::new(0.0, 1.0, 5.0),
+                DVec3::ZERO,
+                DVec3::Y,
+            ),
+            width_px: 96,
+            height_px: 54,
+        };
+        let p = DVec3::new(0.3, 0.2, -0.4);
+        let (px, depth) = cam.project_world(p).unwrap();
+        assert!(cam.contains(px));
+        assert!(approx(cam.unproject_world(px, depth), p, 1e-12));
+        let small = cam.resized(48, 27);
+        let (px_small, _) = small.project_world(p).unwrap();
+        assert!(((px_small.x + 0.5) * 2.0 - (px.x + 0.5)).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,24 @@
+//! dynview's core: everything the offline tools and the browser viewer share, in pure Rust.
+//!
+//! - [`camera`]: the OpenCV pinhole model, rigid transforms, project / unproject with z-depth;
+//! - [`rotation`]: quaternion and angle-axis conversions;
+//! - [`view_ranking`]: the paper's input-view score `r_F`;
+//! - [`raster`]: pixel grids and 8-bit conversions;
+//! - [`scene`]: the scene package (format v1: `scene.json`, `clouds.bin`, frames);
+//! - [`camera_path`]: nerfstudio `camera_path.json` paths;
+//! - [`colmap`]: COLMAP text models;
+//! - [`depth_io`]: 16-bit depth images with a scale.
+//!
+//! No GPU, browser or OpenCV dependency lives here; the crate builds for `wasm32`.
+
+pub mod camera;
+pub mod camera_path;
+pub mod colmap;
+pub mod depth_io;
+pub mod raster;
+pub mod rotation;
+pub mod scene;
+pub mod view_ranking;
+
+pub use camera::{Camera, Intrinsics, Rigid3};
+pub use raster::{Raster, Rgb, RgbRaster, ScalarRaster};

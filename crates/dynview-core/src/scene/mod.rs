@@ -1,0 +1,22 @@
+//! The scene package (format v1, specified in `docs/FORMAT.md`): `scene.json`, `clouds.bin`
+//! and one frame file per camera per time step.
+
+pub mod cloud;
+pub mod error;
+pub mod limits;
+pub mod manifest;
+#[cfg(not(target_family = "wasm"))]
+pub mod package;
+pub mod summary;
+
+pub use cloud::{CloudIndex, PointCloud};
+pub use error::{SceneError, SceneResult};
+pub use manifest::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, PoseEntry, StartView};
+#[cfg(not(target_family = "wasm"))]
+pub use package::{ScenePackage, SceneWriter, write_atomic};
+pub use summary::SceneSummary;
+
+#[cfg(test)]
+pub(crate) mod testing;
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,445 @@
+//! Reading and writing scene packages on a file system.
+//!
+//! The writer builds the package in a hidden sibling folder and renames it into place only
+//! when complete, so a failed or interrupted write never leaves a half package and never
+//! destroys what was there before.
+
+use std::fs::{self, File};
+use std::io::{Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+use super::cloud::{self, CloudIndex, PointCloud};
+use super::error::{SceneError, SceneResult};
+use super::limits::{MAX_FRAME_FILE_BYTES, MAX_IMAGE_SIDE_PX, MAX_MANIFEST_BYTES};
+use super::manifest::{FRAMES_DIR, FrameFormat, MANIFEST_FILE, Manifest};
+use crate::camera::Camera;
+use crate::raster::RgbRaster;
+
+/// JPEG quality of frames written by [`SceneWriter`].
+pub const JPEG_QUALITY: u8 = 92;
+
+/// An opened, validated scene package. Opening reads `scene.json` and the clouds index only;
+/// clouds and frames are read on demand, one time step at a time.
+#[derive(Debug)]
+pub struct ScenePackage {
+    root: PathBuf,
+    manifest: Manifest,
+    cloud_index: CloudIndex,
+}
+
+fn read_limited(path: &Path, limit: u64) -> SceneResult<Vec<u8>> {
+    let file = File::open(path).map_err(|e| SceneError::io(path, e))?;
+    let len = file.metadata().map_err(|e| SceneError::io(path, e))?.len();
+    if len > limit {
+        return Err(SceneError::invalid(path.display().to_string(), "(file)", format!("{len} bytes exceeds the limit of {limit}")));
+    }
+    let mut bytes = Vec::with_capacity(len as usize);
+    file.take(limit).read_to_end(&mut bytes).map_err(|e| SceneError::io(path, e))?;
+    Ok(bytes)
+}
+
+impl ScenePackage {
+    /// Opens and validates the package in folder `root`.
+    pub fn open(root: impl AsRef<Path>) -> SceneResult<Self> {
+        let root = root.as_ref().to_path_buf();
+        let manifest_path = root.join(MANIFEST_FILE);
+        let manifest_name = manifest_path.display().to_string();
+        let bytes = read_limited(&manifest_path, MAX_MANIFEST_BYTES)?;
+        let manifest = Manifest::from_json_slice(&bytes, &manifest_name)?;
+
+        let clouds_path = root.join(&manifest.clouds.file);
+        let clouds_name = clouds_path.display().to_string();
+        let mut file = File::open(&clouds_path).map_err(|e| SceneError::io(&clouds_path, e))?;
+        let file_length = file.metadata().map_err(|e| SceneError::io(&clouds_path, e))?.len();
+        if file_length != manifest.clouds.byte_length {
+            return Err(SceneError::invalid(
+                &manifest_name,
+                "clouds.byte_length",
+                format!("says {} bytes but {} has {file_length}", manifest.clouds.byte_length, manifest.clouds.file),
+            ));
+        }
+        let mut header = [0u8; cloud::HEADER_BYTES];
+        file.read_exact(&mut header).map_err(|_| {
+            SceneError::invalid(&clouds_name, "(header)", format!("file shorter than the {}-byte header", cloud::HEADER_BYTES))
+        })?;
+        let step_count = CloudIndex::peek_step_count(&header, &clouds_name)?;
+        if step_count != manifest.time_step_count {
+            return Err(SceneError::invalid(
+                &clouds_name,
+                "step_count",
+                format!("{step_count} steps but scene.json has time_step_count {}", manifest.time_step_count),
+            ));
+        }
+        let index_len = cloud::index_byte_length(step_count);
+        if index_len > file_length {
+            return Err(SceneError::invalid(&clouds_name, "steps", "file too short for the offset table"));
+        }
+        let mut index_bytes = header.to_vec();
+        index_bytes.resize(index_len as usize, 0);
+        file.read_exact(&mut index_bytes[cloud::HEADER_BYTES..]).map_err(|e| SceneError::io(&clouds_path, e))?;
+        let cloud_index = CloudIndex::parse(&index_bytes, file_length, &clouds_name)?;
+        Ok(Self { root, manifest, cloud_index })
+    }
+
+    /// The package folder.
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    /// The validated manifest.
+    pub fn manifest(&self) -> &Manifest {
+        &self.manifest
+    }
+
+    /// The clouds index (point counts per step, quantisation bounds).
+    pub fn cloud_index(&self) -> &CloudIndex {
+        &self.cloud_index
+    }
+
+    /// Number of time steps.
+    pub fn time_step_count(&self) -> u32 {
+        self.manifest.time_step_count
+    }
+
+    /// Number of input cameras.
+    pub fn camera_count(&self) -> usize {
+        self.manifest.cameras.len()
+    }
+
+    /// The posed input camera `camera` at time step `t`.
+    pub fn camera(&self, camera: usize, t: u32) -> SceneResult<Camera> {
+        self.check_indices(camera, t)?;
+        Ok(self.manifest.camera_at(camera, t))
+    }
+
+    fn check_indices(&self, camera: usize, t: u32) -> SceneResult<()> {
+        if camera >= self.manifest.cameras.len() {
+            return Err(SceneError::invalid(MANIFEST_FILE, "cameras", format!("camera {camera} out of range")));
+        }
+        if t >= self.manifest.time_step_count {
+            return Err(SceneError::invalid(MANIFEST_FILE, "time_step_count", format!("time step {t} out of range")));
+        }
+        Ok(())
+    }
+
+    /// Reads and decodes the cloud of time step `t`, touching no other step's bytes.
+    pub fn read_cloud(&self, t: u32) -> SceneResult<PointCloud> {
+        let path = self.root.join(&self.manifest.clouds.file);
+        let name = path.display().to_string();
+        let Some(entry) = self.cloud_index.steps.get(t as usize).copied() else {
+            return Err(SceneError::invalid(&name, "steps", format!("time step {t} out of range")));
+        };
+        let mut file = File::open(&path).map_err(|e| SceneError::io(&path, e))?;
+        file.seek(SeekFrom::Start(entry.offset)).map_err(|e| SceneError::io(&path, e))?;
+        let mut block = vec![0u8; entry.byte_length() as usize];
+        file.read_exact(&mut block)
+            .map_err(|_| SceneError::invalid(&name, format!("steps[{t}]"), "block truncated (file changed since it was opened?)"))?;
+        self.cloud_index.decode_step(t as usize, &block, &name)
+    }
+
+    /// Path of the frame of `camera` at time step `t`.
+    pub fn frame_path(&self, camera: usize, t: u32) -> SceneResult<PathBuf> {
+        self.check_indices(camera, t)?;
+        Ok(self.root.join(self.manifest.frame_relative_path(camera, t)))
+    }
+
+    /// Reads and decodes the input frame of `camera` at time step `t`, checking its size.
+    pub fn read_frame(&self, camera: usize, t: u32) -> SceneResult<RgbRaster> {
+        let path = self.frame_path(camera, t)?;
+        let bytes = read_limited(&path, MAX_FRAME_FILE_BYTES)?;
+        let entry = &self.manifest.cameras[camera];
+        decode_frame(&bytes, self.manifest.frame_format, entry.width, entry.height, &path.display().to_string())
+    }
+
+    /// Reads only the header of a frame file and checks its dimensions (cheap validation).
+    pub fn check_frame(&self, camera: usize, t: u32) -> SceneResult<()> {
+        let path = self.frame_path(camera, t)?;
+        let name = path.display().to_string();
+        let reader = image::ImageReader::open(&path)
+            .map_err(|e| SceneError::io(&path, e))?
+            .with_guessed_format()
+            .map_err(|e| SceneError::io(&path, e))?;
+        let (w, h) = reader.into_dimensions().map_err(|source| SceneError::Image { file: name.clone(), source })?;
+        let entry = &self.manifest.cameras[camera];
+        if (w, h) != (entry.width, entry.height) {
+            return Err(SceneError::invalid(
+                name,
+                "(image size)",
+                format!("{w}x{h}, but scene.json says {}x{} for camera {}", entry.width, entry.height, entry.name),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Sum of the sizes of every file of the package, in bytes.
+    pub fn size_on_disk(&self) -> SceneResult<u64> {
+        dir_size(&self.root)
+    }
+}
+
+fn dir_size(path: &Path) -> SceneResult<u64> {
+    let mut total = 0;
+    for entry in fs::read_dir(path).map_err(|e| SceneError::io(path, e))? {
+        let entry = entry.map_err(|e| SceneError::io(path, e))?;
+        let meta = entry.metadata().map_err(|e| SceneError::io(&entry.path(), e))?;
+        total += if meta.is_dir() { dir_size(&entry.path())? } else { meta.len() };
+    }
+    Ok(total)
+}
+
+/// Decodes frame bytes of the given format, refusing images whose header claims a size other
+/// than `width x height` before decoding the pixels.
+pub fn decode_frame(bytes: &[u8], format: FrameFormat, width: u32, height: u32, file: &str) -> SceneResult<RgbRaster> {
+    let image_format = match format {
+        FrameFormat::Jpeg => image::ImageFormat::Jpeg,
+        FrameFormat::Png => image::ImageFormat::Png,
+        FrameFormat::Webp => image::ImageFormat::WebP,
+    };
+    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), image_format);
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_IMAGE_SIDE_PX);
+    limits.max_image_height = Some(MAX_IMAGE_SIDE_PX);
+    limits.max_alloc = Some(u64::from(width) * u64::from(height) * 16 + (1 << 20));
+    reader.limits(limits);
+    let decoded = reader.decode().map_err(|source| SceneError::Image { file: file.to_owned(), source })?;
+    if (decoded.width(), decoded.height()) != (width, height) {
+        return Err(SceneError::invalid(
+            file,
+            "(image size)",
+            format!("{}x{}, expected {width}x{height}", decoded.width(), decoded.height()),
+        ));
+    }
+    Ok(RgbRaster::from_rgb8(&decoded.to_rgb8()))
+}
+
+/// Encodes a frame in the package's frame format.
+pub fn encode_frame(image: &image::RgbImage, format: FrameFormat, file: &str) -> SceneResult<Vec<u8>> {
+    let mut out = Vec::new();
+    let result = match format {
+        FrameFormat::Jpeg => image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, JPEG_QUALITY).encode_image(image),
+        FrameFormat::Png => image.write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png),
+        FrameFormat::Webp => image.write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::WebP),
+    };
+    result.map_err(|source| SceneError::Image { file: file.to_owned(), source })?;
+    Ok(out)
+}
+
+/// Writes a scene package: frames (any order, from any thread), then clouds in time order,
+/// then [`SceneWriter::finish`] validates completeness and moves the package into place.
+#[derive(Debug)]
+pub struct SceneWriter {
+    final_dir: PathBuf,
+    staging_dir: PathBuf,
+    manifest: Manifest,
+    clouds_file: File,
+    clouds_bounds: ([f32; 3], [f32; 3]),
+    written_steps: Vec<(u32, u32)>,
+    finished: bool,
+}
+
+impl SceneWriter {
+    /// Starts a package at `out_dir` (which must not exist, be empty, or be a scene package,
+    /// which is replaced only when the new one is complete). `manifest.clouds.byte_length` is
+    /// filled in by `finish`; clouds are quantised in `manifest.bounds`.
+    pub fn create(out_dir: impl AsRef<Path>, manifest: Manifest) -> SceneResult<Self> {
+        let final_dir = out_dir.as_ref().to_path_buf();
+        if final_dir.exists() && !is_replaceable(&final_dir)? {
+            return Err(SceneError::OutputNotAScene {
+                path: final_dir.display().to_string(),
+            });
+        }
+        let mut check = manifest.clone();
+        check.clouds.byte_length = 0;
+        check.validate(MANIFEST_FILE)?;
+        let parent = match final_dir.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        fs::create_dir_all(&parent).map_err(|e| SceneError::io(&parent, e))?;
+        let leaf = final_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
+        let staging_dir = parent.join(format!(".{leaf}.partial-{}", std::process::id()));
+        if staging_dir.exists() {
+            fs::remove_dir_all(&staging_dir).map_err(|e| SceneError::io(&staging_dir, e))?;
+        }
+        for camera in &manifest.cameras {
+            let dir = staging_dir.join(FRAMES_DIR).join(&camera.name);
+            fs::create_dir_all(&dir).map_err(|e| SceneError::io(&dir, e))?;
+        }
+        let clouds_path = staging_dir.join(&manifest.clouds.file);
+        let mut clouds_file = File::create(&clouds_path).map_err(|e| SceneError::io(&clouds_path, e))?;
+        // Reserve the index; it is written once all blocks are known.
+        let index_len = cloud::index_byte_length(manifest.time_step_count);
+        clouds_file
+            .write_all(&vec![0u8; index_len as usize])
+            .map_err(|e| SceneError::io(&clouds_path, e))?;
+        let b = manifest.bounds;
+        let clouds_bounds = (b.min.map(|v| v as f32), b.max.map(|v| v as f32));
+        Ok(Self {
+            final_dir,
+            staging_dir,
+            manifest,
+            clouds_file,
+            clouds_bounds,
+            written_steps: Vec::new(),
+            finished: false,
+        })
+    }
+
+    /// The manifest being written.
+    pub fn manifest(&self) -> &Manifest {
+        &self.manifest
+    }
+
+    /// Encodes and writes the frame of `camera` at time step `t`.
+    pub fn write_frame(&self, camera: usize, t: u32, image: &image::RgbImage) -> SceneResult<()> {
+        let rel = self.checked_frame_path(camera, t)?;
+        let entry = &self.manifest.cameras[camera];
+        if image.dimensions() != (entry.width, entry.height) {
+            return Err(SceneError::invalid(
+                rel,
+                "(image size)",
+                format!("{:?}, expected {}x{}", image.dimensions(), entry.width, entry.height),
+            ));
+        }
+        let bytes = encode_frame(image, self.manifest.frame_format, &rel)?;
+        let path = self.staging_dir.join(&rel);
+        fs::write(&path, bytes).map_err(|e| SceneError::io(&path, e))
+    }
+
+    fn checked_frame_path(&self, camera: usize, t: u32) -> SceneResult<String> {
+        if camera >= self.manifest.cameras.len() || t >= self.manifest.time_step_count {
+            return Err(SceneError::invalid(MANIFEST_FILE, "cameras", format!("frame ({camera}, {t}) out of range")));
+        }
+        Ok(self.manifest.frame_relative_path(camera, t))
+    }
+
+    /// Appends the cloud of the next time step (steps are written in order 0, 1, ...).
+    pub fn push_cloud(&mut self, cloud: &PointCloud) -> SceneResult<()> {
+        let t = self.written_steps.len();
+        if t >= self.manifest.time_step_count as usize {
+            return Err(SceneError::invalid("clouds.bin", "step_count", "more clouds than time steps"));
+        }
+        let (lo, hi) = self.clouds_bounds;
+        let block = cloud::encode_step(cloud, lo, hi, t)?;
+        let path = self.staging_dir.join(&self.manifest.clouds.file);
+        self.clouds_file.write_all(&block).map_err(|e| SceneError::io(&path, e))?;
+        self.written_steps.push((cloud.len() as u32, crc32fast::hash(&block)));
+        Ok(())
+    }
+
+    /// Checks that every cloud and frame was written, writes `scene.json` and moves the
+    /// package into place (replacing an older package only now). Returns the manifest.
+    pub fn finish(mut self) -> SceneResult<Manifest> {
+        let clouds_path = self.staging_dir.join(&self.manifest.clouds.file);
+        if self.written_steps.len() != self.manifest.time_step_count as usize {
+            return Err(SceneError::invalid(
+                "clouds.bin",
+                "step_count",
+                format!("{} clouds written for {} time steps", self.written_steps.len(), self.manifest.time_step_count),
+            ));
+        }
+        for camera in 0..self.manifest.cameras.len() {
+            for t in 0..self.manifest.time_step_count {
+                let rel = self.manifest.frame_relative_path(camera, t);
+                if !self.staging_dir.join(&rel).is_file() {
+                    return Err(SceneError::invalid(rel, "(file)", "frame was never written"));
+                }
+            }
+        }
+        let (lo, hi) = self.clouds_bounds;
+        let index = cloud::encode_index(lo, hi, &self.written_steps);
+        let io = |e| SceneError::io(&clouds_path, e);
+        self.clouds_file.seek(SeekFrom::Start(0)).map_err(io)?;
+        self.clouds_file.write_all(&index).map_err(io)?;
+        self.clouds_file.sync_all().map_err(io)?;
+        self.manifest.clouds.byte_length = self.clouds_file.metadata().map_err(io)?.len();
+
+        let manifest_path = self.staging_dir.join(MANIFEST_FILE);
+        fs::write(&manifest_path, self.manifest.to_json_pretty()).map_err(|e| SceneError::io(&manifest_path, e))?;
+        replace_dir(&self.staging_dir, &self.final_dir)?;
+        self.finished = true;
+        Ok(self.manifest.clone())
+    }
+}
+
+impl Drop for SceneWriter {
+    fn drop(&mut self) {
+        if !self.finished {
+            // Best effort: an abandoned write leaves nothing behind.
+            let _ = fs::remove_dir_all(&self.staging_dir);
+        }
+    }
+}
+
+/// An existing output may be replaced when it is an empty folder or a scene package.
+fn is_replaceable(dir: &Path) -> SceneResult<bool> {
+    if !dir.is_dir() {
+        return Ok(false);
+    }
+    let mut entries = fs::read_dir(dir).map_err(|e| SceneError::io(dir, e))?;
+    Ok(entries.next().is_none() || dir.join(MANIFEST_FILE).is_file())
+}
+
+/// Moves `staging` to `target`; an existing `target` is moved aside first and deleted only
+/// after the new folder is in place.
+fn replace_dir(staging: &Path, target: &Path) -> SceneResult<()> {
+    if target.exists() {
+        let aside = staging.with_extension("old");
+        if aside.exists() {
+            fs::remove_dir_all(&aside).map_err(|e| SceneError::io(&aside, e))?;
+        }
+        fs::rename(target, &aside).map_err(|e| SceneError::io(target, e))?;
+        if let Err(e) = fs::rename(staging, target) {
+            // Put the old package back.
+            let _ = fs::rename(&aside, target);
+            return Err(SceneError::io(target, e));
+        }
+        fs::remove_dir_all(&aside).map_err(|e| SceneError::io(&aside, e))?;
+    } else {
+        fs::rename(staging, target).map_err(|e| SceneError::io(target, e))?;
+    }
+    Ok(())
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so a
+/// reader never sees a half-written file and an old file is replaced only when the new one is
+/// complete.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    fs::create_dir_all(parent)?;
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        let mut f = File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result
+}
+
+impl ScenePackage {
+    /// Full check of the package: decodes every cloud (checksums) and reads the header of every
+    /// frame (existence and size). `progress` is called after each time step.
+    pub fn verify(&self, mut progress: impl FnMut(u32)) -> SceneResult<()> {
+        for t in 0..self.time_step_count() {
+            self.read_cloud(t)?;
+            for camera in 0..self.camera_count() {
+                self.check_frame(camera, t)?;
+            }
+            progress(t);
+        }
+        Ok(())
+    }
+
+    /// The summary printed by `dynview info`.
+    pub fn summary(&self) -> SceneResult<super::SceneSummary> {
+        Ok(super::SceneSummary::new(&self.manifest, &self.cloud_index, self.size_on_disk()?))
+    }
+}

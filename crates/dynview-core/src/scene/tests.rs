@@ -1,0 +1,246 @@
+//! Package round trips and corruption tests (property tests: no input may panic a reader).
+
+use std::fs;
+
+use proptest::prelude::*;
+
+use super::cloud::{self, CloudIndex, PointCloud};
+use super::manifest::Manifest;
+use super::package::{ScenePackage, SceneWriter, decode_frame};
+use super::testing::small_manifest;
+use super::{FrameFormat, SceneError};
+
+fn cloud_for_step(t: u32) -> PointCloud {
+    let n = 5 + t as usize * 3;
+    PointCloud {
+        positions_world: (0..n).map(|i| [i as f32 * 0.1 - 1.0, t as f32 * 0.2, 0.5]).collect(),
+        colors: (0..n).map(|i| [i as u8, t as u8, 200]).collect(),
+    }
+}
+
+fn frame_for(camera: usize, t: u32) -> image::RgbImage {
+    image::RgbImage::from_fn(8, 6, |x, y| image::Rgb([(x * 30) as u8, (y * 40) as u8, (camera * 50 + t as usize * 7) as u8]))
+}
+
+fn write_small(dir: &std::path::Path, cameras: usize, steps: u32) -> Manifest {
+    let mut writer = SceneWriter::create(dir, small_manifest(cameras, steps)).unwrap();
+    for t in 0..steps {
+        for c in 0..cameras {
+            writer.write_frame(c, t, &frame_for(c, t)).unwrap();
+        }
+        writer.push_cloud(&cloud_for_step(t)).unwrap();
+    }
+    writer.finish().unwrap()
+}
+
+#[test]
+fn package_round_trip() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("scene");
+    let written = write_small(&dir, 3, 4);
+    let package = ScenePackage::open(&dir).unwrap();
+    assert_eq!(package.manifest(), &written);
+    assert_eq!(package.time_step_count(), 4);
+    for t in 0..4 {
+        let cloud = package.read_cloud(t).unwrap();
+        assert_eq!(cloud.colors, cloud_for_step(t).colors);
+        for c in 0..3 {
+            let frame = package.read_frame(c, t).unwrap();
+            assert_eq!(frame.to_rgb8(), frame_for(c, t)); // PNG is lossless
+        }
+    }
+    package.verify(|_| {}).unwrap();
+    let summary = package.summary().unwrap();
+    assert_eq!(summary.points_per_step, vec![5, 8, 11, 14]);
+    assert!(summary.to_string().contains("38 in all"));
+    // No staging folder is left behind.
+    let leftovers: Vec<_> = fs::read_dir(tmp.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(leftovers, vec![std::ffi::OsString::from("scene")]);
+}
+
+#[test]
+fn reading_one_step_ignores_the_others() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("scene");
+    write_small(&dir, 1, 3);
+    let package = ScenePackage::open(&dir).unwrap();
+    // Corrupt step 0's block: step 2 still reads, step 0 reports its checksum.
+    let path = dir.join("clouds.bin");
+    let mut bytes = fs::read(&path).unwrap();
+    let first = package.cloud_index().steps[0].offset as usize;
+    bytes[first] ^= 0xff;
+    fs::write(&path, bytes).unwrap();
+    assert!(package.read_cloud(2).is_ok());
+    let err = package.read_cloud(0).unwrap_err();
+    assert!(matches!(&err, SceneError::Checksum { field, .. } if field == "steps[0].crc32"), "{err}");
+}
+
+#[test]
+fn writer_replaces_packages_but_not_other_folders() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("scene");
+    write_small(&dir, 2, 2);
+    write_small(&dir, 1, 3);
+    assert_eq!(ScenePackage::open(&dir).unwrap().time_step_count(), 3);
+
+    let precious = tmp.path().join("precious");
+    fs::create_dir(&precious).unwrap();
+    fs::write(precious.join("thesis.tex"), "keep me").unwrap();
+    let err = SceneWriter::create(&precious, small_manifest(1, 1)).unwrap_err();
+    assert!(matches!(err, SceneError::OutputNotAScene { .. }));
+    assert_eq!(fs::read_to_string(precious.join("thesis.tex")).unwrap(), "keep me");
+}
+
+#[test]
+fn abandoned_or_incomplete_write_keeps_the_old_package() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("scene");
+    write_small(&dir, 2, 2);
+    {
+        let mut writer = SceneWriter::create(&dir, small_manifest(2, 5)).unwrap();
+        writer.push_cloud(&cloud_for_step(0)).unwrap();
+        // Dropped without finish.
+    }
+    let mut writer = SceneWriter::create(&dir, small_manifest(1, 1)).unwrap();
+    writer.push_cloud(&cloud_for_step(0)).unwrap();
+    let err = writer.finish().unwrap_err();
+    assert!(err.to_string().contains("frame was never written"), "{err}");
+    assert_eq!(ScenePackage::open(&dir).unwrap().time_step_count(), 2);
+    assert_eq!(fs::read_dir(tmp.path()).unwrap().count(), 1);
+}
+
+#[test]
+fn open_names_the_broken_part() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("scene");
+    write_small(&dir, 2, 2);
+    let clouds = dir.join("clouds.bin");
+    let good = fs::read(&clouds).unwrap();
+
+    fs::write(&clouds, &good[..good.len() - 1]).unwrap();
+    let err = ScenePackage::open(&dir).unwrap_err().to_string();
+    assert!(err.contains("clouds.byte_length"), "{err}");
+
+    fs::write(&clouds, &good).unwrap();
+    let manifest_path = dir.join("scene.json");
+    let text = fs::read_to_string(&manifest_path).unwrap();
+    fs::write(&manifest_path, text.replacen("\"version\": 1", "\"version\": 7", 1)).unwrap();
+    let err = ScenePackage::open(&dir).unwrap_err().to_string();
+    assert!(err.contains("`version`") && err.contains("scene.json"), "{err}");
+
+    fs::write(&manifest_path, &text).unwrap();
+    fs::remove_file(dir.join("frames/cam1/00001.png")).unwrap();
+    let package = ScenePackage::open(&dir).unwrap();
+    let err = package.verify(|_| {}).unwrap_err().to_string();
+    assert!(err.contains("cam1/00001.png"), "{err}");
+}
+
+#[test]
+fn frame_of_wrong_size_is_rejected_before_decoding() {
+    let img = image::RgbImage::new(16, 16);
+    let bytes = super::package::encode_frame(&img, FrameFormat::Png, "x.png").unwrap();
+    let err = decode_frame(&bytes, FrameFormat::Png, 8, 6, "x.png").unwrap_err().to_string();
+    assert!(err.contains("16x16"), "{err}");
+}
+
+fn small_clouds_file() -> Vec<u8> {
+    let clouds: Vec<PointCloud> = (0..3).map(cloud_for_step).collect();
+    cloud::encode_clouds([-2.0, -1.0, -2.0], [2.0, 2.0, 2.0], &clouds).unwrap()
+}
+
+/// Parses and decodes every step; any error is fine, a panic is not.
+fn parse_all(bytes: &[u8], claimed_len: u64) -> Result<usize, SceneError> {
+    let index = CloudIndex::parse(bytes, claimed_len, "clouds.bin")?;
+    let mut points = 0;
+    for (t, e) in index.steps.iter().enumerate() {
+        let end = (e.offset + e.byte_length()).min(bytes.len() as u64) as usize;
+        let start = (e.offset as usize).min(end);
+        points += index.decode_step(t, &bytes[start..end], "clouds.bin")?.len();
+    }
+    Ok(points)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_bytes_never_panic_the_clouds_parser(bytes in proptest::collection::vec(any::<u8>(), 0..400), extra in 0u64..1_000_000) {
+        let _ = parse_all(&bytes, bytes.len() as u64);
+        let _ = parse_all(&bytes, bytes.len() as u64 + extra);
+    }
+
+    #[test]
+    fn mutated_clouds_files_are_rejected(edits in proptest::collection::vec((any::<prop::sample::Index>(), 1u8..=255), 1..6)) {
+        let good = small_clouds_file();
+        let mut bad = good.clone();
+        for (at, xor) in edits {
+            let i = at.index(bad.len());
+            bad[i] ^= xor;
+        }
+        if bad != good {
+            prop_assert!(parse_all(&bad, bad.len() as u64).is_err());
+        }
+    }
+
+    #[test]
+    fn absurd_point_counts_are_rejected_before_allocating(point_count in 1u32..) {
+        // A header whose checksum is right but whose block lies past the end of the file.
+        let bytes = cloud::encode_index([0.0; 3], [1.0; 3], &[(point_count, 0)]);
+        let err = CloudIndex::parse(&bytes, bytes.len() as u64, "clouds.bin").unwrap_err().to_string();
+        prop_assert!(err.contains("`steps[0].point_count`"), "{}", err);
+    }
+
+    #[test]
+    fn absurd_step_counts_are_rejected(step_count in (super::limits::MAX_TIME_STEPS + 1)..) {
+        let mut bytes = cloud::encode_index([0.0; 3], [1.0; 3], &[(0, 0)]);
+        bytes[12..16].copy_from_slice(&step_count.to_le_bytes());
+        let err = CloudIndex::parse(&bytes, bytes.len() as u64, "clouds.bin").unwrap_err().to_string();
+        prop_assert!(err.contains("`step_count`"), "{}", err);
+    }
+
+    #[test]
+    fn random_bytes_never_panic_the_manifest_parser(bytes in proptest::collection::vec(any::<u8>(), 0..300)) {
+        let _ = Manifest::from_json_slice(&bytes, "scene.json");
+    }
+
+    #[test]
+    fn mutated_manifest_numbers_are_caught_or_valid(path_pick in any::<prop::sample::Index>(), value in prop_oneof![
+        any::<f64>(), Just(1e308), Just(-0.0), Just(0.0), Just(4.0e9), Just(-1.0)
+    ]) {
+        let manifest = small_manifest(2, 3);
+        let mut json: serde_json::Value = serde_json::from_str(&manifest.to_json_pretty()).unwrap();
+        let mut leaves = Vec::new();
+        collect_number_paths(&json, String::new(), &mut leaves);
+        let pointer = &leaves[path_pick.index(leaves.len())];
+        if let Some(n) = serde_json::Number::from_f64(value) {
+            *json.pointer_mut(pointer).unwrap() = serde_json::Value::Number(n);
+        }
+        let text = json.to_string();
+        if let Ok(parsed) = Manifest::from_json_slice(text.as_bytes(), "scene.json") {
+            prop_assert!(parsed.validate("scene.json").is_ok());
+        }
+    }
+
+    #[test]
+    fn random_bytes_never_panic_the_frame_decoder(bytes in proptest::collection::vec(any::<u8>(), 0..600), jpeg in any::<bool>()) {
+        let format = if jpeg { FrameFormat::Jpeg } else { FrameFormat::Png };
+        let _ = decode_frame(&bytes, format, 8, 6, "frame");
+    }
+}
+
+fn collect_number_paths(value: &serde_json::Value, prefix: String, out: &mut Vec<String>) {
+    match value {
+        serde_json::Value::Number(_) => out.push(prefix),
+        serde_json::Value::Array(items) => {
+            for (i, v) in items.iter().enumerate() {
+                collect_number_paths(v, format!("{prefix}/{i}"), out);
+            }
+        }
+        serde_json::Value::Object(map) => {
+            for (k, v) in map {
+                collect_number_paths(v, format!("{prefix}/{k}"), out);
+            }
+        }
+        _ => {}
+    }
+}

@@ -1,0 +1,78 @@
+//! Input view selection (paper Eq. rF).
+
+use crate::camera::Rigid3;
+use crate::rotation::relative_angle_rad;
+
+/// Squared distances below this (in m^2) count as this, so a virtual camera placed exactly on
+/// an input camera ranks it first instead of dividing by zero.
+const MIN_CENTER_DISTANCE_SQ_M2: f64 = 1e-12;
+
+/// The paper's ranking score of input camera `input_from_world` for the virtual camera
+/// `virtual_from_world` (paper Eq. rF):
+/// `r_F = 1 / ||C_t - C_s||^2 * exp(-theta / (2 pi sigma^2))`, where `theta` is the angle of
+/// `R_t R_s^T`. Larger is better.
+pub fn view_score(virtual_from_world: &Rigid3, input_from_world: &Rigid3, sigma: f64) -> f64 {
+    let c_virtual = virtual_from_world.camera_center_world();
+    let c_input = input_from_world.camera_center_world();
+    let dist_sq = (c_virtual - c_input).length_squared().max(MIN_CENTER_DISTANCE_SQ_M2);
+    let theta = relative_angle_rad(virtual_from_world.rotation, input_from_world.rotation);
+    (-theta / (2.0 * std::f64::consts::PI * sigma * sigma)).exp() / dist_sq
+}
+
+/// Indices of the `n` best input cameras for the virtual camera, best first (ties keep the
+/// input order). Returns fewer than `n` when there are fewer inputs.
+pub fn rank_views(virtual_from_world: &Rigid3, inputs_from_world: &[Rigid3], sigma: f64, n: usize) -> Vec<usize> {
+    let mut scored: Vec<(usize, f64)> = inputs_from_world
+        .iter()
+        .enumerate()
+        .map(|(i, input)| (i, view_score(virtual_from_world, input, sigma)))
+        .collect();
+    // Stable sort, descending score; NaN (never produced for valid poses) sorts last.
+    scored.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap_or(std::cmp::Ordering::Less));
+    scored.into_iter().take(n).map(|(i, _)| i).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DMat3, DVec3};
+
+    fn looking_at_origin(eye: DVec3) -> Rigid3 {
+        Rigid3::camera_from_world_looking_at(eye, DVec3::ZERO, DVec3::Y)
+    }
+
+    #[test]
+    fn score_hand_checked() {
+        // Same orientation, 2 m apart: score = 1/4.
+        let a = Rigid3::new(DMat3::IDENTITY, DVec3::ZERO);
+        let b = Rigid3::new(DMat3::IDENTITY, DVec3::new(-2.0, 0.0, 0.0));
+        assert!((view_score(&a, &b, 0.075) - 0.25).abs() < 1e-15);
+        // Rotated by 0.1 rad about y at the same distance: 1/4 * exp(-0.1 / (2 pi 0.075^2)).
+        let c = Rigid3::new(DMat3::from_rotation_y(0.1), DMat3::from_rotation_y(0.1) * DVec3::new(-2.0, 0.0, 0.0));
+        let expected = 0.25 * (-0.1 / (2.0 * std::f64::consts::PI * 0.075 * 0.075)).exp();
+        assert!((view_score(&a, &c, 0.075) - expected).abs() < 1e-12);
+    }
+
+    #[test]
+    fn nearest_similar_views_rank_first() {
+        let inputs: Vec<Rigid3> = (-3..=3)
+            .map(|i| {
+                let angle = f64::from(i) * 10f64.to_radians();
+                looking_at_origin(DVec3::new(6.0 * angle.sin(), 1.5, 6.0 * angle.cos()))
+            })
+            .collect();
+        // A virtual camera between inputs 4 (+10 deg) and 5 (+20 deg), closer to 4.
+        let angle = 13f64.to_radians();
+        let virtual_cam = looking_at_origin(DVec3::new(6.0 * angle.sin(), 1.5, 6.0 * angle.cos()));
+        let ranked = rank_views(&virtual_cam, &inputs, 0.075, 4);
+        assert_eq!(ranked, vec![4, 5, 3, 6]);
+    }
+
+    #[test]
+    fn coincident_camera_ranks_first_and_n_caps() {
+        let inputs = vec![looking_at_origin(DVec3::new(0.0, 0.0, 5.0)), looking_at_origin(DVec3::new(1.0, 0.0, 5.0))];
+        let ranked = rank_views(&inputs[1], &inputs, 0.075, 4);
+        assert_eq!(ranked, vec![1, 0]);
+        assert!(view_score(&inputs[1], &inputs[1], 0.075).is_finite());
+    }
+}
