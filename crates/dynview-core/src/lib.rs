@@ -7,7 +7,8 @@
 //! - [`scene`]: the scene package (format v1: `scene.json`, `clouds.bin`, frames);
 //! - [`camera_path`]: nerfstudio `camera_path.json` paths;
 //! - [`colmap`]: COLMAP text models;
-//! - [`depth_io`]: 16-bit depth images with a scale.
+//! - [`depth_io`]: 16-bit depth images with a scale;
+//! - `fsutil` (native only): atomic file writes and staged output folders.
 //!
 //! No GPU, browser or OpenCV dependency lives here; the crate builds for `wasm32`.
 
@@ -15,6 +16,8 @@ pub mod camera;
 pub mod camera_path;
 pub mod colmap;
 pub mod depth_io;
+#[cfg(not(target_family = "wasm"))]
+pub mod fsutil;
 pub mod raster;
 pub mod rotation;
 pub mod scene;

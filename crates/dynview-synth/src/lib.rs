@@ -1,1 +1,199 @@
-//! placeholder
+//! Synthetic dynamic events with ground truth, for tests, benchmarks and the demo.
+//!
+//! [`generate`] ray-traces a textured scene (a ground, a back wall, static objects, a bouncing
+//! ball and a spinning box) from input cameras on a 60-degree arc and from a held-out camera
+//! that moves between them, and writes:
+//!
+//! - `input/<camera>/<frame:05>.png`: the input frames, one folder per camera;
+//! - `videos/<camera>.mp4`: one video per camera, when `ffmpeg` is installed;
+//! - `heldout/color/<frame:05>.png`, `heldout/depth/<frame:05>.png` (+ `scale.json`): the
+//!   held-out camera's ground truth;
+//! - `colmap/` and `heldout/colmap/`: ground-truth poses as COLMAP text models (image names
+//!   `<camera>/<frame file>`), with noise-free surface points of frame 0;
+//! - `camera_path.json`: the held-out path as a nerfstudio camera path;
+//! - `scene/`: a ground-truth scene package whose clouds are noisy samples of the visible
+//!   surfaces with a share of outliers;
+//! - `synth.json`: the configuration and what was written.
+
+pub mod render;
+pub mod rig;
+pub mod scene;
+pub mod texture;
+mod write;
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+pub use write::generate;
+
+/// Marker file of a synth output folder.
+pub const SYNTH_MARKER: &str = "synth.json";
+/// Name of the held-out camera.
+pub const HELDOUT_NAME: &str = "heldout";
+
+/// What to generate.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SynthConfig {
+    /// Number of input cameras.
+    pub cameras: usize,
+    /// Number of frames (time steps).
+    pub frames: u32,
+    /// Frame width in pixels.
+    pub width: u32,
+    /// Frame height in pixels.
+    pub height: u32,
+    /// Frames per second.
+    pub fps: f64,
+    /// Seed of textures, wobble and point sampling.
+    pub seed: u64,
+    /// Hand-held input cameras (smooth wobble) instead of tripods.
+    pub handheld: bool,
+    /// Color samples per pixel along each axis (anti-aliasing).
+    pub supersample: u32,
+    /// Share of each input frame's pixels sampled into the ground-truth clouds.
+    pub point_fraction: f64,
+    /// Standard deviation of the Gaussian noise added to cloud points (m, per axis).
+    pub point_noise_m: f64,
+    /// Share of cloud points that are outliers (depth scaled by 0.6 to 1.4).
+    pub outlier_fraction: f64,
+    /// Write `videos/*.mp4` when ffmpeg is available.
+    pub videos: bool,
+}
+
+impl Default for SynthConfig {
+    fn default() -> Self {
+        Self {
+            cameras: 6,
+            frames: 30,
+            width: 960,
+            height: 540,
+            fps: 30.0,
+            seed: 1,
+            handheld: false,
+            supersample: 1,
+            point_fraction: 0.004,
+            point_noise_m: 0.005,
+            outlier_fraction: 0.02,
+            videos: true,
+        }
+    }
+}
+
+/// Errors of synthetic generation.
+#[derive(Debug, thiserror::Error)]
+pub enum SynthError {
+    /// A configuration value is out of range.
+    #[error("synth option `{field}`: {problem}")]
+    Config {
+        /// The option.
+        field: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+    /// Writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Encoding an image failed.
+    #[error("{path}: {source}")]
+    Image {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: image::ImageError,
+    },
+    /// Writing the scene package failed.
+    #[error(transparent)]
+    Scene(#[from] dynview_core::scene::SceneError),
+    /// The output folder could not be staged or replaced.
+    #[error(transparent)]
+    Stage(#[from] dynview_core::fsutil::StageError),
+    /// ffmpeg failed on a camera's frames.
+    #[error("ffmpeg failed for camera {camera}: {message}")]
+    Video {
+        /// The camera.
+        camera: String,
+        /// ffmpeg's complaint.
+        message: String,
+    },
+}
+
+impl SynthError {
+    pub(crate) fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Self + '_ {
+        move |source| Self::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
+impl SynthConfig {
+    /// Checks every option's range.
+    pub fn validate(&self) -> Result<(), SynthError> {
+        let bad = |field, problem: String| Err(SynthError::Config { field, problem });
+        if !(2..=64).contains(&self.cameras) {
+            return bad("cameras", format!("must be in 2..=64, found {}", self.cameras));
+        }
+        if !(1..=100_000).contains(&self.frames) {
+            return bad("frames", format!("must be in 1..=100000, found {}", self.frames));
+        }
+        for (field, v) in [("width", self.width), ("height", self.height)] {
+            if !(16..=8192).contains(&v) {
+                return bad(field, format!("must be in 16..=8192, found {v}"));
+            }
+        }
+        if !(self.fps.is_finite() && self.fps > 0.0 && self.fps <= 1000.0) {
+            return bad("fps", format!("must be in (0, 1000], found {}", self.fps));
+        }
+        if !(1..=8).contains(&self.supersample) {
+            return bad("supersample", format!("must be in 1..=8, found {}", self.supersample));
+        }
+        for (field, v) in [("point_fraction", self.point_fraction), ("outlier_fraction", self.outlier_fraction)] {
+            if !(0.0..=1.0).contains(&v) {
+                return bad(field, format!("must be in [0, 1], found {v}"));
+            }
+        }
+        if !(self.point_noise_m.is_finite() && (0.0..=1.0).contains(&self.point_noise_m)) {
+            return bad("point_noise_m", format!("must be in [0, 1] m, found {}", self.point_noise_m));
+        }
+        Ok(())
+    }
+
+    /// Name of input camera `i`.
+    pub fn camera_name(i: usize) -> String {
+        format!("cam{i:02}")
+    }
+
+    /// Duration of the event in seconds.
+    pub fn duration_s(&self) -> f64 {
+        f64::from(self.frames) / self.fps
+    }
+
+    /// Time of frame `t` in seconds.
+    pub fn time_s(&self, t: u32) -> f64 {
+        f64::from(t) / self.fps
+    }
+}
+
+/// A summary of a finished run.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SynthReport {
+    /// The configuration used.
+    pub config: SynthConfig,
+    /// Whether `videos/` was written.
+    pub videos_written: bool,
+    /// Points in the ground-truth clouds, per time step.
+    pub points_per_step: Vec<u32>,
+    /// Size of the ground-truth scene package in bytes.
+    pub package_bytes: u64,
+}
+
+/// Progress of a run: stage name, items done, items in the stage.
+pub type Progress<'a> = &'a (dyn Fn(&str, u64, u64) + Sync);

@@ -83,3 +83,14 @@ impl SceneError {
         }
     }
 }
+
+#[cfg(not(target_family = "wasm"))]
+impl From<crate::fsutil::StageError> for SceneError {
+    fn from(e: crate::fsutil::StageError) -> Self {
+        use crate::fsutil::StageError;
+        match e {
+            StageError::NotReplaceable { path, .. } => Self::OutputNotAScene { path },
+            StageError::Io { path, source } => Self::Io { path, source },
+        }
+    }
+}

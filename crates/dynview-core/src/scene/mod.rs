@@ -13,7 +13,7 @@ pub use cloud::{CloudIndex, PointCloud};
 pub use error::{SceneError, SceneResult};
 pub use manifest::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, PoseEntry, StartView};
 #[cfg(not(target_family = "wasm"))]
-pub use package::{ScenePackage, SceneWriter, write_atomic};
+pub use package::{ScenePackage, SceneWriter};
 pub use summary::SceneSummary;
 
 #[cfg(test)]

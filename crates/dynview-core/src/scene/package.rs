@@ -1,6 +1,6 @@
 //! Reading and writing scene packages on a file system.
 //!
-//! The writer builds the package in a hidden sibling folder and renames it into place only
+//! The writer builds the package in a hidden sibling folder ([`StagedDir`]) and renames it into place only
 //! when complete, so a failed or interrupted write never leaves a half package and never
 //! destroys what was there before.
 
@@ -13,6 +13,7 @@ use super::error::{SceneError, SceneResult};
 use super::limits::{MAX_FRAME_FILE_BYTES, MAX_IMAGE_SIDE_PX, MAX_MANIFEST_BYTES};
 use super::manifest::{FRAMES_DIR, FrameFormat, MANIFEST_FILE, Manifest};
 use crate::camera::Camera;
+use crate::fsutil::StagedDir;
 use crate::raster::RgbRaster;
 
 /// JPEG quality of frames written by [`SceneWriter`].
@@ -228,13 +229,12 @@ pub fn encode_frame(image: &image::RgbImage, format: FrameFormat, file: &str) ->
 /// then [`SceneWriter::finish`] validates completeness and moves the package into place.
 #[derive(Debug)]
 pub struct SceneWriter {
-    final_dir: PathBuf,
+    staged: StagedDir,
     staging_dir: PathBuf,
     manifest: Manifest,
     clouds_file: File,
     clouds_bounds: ([f32; 3], [f32; 3]),
     written_steps: Vec<(u32, u32)>,
-    finished: bool,
 }
 
 impl SceneWriter {
@@ -242,25 +242,11 @@ impl SceneWriter {
     /// which is replaced only when the new one is complete). `manifest.clouds.byte_length` is
     /// filled in by `finish`; clouds are quantised in `manifest.bounds`.
     pub fn create(out_dir: impl AsRef<Path>, manifest: Manifest) -> SceneResult<Self> {
-        let final_dir = out_dir.as_ref().to_path_buf();
-        if final_dir.exists() && !is_replaceable(&final_dir)? {
-            return Err(SceneError::OutputNotAScene {
-                path: final_dir.display().to_string(),
-            });
-        }
         let mut check = manifest.clone();
         check.clouds.byte_length = 0;
         check.validate(MANIFEST_FILE)?;
-        let parent = match final_dir.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        fs::create_dir_all(&parent).map_err(|e| SceneError::io(&parent, e))?;
-        let leaf = final_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
-        let staging_dir = parent.join(format!(".{leaf}.partial-{}", std::process::id()));
-        if staging_dir.exists() {
-            fs::remove_dir_all(&staging_dir).map_err(|e| SceneError::io(&staging_dir, e))?;
-        }
+        let staged = StagedDir::new(out_dir.as_ref(), MANIFEST_FILE, "a dynview scene package")?;
+        let staging_dir = staged.path().to_path_buf();
         for camera in &manifest.cameras {
             let dir = staging_dir.join(FRAMES_DIR).join(&camera.name);
             fs::create_dir_all(&dir).map_err(|e| SceneError::io(&dir, e))?;
@@ -275,13 +261,12 @@ impl SceneWriter {
         let b = manifest.bounds;
         let clouds_bounds = (b.min.map(|v| v as f32), b.max.map(|v| v as f32));
         Ok(Self {
-            final_dir,
+            staged,
             staging_dir,
             manifest,
             clouds_file,
             clouds_bounds,
             written_steps: Vec::new(),
-            finished: false,
         })
     }
 
@@ -356,72 +341,10 @@ impl SceneWriter {
 
         let manifest_path = self.staging_dir.join(MANIFEST_FILE);
         fs::write(&manifest_path, self.manifest.to_json_pretty()).map_err(|e| SceneError::io(&manifest_path, e))?;
-        replace_dir(&self.staging_dir, &self.final_dir)?;
-        self.finished = true;
-        Ok(self.manifest.clone())
+        let manifest = self.manifest.clone();
+        self.staged.commit()?;
+        Ok(manifest)
     }
-}
-
-impl Drop for SceneWriter {
-    fn drop(&mut self) {
-        if !self.finished {
-            // Best effort: an abandoned write leaves nothing behind.
-            let _ = fs::remove_dir_all(&self.staging_dir);
-        }
-    }
-}
-
-/// An existing output may be replaced when it is an empty folder or a scene package.
-fn is_replaceable(dir: &Path) -> SceneResult<bool> {
-    if !dir.is_dir() {
-        return Ok(false);
-    }
-    let mut entries = fs::read_dir(dir).map_err(|e| SceneError::io(dir, e))?;
-    Ok(entries.next().is_none() || dir.join(MANIFEST_FILE).is_file())
-}
-
-/// Moves `staging` to `target`; an existing `target` is moved aside first and deleted only
-/// after the new folder is in place.
-fn replace_dir(staging: &Path, target: &Path) -> SceneResult<()> {
-    if target.exists() {
-        let aside = staging.with_extension("old");
-        if aside.exists() {
-            fs::remove_dir_all(&aside).map_err(|e| SceneError::io(&aside, e))?;
-        }
-        fs::rename(target, &aside).map_err(|e| SceneError::io(target, e))?;
-        if let Err(e) = fs::rename(staging, target) {
-            // Put the old package back.
-            let _ = fs::rename(&aside, target);
-            return Err(SceneError::io(target, e));
-        }
-        fs::remove_dir_all(&aside).map_err(|e| SceneError::io(&aside, e))?;
-    } else {
-        fs::rename(staging, target).map_err(|e| SceneError::io(target, e))?;
-    }
-    Ok(())
-}
-
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so a
-/// reader never sees a half-written file and an old file is replaced only when the new one is
-/// complete.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    fs::create_dir_all(parent)?;
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
-    let result = (|| {
-        let mut f = File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    result
 }
 
 impl ScenePackage {

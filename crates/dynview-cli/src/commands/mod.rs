@@ -1,0 +1,4 @@
+//! One module per subcommand: argument parsing and wiring only, no math.
+
+pub mod info;
+pub mod synth;

@@ -1,0 +1,184 @@
+//! Camera placement: input cameras on an arc of about 60 degrees (optionally hand-held, with
+//! a smooth wobble) and a held-out camera that moves between them.
+
+use glam::{DMat3, DVec3};
+use rand::{Rng, SeedableRng, rngs::SmallRng};
+
+use dynview_core::rotation::matrix_from_angle_axis;
+use dynview_core::{Camera, Intrinsics, Rigid3};
+
+/// Total angle spanned by the input cameras.
+pub const ARC_DEG: f64 = 60.0;
+/// Distance of the input cameras from the arc's centre (m).
+pub const ARC_RADIUS_M: f64 = 7.0;
+/// Height of the input cameras (m).
+pub const CAMERA_HEIGHT_M: f64 = 1.7;
+/// Where every camera looks.
+pub const LOOK_AT: DVec3 = DVec3::new(0.0, 0.8, -0.8);
+/// Vertical field of view of every camera (degrees).
+pub const VERTICAL_FOV_DEG: f64 = 42.0;
+/// Wobble of hand-held cameras: position amplitude (m).
+pub const HANDHELD_POSITION_M: f64 = 0.04;
+/// Wobble of hand-held cameras: rotation amplitude (degrees).
+pub const HANDHELD_ROTATION_DEG: f64 = 0.8;
+/// The held-out camera sweeps this fraction of the input arc.
+pub const HELDOUT_SWEEP: f64 = 0.6;
+
+fn eye_on_arc(angle_rad: f64, radius_m: f64, height_m: f64) -> DVec3 {
+    DVec3::new(radius_m * angle_rad.sin(), height_m, LOOK_AT.z + radius_m * angle_rad.cos())
+}
+
+/// Angle of input camera `i` of `n` on the arc (radians), centred on the z axis.
+pub fn input_angle_rad(i: usize, n: usize) -> f64 {
+    let half = 0.5 * ARC_DEG.to_radians();
+    if n <= 1 {
+        return 0.0;
+    }
+    -half + 2.0 * half * i as f64 / (n - 1) as f64
+}
+
+/// A smooth random signal: a few sines of random frequency (0.3 to 1.7 Hz) and phase.
+#[derive(Clone, Debug)]
+struct Wobble {
+    terms: Vec<(DVec3, f64, f64)>,
+}
+
+impl Wobble {
+    fn new(rng: &mut SmallRng) -> Self {
+        let terms = (0..3)
+            .map(|_| {
+                let dir = DVec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+                (dir, rng.random_range(0.3..1.7), rng.random_range(0.0..std::f64::consts::TAU))
+            })
+            .collect();
+        Self { terms }
+    }
+
+    /// A vector with components of magnitude up to about 1.
+    fn at(&self, t_s: f64) -> DVec3 {
+        self.terms
+            .iter()
+            .map(|(dir, freq, phase)| *dir * (std::f64::consts::TAU * freq * t_s + phase).sin())
+            .sum::<DVec3>()
+            / self.terms.len() as f64
+    }
+}
+
+/// The cameras of an event.
+#[derive(Clone, Debug)]
+pub struct Rig {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    intrinsics: Intrinsics,
+    inputs: Vec<(f64, Option<(Wobble, Wobble)>)>,
+    duration_s: f64,
+}
+
+impl Rig {
+    /// `n` input cameras; with `handheld`, each gets its own smooth wobble from `seed`.
+    /// `duration_s` is the length of the event (the held-out camera sweeps over it).
+    pub fn new(n: usize, width: u32, height: u32, handheld: bool, seed: u64, duration_s: f64) -> Self {
+        let mut rng = SmallRng::seed_from_u64(seed ^ 0x5EED_CA11);
+        let inputs = (0..n)
+            .map(|i| {
+                let wobble = handheld.then(|| (Wobble::new(&mut rng), Wobble::new(&mut rng)));
+                (input_angle_rad(i, n), wobble)
+            })
+            .collect();
+        Self {
+            width,
+            height,
+            intrinsics: Intrinsics::from_vertical_fov(VERTICAL_FOV_DEG.to_radians(), width, height),
+            inputs,
+            duration_s: duration_s.max(1e-9),
+        }
+    }
+
+    /// Number of input cameras.
+    pub fn input_count(&self) -> usize {
+        self.inputs.len()
+    }
+
+    fn camera(&self, camera_from_world: Rigid3) -> Camera {
+        Camera {
+            intrinsics: self.intrinsics,
+            camera_from_world,
+            width_px: self.width,
+            height_px: self.height,
+        }
+    }
+
+    /// Input camera `i` at time `t_s`.
+    pub fn input(&self, i: usize, t_s: f64) -> Camera {
+        let (angle, wobble) = &self.inputs[i];
+        let eye = eye_on_arc(*angle, ARC_RADIUS_M, CAMERA_HEIGHT_M);
+        let mut pose = Rigid3::camera_from_world_looking_at(eye, LOOK_AT, DVec3::Y);
+        if let Some((position, rotation)) = wobble {
+            let eye = eye + position.at(t_s) * HANDHELD_POSITION_M;
+            let base = Rigid3::camera_from_world_looking_at(eye, LOOK_AT, DVec3::Y);
+            let shake: DMat3 = matrix_from_angle_axis(rotation.at(t_s) * HANDHELD_ROTATION_DEG.to_radians());
+            pose = Rigid3::new(shake * base.rotation, shake * base.translation);
+        }
+        self.camera(pose)
+    }
+
+    /// The held-out camera at time `t_s`: it sweeps across the middle of the arc, a little
+    /// lower and closer than the inputs, so it always lies between input cameras.
+    pub fn heldout(&self, t_s: f64) -> Camera {
+        let u = (t_s / self.duration_s).clamp(0.0, 1.0);
+        let half = 0.5 * ARC_DEG.to_radians() * HELDOUT_SWEEP;
+        let angle = -half + 2.0 * half * u;
+        let eye = eye_on_arc(angle, ARC_RADIUS_M * 0.92, CAMERA_HEIGHT_M - 0.15);
+        self.camera(Rigid3::camera_from_world_looking_at(eye, LOOK_AT, DVec3::Y))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inputs_span_sixty_degrees_and_look_at_the_scene() {
+        let rig = Rig::new(6, 96, 54, false, 1, 1.0);
+        let first = rig.input(0, 0.0).center_world() - LOOK_AT;
+        let last = rig.input(5, 0.0).center_world() - LOOK_AT;
+        let angle = (first.x.atan2(first.z) - last.x.atan2(last.z)).abs().to_degrees();
+        assert!((angle - 60.0).abs() < 1e-9, "{angle}");
+        for i in 0..6 {
+            let (px, _) = rig.input(i, 0.0).project_world(LOOK_AT).unwrap();
+            assert!((px.x - 47.5).abs() < 1e-9 && (px.y - 26.5).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn handheld_wobble_is_small_and_smooth() {
+        let rig = Rig::new(3, 96, 54, true, 9, 1.0);
+        let still = Rig::new(3, 96, 54, false, 9, 1.0);
+        let mut max_offset: f64 = 0.0;
+        for k in 0..30 {
+            let t = k as f64 / 30.0;
+            let d = (rig.input(1, t).center_world() - still.input(1, 0.0).center_world()).length();
+            max_offset = max_offset.max(d);
+            let step = (rig.input(1, t + 1.0 / 30.0).center_world() - rig.input(1, t).center_world()).length();
+            assert!(step < 0.02, "jump of {step} m in one frame");
+        }
+        assert!(max_offset > 0.003 && max_offset < 0.1, "{max_offset}");
+    }
+
+    #[test]
+    fn heldout_stays_between_inputs() {
+        let rig = Rig::new(6, 96, 54, false, 1, 2.0);
+        let angle = |c: Camera| {
+            let v = c.center_world() - LOOK_AT;
+            v.x.atan2(v.z)
+        };
+        let (lo, hi) = (angle(rig.input(0, 0.0)), angle(rig.input(5, 0.0)));
+        for k in 0..=10 {
+            let a = angle(rig.heldout(k as f64 * 0.2));
+            assert!(a > lo && a < hi);
+        }
+        assert!((angle(rig.heldout(0.0)) - angle(rig.heldout(2.0))).abs() > 0.3);
+    }
+}
