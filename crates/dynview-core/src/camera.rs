@@ -27,12 +27,7 @@ impl Intrinsics {
     /// vertical field of view.
     pub fn from_vertical_fov(vertical_fov_rad: f64, width_px: u32, height_px: u32) -> Self {
         let f = 0.5 * f64::from(height_px) / (0.5 * vertical_fov_rad).tan();
-        Self {
-            fx: f,
-            fy: f,
-            cx: 0.5 * f64::from(width_px) - 0.5,
-            cy: 0.5 * f64::from(height_px) - 0.5,
-        }
+        Self { fx: f, fy: f, cx: 0.5 * f64::from(width_px) - 0.5, cy: 0.5 * f64::from(height_px) - 0.5 }
     }
 
     /// Vertical field of view in radians for an image `height_px` tall.
@@ -43,12 +38,7 @@ impl Intrinsics {
     /// The same camera for an image scaled by `scale` in both directions (e.g. 0.5 for half
     /// resolution). Pixel centres stay at integers at the new resolution.
     pub fn scaled(&self, scale: f64) -> Self {
-        Self {
-            fx: self.fx * scale,
-            fy: self.fy * scale,
-            cx: (self.cx + 0.5) * scale - 0.5,
-            cy: (self.cy + 0.5) * scale - 0.5,
-        }
+        Self { fx: self.fx * scale, fy: self.fy * scale, cx: (self.cx + 0.5) * scale - 0.5, cy: (self.cy + 0.5) * scale - 0.5 }
     }
 
     /// Projects a point in camera coordinates to pixel coordinates. Returns `None` for points
@@ -58,37 +48,22 @@ impl Intrinsics {
             return None;
         }
         let inv_z = 1.0 / point_camera.z;
-        Some(DVec2::new(
-            self.fx * point_camera.x * inv_z + self.cx,
-            self.fy * point_camera.y * inv_z + self.cy,
-        ))
+        Some(DVec2::new(self.fx * point_camera.x * inv_z + self.cx, self.fy * point_camera.y * inv_z + self.cy))
     }
 
     /// Lifts a pixel with z-depth `depth_m` back to camera coordinates.
     pub fn unproject(&self, pixel: DVec2, depth_m: f64) -> DVec3 {
-        DVec3::new(
-            (pixel.x - self.cx) / self.fx * depth_m,
-            (pixel.y - self.cy) / self.fy * depth_m,
-            depth_m,
-        )
+        DVec3::new((pixel.x - self.cx) / self.fx * depth_m, (pixel.y - self.cy) / self.fy * depth_m, depth_m)
     }
 
     /// The 3x3 calibration matrix `K` (column-major, as glam stores it).
     pub fn matrix(&self) -> DMat3 {
-        DMat3::from_cols(
-            DVec3::new(self.fx, 0.0, 0.0),
-            DVec3::new(0.0, self.fy, 0.0),
-            DVec3::new(self.cx, self.cy, 1.0),
-        )
+        DMat3::from_cols(DVec3::new(self.fx, 0.0, 0.0), DVec3::new(0.0, self.fy, 0.0), DVec3::new(self.cx, self.cy, 1.0))
     }
 
     /// True when every parameter is finite and the focal lengths are positive.
     pub fn is_valid(&self) -> bool {
-        [self.fx, self.fy, self.cx, self.cy]
-            .iter()
-            .all(|v| v.is_finite())
-            && self.fx > 0.0
-            && self.fy > 0.0
+        [self.fx, self.fy, self.cx, self.cy].iter().all(|v| v.is_finite()) && self.fx > 0.0 && self.fy > 0.0
     }
 }
 
@@ -110,17 +85,11 @@ impl Default for Rigid3 {
 
 impl Rigid3 {
     /// The identity transform.
-    pub const IDENTITY: Self = Self {
-        rotation: DMat3::IDENTITY,
-        translation: DVec3::ZERO,
-    };
+    pub const IDENTITY: Self = Self { rotation: DMat3::IDENTITY, translation: DVec3::ZERO };
 
     /// A transform from its rotation and translation.
     pub fn new(rotation: DMat3, translation: DVec3) -> Self {
-        Self {
-            rotation,
-            translation,
-        }
+        Self { rotation, translation }
     }
 
     /// Applies the transform to a point.
@@ -136,18 +105,12 @@ impl Rigid3 {
     /// The inverse transform: if `self` is `b_from_a`, returns `a_from_b`.
     pub fn inverse(&self) -> Self {
         let rotation_t = self.rotation.transpose();
-        Self {
-            rotation: rotation_t,
-            translation: -(rotation_t * self.translation),
-        }
+        Self { rotation: rotation_t, translation: -(rotation_t * self.translation) }
     }
 
     /// Composition: `c_from_b.compose(&b_from_a)` is `c_from_a`.
     pub fn compose(&self, b_from_a: &Self) -> Self {
-        Self {
-            rotation: self.rotation * b_from_a.rotation,
-            translation: self.rotation * b_from_a.translation + self.translation,
-        }
+        Self { rotation: self.rotation * b_from_a.rotation, translation: self.rotation * b_from_a.translation + self.translation }
     }
 
     /// A camera's `camera_from_world` that sits at `eye_world` and looks at `target_world`,
@@ -158,10 +121,7 @@ impl Rigid3 {
         let y_axis = z_axis.cross(x_axis);
         // Rows of R are the camera axes expressed in world coordinates.
         let rotation = DMat3::from_cols(x_axis, y_axis, z_axis).transpose();
-        Self {
-            rotation,
-            translation: -(rotation * eye_world),
-        }
+        Self { rotation, translation: -(rotation * eye_world) }
     }
 
     /// For a `camera_from_world` transform: the camera centre in world coordinates,
@@ -179,10 +139,7 @@ impl Rigid3 {
             return false;
         }
         let gram = r * r.transpose();
-        let off = (gram - DMat3::IDENTITY)
-            .to_cols_array()
-            .iter()
-            .fold(0.0_f64, |m, v| m.max(v.abs()));
+        let off = (gram - DMat3::IDENTITY).to_cols_array().iter().fold(0.0_f64, |m, v| m.max(v.abs()));
         off <= tolerance && (r.determinant() - 1.0).abs() <= tolerance
     }
 
@@ -194,16 +151,8 @@ impl Rigid3 {
 
     /// Builds a transform from row-major rotation entries and a translation.
     pub fn from_rotation_rows(rows: [[f64; 3]; 3], translation: [f64; 3]) -> Self {
-        let rotation = DMat3::from_cols(
-            DVec3::from_array(rows[0]),
-            DVec3::from_array(rows[1]),
-            DVec3::from_array(rows[2]),
-        )
-        .transpose();
-        Self {
-            rotation,
-            translation: DVec3::from_array(translation),
-        }
+        let rotation = DMat3::from_cols(DVec3::from_array(rows[0]), DVec3::from_array(rows[1]), DVec3::from_array(rows[2])).transpose();
+        Self { rotation, translation: DVec3::from_array(translation) }
     }
 }
 
@@ -240,10 +189,7 @@ impl Camera {
 
     /// True when `pixel` lies inside the image (pixel centres at integers).
     pub fn contains(&self, pixel: DVec2) -> bool {
-        pixel.x >= -0.5
-            && pixel.y >= -0.5
-            && pixel.x < f64::from(self.width_px) - 0.5
-            && pixel.y < f64::from(self.height_px) - 0.5
+        pixel.x >= -0.5 && pixel.y >= -0.5 && pixel.x < f64::from(self.width_px) - 0.5 && pixel.y < f64::from(self.height_px) - 0.5
     }
 
     /// The same camera rendered at another resolution (intrinsics scaled per axis).
@@ -274,12 +220,7 @@ mod tests {
 
     #[test]
     fn project_hand_checked() {
-        let k = Intrinsics {
-            fx: 500.0,
-            fy: 400.0,
-            cx: 320.0,
-            cy: 240.0,
-        };
+        let k = Intrinsics { fx: 500.0, fy: 400.0, cx: 320.0, cy: 240.0 };
         // (1, -0.5, 2): x = 500 * 0.5 + 320 = 570, y = 400 * -0.25 + 240 = 140.
         let px = k.project(DVec3::new(1.0, -0.5, 2.0)).unwrap();
         assert_eq!(px, DVec2::new(570.0, 140.0));
@@ -289,12 +230,7 @@ mod tests {
 
     #[test]
     fn unproject_inverts_project() {
-        let k = Intrinsics {
-            fx: 812.5,
-            fy: 799.0,
-            cx: 479.5,
-            cy: 269.5,
-        };
+        let k = Intrinsics { fx: 812.5, fy: 799.0, cx: 479.5, cy: 269.5 };
         let p = DVec3::new(-0.7, 0.3, 4.25);
         let px = k.project(p).unwrap();
         assert!(approx(k.unproject(px, p.z), p, 1e-12));
@@ -371,11 +307,7 @@ mod tests {
     fn camera_world_round_trip_and_resize() {
         let cam = Camera {
             intrinsics: Intrinsics::from_vertical_fov(0.9, 96, 54),
-            camera_from_world: Rigid3::camera_from_world_looking_at(
-                DVec3::new(0.0, 1.0, 5.0),
-                DVec3::ZERO,
-                DVec3::Y,
-            ),
+            camera_from_world: Rigid3::camera_from_world_looking_at(DVec3::new(0.0, 1.0, 5.0), DVec3::ZERO, DVec3::Y),
             width_px: 96,
             height_px: 54,
         };

@@ -190,11 +190,7 @@ impl NerfstudioPath {
 }
 
 fn invalid(file: &str, field: impl Into<String>, problem: impl Into<String>) -> PathError {
-    PathError::Invalid {
-        file: file.to_owned(),
-        field: field.into(),
-        problem: problem.into(),
-    }
+    PathError::Invalid { file: file.to_owned(), field: field.into(), problem: problem.into() }
 }
 
 fn rows_from_matrix(m: &Matrix4Json, file: &str, field: &str) -> Result<[[f64; 4]; 4], PathError> {
@@ -237,13 +233,7 @@ pub fn parse_path(bytes: &[u8], file: &str, size_override: Option<(u32, u32)>) -
     };
     if let Some((w, h)) = size_override {
         check_render_size(w, h, file, "(size override)")?;
-        return Ok(frames
-            .into_iter()
-            .map(|f| PathFrame {
-                camera: f.camera.resized(w, h),
-                ..f
-            })
-            .collect());
+        return Ok(frames.into_iter().map(|f| PathFrame { camera: f.camera.resized(w, h), ..f }).collect());
     }
     Ok(frames)
 }
@@ -288,12 +278,7 @@ fn frames_from_nerfstudio(path: &NerfstudioPath, file: &str) -> Result<Vec<PathF
             // principal point at the centre; `aspect` only sizes its viewer's frustum.
             let intrinsics = Intrinsics::from_vertical_fov(key.fov.to_radians(), width, height);
             Ok(PathFrame {
-                camera: Camera {
-                    intrinsics,
-                    camera_from_world: world_from_camera.inverse(),
-                    width_px: width,
-                    height_px: height,
-                },
+                camera: Camera { intrinsics, camera_from_world: world_from_camera.inverse(), width_px: width, height_px: height },
                 time: PathTime::Normalized(time),
             })
         })
@@ -319,12 +304,7 @@ fn frames_from_dynview(path: &DynviewPath, file: &str) -> Result<Vec<PathFrame>,
                 return Err(invalid(file, field("intrinsics"), "must be finite with positive focal lengths"));
             }
             Ok(PathFrame {
-                camera: Camera {
-                    intrinsics: f.intrinsics,
-                    camera_from_world: pose,
-                    width_px: f.width,
-                    height_px: f.height,
-                },
+                camera: Camera { intrinsics: f.intrinsics, camera_from_world: pose, width_px: f.width, height_px: f.height },
                 time: PathTime::Step(f.time_step),
             })
         })
@@ -410,11 +390,26 @@ mod tests {
     fn bad_paths_name_the_field() {
         let cases = [
             (r#"{"render_height": 10, "render_width": 20, "camera_path": []}"#, "camera_path"),
-            (r#"{"render_height": 0, "render_width": 20, "camera_path": [{"camera_to_world": [1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1], "fov": 50, "aspect": 1}]}"#, "render_width/render_height"),
-            (r#"{"render_height": 10, "render_width": 20, "camera_path": [{"camera_to_world": [1,0,0], "fov": 50, "aspect": 1}]}"#, "camera_path[0].camera_to_world"),
-            (r#"{"render_height": 10, "render_width": 20, "camera_path": [{"camera_to_world": [2,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1], "fov": 50, "aspect": 1}]}"#, "camera_path[0].camera_to_world"),
-            (r#"{"render_height": 10, "render_width": 20, "camera_path": [{"camera_to_world": [1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1], "fov": 500, "aspect": 1}]}"#, "camera_path[0].fov"),
-            (r#"{"render_height": 10, "render_width": 20, "camera_path": [{"camera_to_world": [1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1], "fov": 50, "aspect": 1, "render_time": 2}]}"#, "camera_path[0].render_time"),
+            (
+                r#"{"render_height": 0, "render_width": 20, "camera_path": [{"camera_to_world": [1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1], "fov": 50, "aspect": 1}]}"#,
+                "render_width/render_height",
+            ),
+            (
+                r#"{"render_height": 10, "render_width": 20, "camera_path": [{"camera_to_world": [1,0,0], "fov": 50, "aspect": 1}]}"#,
+                "camera_path[0].camera_to_world",
+            ),
+            (
+                r#"{"render_height": 10, "render_width": 20, "camera_path": [{"camera_to_world": [2,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1], "fov": 50, "aspect": 1}]}"#,
+                "camera_path[0].camera_to_world",
+            ),
+            (
+                r#"{"render_height": 10, "render_width": 20, "camera_path": [{"camera_to_world": [1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1], "fov": 500, "aspect": 1}]}"#,
+                "camera_path[0].fov",
+            ),
+            (
+                r#"{"render_height": 10, "render_width": 20, "camera_path": [{"camera_to_world": [1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1], "fov": 50, "aspect": 1, "render_time": 2}]}"#,
+                "camera_path[0].render_time",
+            ),
         ];
         for (json, field) in cases {
             let err = parse_path(json.as_bytes(), "p.json", None).unwrap_err().to_string();

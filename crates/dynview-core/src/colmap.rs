@@ -75,16 +75,12 @@ impl CameraModel {
 
     /// The model with COLMAP name `name`.
     pub fn from_name(name: &str) -> Option<Self> {
-        [Self::SimplePinhole, Self::Pinhole, Self::SimpleRadial, Self::Radial, Self::OpenCv]
-            .into_iter()
-            .find(|m| m.name() == name)
+        [Self::SimplePinhole, Self::Pinhole, Self::SimpleRadial, Self::Radial, Self::OpenCv].into_iter().find(|m| m.name() == name)
     }
 
     /// The model with COLMAP id `id`.
     pub fn from_id(id: i32) -> Option<Self> {
-        [Self::SimplePinhole, Self::Pinhole, Self::SimpleRadial, Self::Radial, Self::OpenCv]
-            .into_iter()
-            .find(|m| m.id() == id)
+        [Self::SimplePinhole, Self::Pinhole, Self::SimpleRadial, Self::Radial, Self::OpenCv].into_iter().find(|m| m.id() == id)
     }
 
     /// Number of parameters.
@@ -146,12 +142,7 @@ impl ColmapCamera {
         let distortion = match self.model {
             CameraModel::SimpleRadial => Distortion { k1: rest[0], ..Distortion::default() },
             CameraModel::Radial => Distortion { k1: rest[0], k2: rest[1], ..Distortion::default() },
-            CameraModel::OpenCv => Distortion {
-                k1: rest[0],
-                k2: rest[1],
-                p1: rest[2],
-                p2: rest[3],
-            },
+            CameraModel::OpenCv => Distortion { k1: rest[0], k2: rest[1], p1: rest[2], p2: rest[3] },
             _ => Distortion::default(),
         };
         (Intrinsics { fx, fy, cx: cx - 0.5, cy: cy - 0.5 }, distortion)
@@ -214,10 +205,7 @@ struct Lines<'a> {
 
 impl<'a> Lines<'a> {
     fn new(file: &'a str, text: &'a str) -> Self {
-        Self {
-            file,
-            iter: text.lines().enumerate().peekable(),
-        }
+        Self { file, iter: text.lines().enumerate().peekable() }
     }
 
     /// Next non-comment line (1-based number, content). `keep_empty` returns blank lines too
@@ -234,12 +222,7 @@ impl<'a> Lines<'a> {
     }
 
     fn err(&self, line: usize, field: &str, problem: impl Into<String>) -> ColmapError {
-        ColmapError::Parse {
-            file: self.file.to_owned(),
-            line,
-            field: field.to_owned(),
-            problem: problem.into(),
-        }
+        ColmapError::Parse { file: self.file.to_owned(), line, field: field.to_owned(), problem: problem.into() }
     }
 }
 
@@ -303,7 +286,7 @@ pub fn parse_images_txt(text: &str, file: &str) -> Result<BTreeMap<u32, ColmapIm
         let rotation = matrix_from_quaternion_wxyz(q).ok_or_else(|| lines.err(n, "QW QX QY QZ", "zero quaternion"))?;
         let (n2, points_line) = lines.next_line(true).unwrap_or((n + 1, ""));
         let values: Vec<&str> = points_line.split_whitespace().collect();
-        if values.len() % 3 != 0 {
+        if !values.len().is_multiple_of(3) {
             return Err(lines.err(n2, "POINTS2D", "expected triples X Y POINT3D_ID"));
         }
         let mut points2d = Vec::with_capacity(values.len() / 3);
@@ -311,17 +294,9 @@ pub fn parse_images_txt(text: &str, file: &str) -> Result<BTreeMap<u32, ColmapIm
             let x = parse_finite(&lines, n2, &format!("POINTS2D[{k}].X"), Some(chunk[0]))?;
             let y = parse_finite(&lines, n2, &format!("POINTS2D[{k}].Y"), Some(chunk[1]))?;
             let pid: i64 = parse_field(&lines, n2, &format!("POINTS2D[{k}].POINT3D_ID"), Some(chunk[2]))?;
-            points2d.push(Point2D {
-                xy: [x, y],
-                point3d_id: (pid >= 0).then_some(pid as u64),
-            });
+            points2d.push(Point2D { xy: [x, y], point3d_id: (pid >= 0).then_some(pid as u64) });
         }
-        let image = ColmapImage {
-            camera_id,
-            camera_from_world: Rigid3::new(rotation, glam::DVec3::from_array(t)),
-            name,
-            points2d,
-        };
+        let image = ColmapImage { camera_id, camera_from_world: Rigid3::new(rotation, glam::DVec3::from_array(t)), name, points2d };
         if images.len() >= MAX_ENTRIES || images.insert(id, image).is_some() {
             return Err(lines.err(n, "IMAGE_ID", format!("duplicate id {id} or too many images")));
         }
@@ -341,14 +316,11 @@ pub fn parse_points3d_txt(text: &str, file: &str) -> Result<BTreeMap<u64, Colmap
             parse_finite(&lines, n, "Y", tok.next())?,
             parse_finite(&lines, n, "Z", tok.next())?,
         ];
-        let rgb = [
-            parse_field(&lines, n, "R", tok.next())?,
-            parse_field(&lines, n, "G", tok.next())?,
-            parse_field(&lines, n, "B", tok.next())?,
-        ];
+        let rgb =
+            [parse_field(&lines, n, "R", tok.next())?, parse_field(&lines, n, "G", tok.next())?, parse_field(&lines, n, "B", tok.next())?];
         let error: f64 = parse_field(&lines, n, "ERROR", tok.next())?;
         let rest: Vec<&str> = tok.collect();
-        if rest.len() % 2 != 0 {
+        if !rest.len().is_multiple_of(2) {
             return Err(lines.err(n, "TRACK", "expected pairs IMAGE_ID POINT2D_IDX"));
         }
         let track = rest
@@ -417,11 +389,8 @@ impl ColmapModel {
             let q = quaternion_wxyz_from_matrix(im.camera_from_world.rotation);
             let t = im.camera_from_world.translation;
             let _ = writeln!(s, "{id} {} {} {} {} {} {} {} {} {}", q[0], q[1], q[2], q[3], t.x, t.y, t.z, im.camera_id, im.name);
-            let points: Vec<String> = im
-                .points2d
-                .iter()
-                .map(|p| format!("{} {} {}", p.xy[0], p.xy[1], p.point3d_id.map_or(-1, |v| v as i64)))
-                .collect();
+            let points: Vec<String> =
+                im.points2d.iter().map(|p| format!("{} {} {}", p.xy[0], p.xy[1], p.point3d_id.map_or(-1, |v| v as i64))).collect();
             let _ = writeln!(s, "{}", points.join(" "));
         }
         s
@@ -462,15 +431,8 @@ mod tests {
                 points2d: vec![Point2D { xy: [10.5, 20.25], point3d_id: Some(7) }, Point2D { xy: [1.0, 2.0], point3d_id: None }],
             },
         );
-        m.images.insert(
-            2,
-            ColmapImage {
-                camera_id: 1,
-                camera_from_world: Rigid3::IDENTITY,
-                name: "cam1/00000.png".into(),
-                points2d: vec![],
-            },
-        );
+        m.images
+            .insert(2, ColmapImage { camera_id: 1, camera_from_world: Rigid3::IDENTITY, name: "cam1/00000.png".into(), points2d: vec![] });
         m.points3d.insert(7, ColmapPoint3D { xyz: [1.0, 2.0, 3.0], rgb: [1, 2, 3], error: 0.5, track: vec![(1, 0)] });
         m
     }

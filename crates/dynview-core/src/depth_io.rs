@@ -19,19 +19,13 @@ pub struct DepthScale {
 
 impl DepthScale {
     /// Millimetre steps: depths up to 65.534 m.
-    pub const MILLIMETERS: Self = Self {
-        meters_per_unit: 0.001,
-        invalid_value: 0,
-    };
+    pub const MILLIMETERS: Self = Self { meters_per_unit: 0.001, invalid_value: 0 };
 
     /// The finest scale that still represents depths up to `max_depth_m`, never finer than a
     /// tenth of a millimetre.
     pub fn for_max_depth(max_depth_m: f64) -> Self {
         let fine = if max_depth_m.is_finite() && max_depth_m > 0.0 { max_depth_m / 65_000.0 } else { 0.001 };
-        Self {
-            meters_per_unit: fine.max(1e-4),
-            invalid_value: 0,
-        }
+        Self { meters_per_unit: fine.max(1e-4), invalid_value: 0 }
     }
 
     /// Quantises a depth; non-finite or non-positive depths become `invalid_value`.

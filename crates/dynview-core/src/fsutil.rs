@@ -28,10 +28,7 @@ pub enum StageError {
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> StageError + '_ {
-    move |source| StageError::Io {
-        path: path.display().to_string(),
-        source,
-    }
+    move |source| StageError::Io { path: path.display().to_string(), source }
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so a
@@ -76,13 +73,10 @@ impl StagedDir {
     /// replaces); anything else is refused. `what` describes such an output in errors.
     pub fn new(target: &Path, marker: &str, what: &str) -> Result<Self, StageError> {
         if target.exists() {
-            let replaceable = target.is_dir()
-                && (fs::read_dir(target).map_err(io_err(target))?.next().is_none() || target.join(marker).is_file());
+            let replaceable =
+                target.is_dir() && (fs::read_dir(target).map_err(io_err(target))?.next().is_none() || target.join(marker).is_file());
             if !replaceable {
-                return Err(StageError::NotReplaceable {
-                    path: target.display().to_string(),
-                    what: what.to_owned(),
-                });
+                return Err(StageError::NotReplaceable { path: target.display().to_string(), what: what.to_owned() });
             }
         }
         let parent = parent_or_dot(target);
@@ -93,11 +87,7 @@ impl StagedDir {
             fs::remove_dir_all(&staging).map_err(io_err(&staging))?;
         }
         fs::create_dir_all(&staging).map_err(io_err(&staging))?;
-        Ok(Self {
-            staging,
-            target: target.to_path_buf(),
-            committed: false,
-        })
+        Ok(Self { staging, target: target.to_path_buf(), committed: false })
     }
 
     /// The folder to write into.

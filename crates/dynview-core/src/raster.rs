@@ -27,11 +27,7 @@ pub type ScalarRaster = Raster<f32>;
 impl<T: Copy> Raster<T> {
     /// A raster filled with `value`.
     pub fn filled(width: usize, height: usize, value: T) -> Self {
-        Self {
-            width,
-            height,
-            data: vec![value; width * height],
-        }
+        Self { width, height, data: vec![value; width * height] }
     }
 
     /// Wraps existing data; `None` when `data.len() != width * height`.
@@ -63,11 +59,7 @@ impl<T: Copy> Raster<T> {
 
     /// Applies `f` to every pixel.
     pub fn map<U>(&self, f: impl Fn(T) -> U) -> Raster<U> {
-        Raster {
-            width: self.width,
-            height: self.height,
-            data: self.data.iter().map(|&v| f(v)).collect(),
-        }
+        Raster { width: self.width, height: self.height, data: self.data.iter().map(|&v| f(v)).collect() }
     }
 }
 
@@ -91,10 +83,7 @@ impl RgbRaster {
         Self {
             width: w as usize,
             height: h as usize,
-            data: image
-                .pixels()
-                .map(|p| [unit_from_u8(p[0]), unit_from_u8(p[1]), unit_from_u8(p[2])])
-                .collect(),
+            data: image.pixels().map(|p| [unit_from_u8(p[0]), unit_from_u8(p[1]), unit_from_u8(p[2])]).collect(),
         }
     }
 

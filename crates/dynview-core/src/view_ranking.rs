@@ -22,11 +22,8 @@ pub fn view_score(virtual_from_world: &Rigid3, input_from_world: &Rigid3, sigma:
 /// Indices of the `n` best input cameras for the virtual camera, best first (ties keep the
 /// input order). Returns fewer than `n` when there are fewer inputs.
 pub fn rank_views(virtual_from_world: &Rigid3, inputs_from_world: &[Rigid3], sigma: f64, n: usize) -> Vec<usize> {
-    let mut scored: Vec<(usize, f64)> = inputs_from_world
-        .iter()
-        .enumerate()
-        .map(|(i, input)| (i, view_score(virtual_from_world, input, sigma)))
-        .collect();
+    let mut scored: Vec<(usize, f64)> =
+        inputs_from_world.iter().enumerate().map(|(i, input)| (i, view_score(virtual_from_world, input, sigma))).collect();
     // Stable sort, descending score; NaN (never produced for valid poses) sorts last.
     scored.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap_or(std::cmp::Ordering::Less));
     scored.into_iter().take(n).map(|(i, _)| i).collect()

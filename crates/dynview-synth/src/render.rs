@@ -38,11 +38,7 @@ fn shade(frame: &Frame, origin: DVec3, direction: DVec3) -> ([f32; 3], Option<f6
     let sun = SUN_DIR.normalize();
     let lambert = hit.normal_world.dot(sun).max(0.0) as f32;
     let point = origin + direction * hit.t;
-    let lit = if lambert > 0.0 && !frame.occluded(point + hit.normal_world * SHADOW_BIAS_M, sun, f64::INFINITY) {
-        lambert
-    } else {
-        0.0
-    };
+    let lit = if lambert > 0.0 && !frame.occluded(point + hit.normal_world * SHADOW_BIAS_M, sun, f64::INFINITY) { lambert } else { 0.0 };
     let light = AMBIENT + DIRECT * lit;
     (albedo.map(|a| (a * light).min(1.0)), Some(hit.t))
 }
@@ -105,10 +101,7 @@ pub fn render_view(frame: &Frame, camera: &Camera, supersample: u32) -> View {
         color.extend(c);
         depth.extend(d);
     }
-    View {
-        color: RgbRaster { width: w, height: h, data: color },
-        depth_m: ScalarRaster { width: w, height: h, data: depth },
-    }
+    View { color: RgbRaster { width: w, height: h, data: color }, depth_m: ScalarRaster { width: w, height: h, data: depth } }
 }
 
 #[cfg(test)]
@@ -116,6 +109,7 @@ mod tests {
     use super::*;
     use crate::rig::Rig;
     use crate::scene::default_objects;
+    use glam::DVec2;
 
     #[test]
     fn depth_unprojects_onto_surfaces_seen_by_other_cameras() {

@@ -56,10 +56,7 @@ impl Wobble {
 
     /// A vector with components of magnitude up to about 1.
     fn at(&self, t_s: f64) -> DVec3 {
-        self.terms
-            .iter()
-            .map(|(dir, freq, phase)| *dir * (std::f64::consts::TAU * freq * t_s + phase).sin())
-            .sum::<DVec3>()
+        self.terms.iter().map(|(dir, freq, phase)| *dir * (std::f64::consts::TAU * freq * t_s + phase).sin()).sum::<DVec3>()
             / self.terms.len() as f64
     }
 }
@@ -102,12 +99,7 @@ impl Rig {
     }
 
     fn camera(&self, camera_from_world: Rigid3) -> Camera {
-        Camera {
-            intrinsics: self.intrinsics,
-            camera_from_world,
-            width_px: self.width,
-            height_px: self.height,
-        }
+        Camera { intrinsics: self.intrinsics, camera_from_world, width_px: self.width, height_px: self.height }
     }
 
     /// Input camera `i` at time `t_s`.

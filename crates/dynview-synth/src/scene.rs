@@ -74,24 +74,14 @@ impl Motion {
         use std::f64::consts::TAU;
         match *self {
             Self::Static { rotation, position } => (rotation, position),
-            Self::Bouncing {
-                centre,
-                amplitude_x,
-                bounce_m,
-                period_s,
-            } => {
+            Self::Bouncing { centre, amplitude_x, bounce_m, period_s } => {
                 let phase = TAU * t_s / period_s;
                 let x = amplitude_x * phase.sin();
                 let y = bounce_m * (2.0 * phase).sin().abs();
                 // The ball rolls: rotation about z proportional to the travelled distance.
                 (DMat3::from_rotation_z(-x / 0.45), centre + DVec3::new(x, y, 0.0))
             }
-            Self::Spinning {
-                centre,
-                rate_rad_s,
-                drift_z,
-                period_s,
-            } => {
+            Self::Spinning { centre, rate_rad_s, drift_z, period_s } => {
                 let z = drift_z * (TAU * t_s / period_s).sin();
                 (DMat3::from_rotation_y(rate_rad_s * t_s), centre + DVec3::new(0.0, 0.0, z))
             }
@@ -219,10 +209,7 @@ pub struct Frame<'a> {
 impl<'a> Frame<'a> {
     /// The scene at time `t_s`.
     pub fn at(objects: &'a [Object], t_s: f64) -> Self {
-        Self {
-            objects,
-            poses: objects.iter().map(|o| o.motion.pose(t_s)).collect(),
-        }
+        Self { objects, poses: objects.iter().map(|o| o.motion.pose(t_s)).collect() }
     }
 
     /// Nearest hit along the ray (`direction` need not be unit; `t` is in its units).
@@ -239,12 +226,7 @@ impl<'a> Frame<'a> {
                 if n.dot(direction) > 0.0 {
                     n = -n;
                 }
-                best = Some(Hit {
-                    t,
-                    normal_world: n,
-                    point_local: o + d * t,
-                    object: i,
-                });
+                best = Some(Hit { t, normal_world: n, point_local: o + d * t, object: i });
             }
         }
         best
@@ -275,10 +257,7 @@ pub fn default_objects(seed: u64) -> Vec<Object> {
         spot_frequency: spots,
         palette: p,
     };
-    let fixed = |position: DVec3, yaw: f64| Motion::Static {
-        rotation: DMat3::from_rotation_y(yaw),
-        position,
-    };
+    let fixed = |position: DVec3, yaw: f64| Motion::Static { rotation: DMat3::from_rotation_y(yaw), position };
     vec![
         // Ground.
         Object {
@@ -290,10 +269,7 @@ pub fn default_objects(seed: u64) -> Vec<Object> {
         Object {
             shape: Shape::Rect { half_x: 25.0, half_z: 4.0 },
             texture: tex(2, 1.3, 1.8, palette([0.75, 0.72, 0.65], [0.35, 0.30, 0.45])),
-            motion: Motion::Static {
-                rotation: DMat3::from_rotation_x(std::f64::consts::FRAC_PI_2),
-                position: DVec3::new(0.0, 4.0, -4.0),
-            },
+            motion: Motion::Static { rotation: DMat3::from_rotation_x(std::f64::consts::FRAC_PI_2), position: DVec3::new(0.0, 4.0, -4.0) },
         },
         // Static: a crate, a pillar, a ball.
         Object {
@@ -315,22 +291,12 @@ pub fn default_objects(seed: u64) -> Vec<Object> {
         Object {
             shape: Shape::Sphere { radius: 0.45 },
             texture: tex(6, 4.0, 6.5, palette([0.85, 0.20, 0.25], [0.95, 0.90, 0.85])),
-            motion: Motion::Bouncing {
-                centre: DVec3::new(-0.2, 0.45, 0.3),
-                amplitude_x: 1.4,
-                bounce_m: 0.35,
-                period_s: 3.0,
-            },
+            motion: Motion::Bouncing { centre: DVec3::new(-0.2, 0.45, 0.3), amplitude_x: 1.4, bounce_m: 0.35, period_s: 3.0 },
         },
         Object {
             shape: Shape::Cuboid { half: DVec3::new(0.4, 0.4, 0.4) },
             texture: tex(7, 3.5, 5.5, palette([0.60, 0.25, 0.70], [0.95, 0.75, 0.35])),
-            motion: Motion::Spinning {
-                centre: DVec3::new(0.4, 0.4, -1.3),
-                rate_rad_s: 1.6,
-                drift_z: 0.4,
-                period_s: 2.5,
-            },
+            motion: Motion::Spinning { centre: DVec3::new(0.4, 0.4, -1.3), rate_rad_s: 1.6, drift_z: 0.4, period_s: 2.5 },
         },
     ]
 }
@@ -344,10 +310,7 @@ mod tests {
         let objects = [Object {
             shape: Shape::Sphere { radius: 1.0 },
             texture: default_objects(0)[0].texture,
-            motion: Motion::Static {
-                rotation: DMat3::IDENTITY,
-                position: DVec3::new(0.0, 0.0, 5.0),
-            },
+            motion: Motion::Static { rotation: DMat3::IDENTITY, position: DVec3::new(0.0, 0.0, 5.0) },
         }];
         let frame = Frame::at(&objects, 0.0);
         let hit = frame.trace(DVec3::ZERO, DVec3::Z).unwrap();

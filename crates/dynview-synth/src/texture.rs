@@ -43,11 +43,7 @@ fn hash3(x: i64, y: i64, z: i64, seed: u64) -> u64 {
 #[inline]
 fn unit3(h: u64) -> [f32; 3] {
     const SCALE: f32 = 1.0 / (1u64 << 21) as f32;
-    [
-        (h & 0x1F_FFFF) as f32 * SCALE,
-        ((h >> 21) & 0x1F_FFFF) as f32 * SCALE,
-        ((h >> 42) & 0x1F_FFFF) as f32 * SCALE,
-    ]
+    [(h & 0x1F_FFFF) as f32 * SCALE, ((h >> 21) & 0x1F_FFFF) as f32 * SCALE, ((h >> 42) & 0x1F_FFFF) as f32 * SCALE]
 }
 
 #[inline]
@@ -152,12 +148,7 @@ mod tests {
     use super::*;
 
     fn texture() -> Texture {
-        Texture {
-            seed: 7,
-            base_frequency: 3.0,
-            spot_frequency: 4.0,
-            palette: [[0.8, 0.3, 0.2], [0.2, 0.5, 0.8]],
-        }
+        Texture { seed: 7, base_frequency: 3.0, spot_frequency: 4.0, palette: [[0.8, 0.3, 0.2], [0.2, 0.5, 0.8]] }
     }
 
     #[test]

@@ -14,7 +14,9 @@ use dynview_core::colmap::{ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D
 use dynview_core::depth_io::{DepthScale, SCALE_FILE, depth_png_bytes};
 use dynview_core::fsutil::{StagedDir, write_atomic};
 use dynview_core::raster::u8_from_unit;
-use dynview_core::scene::manifest::{Bounds, CameraEntry, CloudsEntry, FORMAT_NAME, FORMAT_VERSION, FrameFormat, Manifest, PoseEntry, StartView};
+use dynview_core::scene::manifest::{
+    Bounds, CameraEntry, CloudsEntry, FORMAT_NAME, FORMAT_VERSION, FrameFormat, Manifest, PoseEntry, StartView,
+};
 use dynview_core::scene::{PointCloud, ScenePackage, SceneWriter};
 use dynview_core::{Camera, RgbRaster};
 
@@ -72,10 +74,7 @@ fn save_png(color: &RgbRaster, path: &Path) -> Result<(), SynthError> {
     let mut bytes = Vec::new();
     PngEncoder::new_with_quality(&mut bytes, CompressionType::Fast, FilterType::Adaptive)
         .write_image(image.as_raw(), image.width(), image.height(), image::ExtendedColorType::Rgb8)
-        .map_err(|source| SynthError::Image {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        .map_err(|source| SynthError::Image { path: path.to_path_buf(), source })?;
     fs::write(path, bytes).map_err(SynthError::io(path))
 }
 
@@ -123,17 +122,14 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: Progress) -> Res
             let output = if heldout {
                 save_png(&view.color, &root.join("heldout/color").join(&file))?;
                 let path = root.join("heldout/depth").join(&file);
-                let bytes = depth_png_bytes(&view.depth_m, depth_scale).map_err(|source| SynthError::Image { path: path.clone(), source })?;
+                let bytes =
+                    depth_png_bytes(&view.depth_m, depth_scale).map_err(|source| SynthError::Image { path: path.clone(), source })?;
                 fs::write(&path, bytes).map_err(SynthError::io(&path))?;
                 TaskOutput::Heldout
             } else {
                 save_png(&view.color, &root.join("input").join(&names[camera_index]).join(&file))?;
                 let samples = sample_points(&view, &camera, config, camera_index, t);
-                TaskOutput::Input {
-                    camera: camera_index,
-                    t,
-                    samples,
-                }
+                TaskOutput::Input { camera: camera_index, t, samples }
             };
             let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress("render", n, total);
@@ -187,10 +183,8 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: Progress) -> Res
 }
 
 fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), SynthError> {
-    let text = serde_json::to_string_pretty(value).map_err(|e| SynthError::Io {
-        path: path.to_path_buf(),
-        source: std::io::Error::other(e),
-    })?;
+    let text =
+        serde_json::to_string_pretty(value).map_err(|e| SynthError::Io { path: path.to_path_buf(), source: std::io::Error::other(e) })?;
     write_atomic(path, text.as_bytes()).map_err(SynthError::io(path))
 }
 
@@ -217,19 +211,8 @@ fn write_colmap_models(config: &SynthConfig, rig: &Rig, names: &[String], step0:
             let ((xyz, pixel), rgb) = sample;
             let Some(image) = model.images.get_mut(&image_id(c, 0)) else { continue };
             let idx = image.points2d.len() as u32;
-            image.points2d.push(Point2D {
-                xy: [pixel.x + 0.5, pixel.y + 0.5],
-                point3d_id: Some(next_id),
-            });
-            model.points3d.insert(
-                next_id,
-                ColmapPoint3D {
-                    xyz,
-                    rgb,
-                    error: 0.0,
-                    track: vec![(image_id(c, 0), idx)],
-                },
-            );
+            image.points2d.push(Point2D { xy: [pixel.x + 0.5, pixel.y + 0.5], point3d_id: Some(next_id) });
+            model.points3d.insert(next_id, ColmapPoint3D { xyz, rgb, error: 0.0, track: vec![(image_id(c, 0), idx)] });
             next_id += 1;
         }
     }
@@ -273,13 +256,17 @@ fn cloud_bounds(clouds: &[PointCloud]) -> Bounds {
     if min[0] > max[0] {
         return Bounds { min: [-1.0; 3], max: [1.0; 3] };
     }
-    Bounds {
-        min: min.map(|v| v - BOUNDS_MARGIN_M),
-        max: max.map(|v| v + BOUNDS_MARGIN_M),
-    }
+    Bounds { min: min.map(|v| v - BOUNDS_MARGIN_M), max: max.map(|v| v + BOUNDS_MARGIN_M) }
 }
 
-fn write_package(config: &SynthConfig, rig: &Rig, names: &[String], clouds: &[PointCloud], root: &Path, progress: Progress) -> Result<u64, SynthError> {
+fn write_package(
+    config: &SynthConfig,
+    rig: &Rig,
+    names: &[String],
+    clouds: &[PointCloud],
+    root: &Path,
+    progress: Progress,
+) -> Result<u64, SynthError> {
     let cameras = names
         .iter()
         .enumerate()
@@ -300,10 +287,7 @@ fn write_package(config: &SynthConfig, rig: &Rig, names: &[String], clouds: &[Po
         time_step_count: config.frames,
         bounds: cloud_bounds(clouds),
         cameras,
-        clouds: CloudsEntry {
-            file: "clouds.bin".into(),
-            byte_length: 0,
-        },
+        clouds: CloudsEntry { file: "clouds.bin".into(), byte_length: 0 },
         frame_format: FrameFormat::Jpeg,
         start_view: StartView {
             time_step: 0,
@@ -351,10 +335,7 @@ fn encode_video(root: &Path, name: &str, fps: f64) -> Result<(), SynthError> {
         .output()
         .map_err(SynthError::io(&dir))?;
     if !output.status.success() {
-        return Err(SynthError::Video {
-            camera: name.to_owned(),
-            message: String::from_utf8_lossy(&output.stderr).trim().to_owned(),
-        });
+        return Err(SynthError::Video { camera: name.to_owned(), message: String::from_utf8_lossy(&output.stderr).trim().to_owned() });
     }
     Ok(())
 }

@@ -1,1 +1,47 @@
-fn main() {}
+//! `cargo xtask`: dynview's build orchestration.
+//!
+//! - `cargo xtask test`: installs what is missing, then runs every check and test;
+//! - `cargo xtask demo [--fresh]`: installs what is missing, builds, makes the sample event and
+//!   shows it.
+
+mod demo;
+mod setup;
+mod test;
+mod util;
+
+use anyhow::bail;
+
+const USAGE: &str = "usage: cargo xtask <command>
+
+commands:
+  test           install what is missing, then fmt, clippy, all tests, wasm32 build of the core
+  demo [--fresh] install what is missing, build, make the sample event and show it
+                 (--fresh regenerates the event even if it exists)";
+
+fn main() -> std::process::ExitCode {
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(command) = args.first() else {
+        println!("{USAGE}");
+        return Ok(());
+    };
+    let rest = &args[1..];
+    match command.as_str() {
+        "test" => test::run(rest),
+        "demo" => demo::run(rest),
+        "help" | "--help" | "-h" => {
+            println!("{USAGE}");
+            Ok(())
+        }
+        other => bail!("unknown command {other:?}\n\n{USAGE}"),
+    }
+}

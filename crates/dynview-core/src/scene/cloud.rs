@@ -110,7 +110,11 @@ impl CloudIndex {
         }
         let version = read_u32(header, 8);
         if version != CLOUDS_VERSION {
-            return Err(SceneError::invalid(file, "version", format!("unsupported version {version} (this reader knows {CLOUDS_VERSION})")));
+            return Err(SceneError::invalid(
+                file,
+                "version",
+                format!("unsupported version {version} (this reader knows {CLOUDS_VERSION})"),
+            ));
         }
         let step_count = read_u32(header, 12);
         if step_count == 0 || step_count > MAX_TIME_STEPS {
@@ -134,19 +138,18 @@ impl CloudIndex {
         hasher.update(&bytes[HEADER_BYTES..index_len]);
         let computed = hasher.finalize();
         if stored != computed {
-            return Err(SceneError::Checksum {
-                file: file.to_owned(),
-                field: "header_crc32".into(),
-                stored,
-                computed,
-            });
+            return Err(SceneError::Checksum { file: file.to_owned(), field: "header_crc32".into(), stored, computed });
         }
         let bounds_min = [read_f32(bytes, 16), read_f32(bytes, 20), read_f32(bytes, 24)];
         let bounds_max = [read_f32(bytes, 28), read_f32(bytes, 32), read_f32(bytes, 36)];
         for axis in 0..3 {
             let (lo, hi) = (bounds_min[axis], bounds_max[axis]);
             if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
-                return Err(SceneError::invalid(file, format!("bounds[axis {axis}]"), format!("min {lo} and max {hi} must be finite with min <= max")));
+                return Err(SceneError::invalid(
+                    file,
+                    format!("bounds[axis {axis}]"),
+                    format!("min {lo} and max {hi} must be finite with min <= max"),
+                ));
             }
         }
         if read_u32(bytes, 40) != 0 {
@@ -156,11 +159,7 @@ impl CloudIndex {
         let mut expected_offset = index_len as u64;
         for t in 0..step_count as usize {
             let at = HEADER_BYTES + t * TABLE_ENTRY_BYTES;
-            let entry = StepEntry {
-                offset: read_u64(bytes, at),
-                point_count: read_u32(bytes, at + 8),
-                crc32: read_u32(bytes, at + 12),
-            };
+            let entry = StepEntry { offset: read_u64(bytes, at), point_count: read_u32(bytes, at + 8), crc32: read_u32(bytes, at + 12) };
             if entry.point_count > MAX_POINTS_PER_STEP {
                 return Err(SceneError::invalid(
                     file,
@@ -214,28 +213,14 @@ impl CloudIndex {
         }
         let computed = crc32fast::hash(block);
         if computed != entry.crc32 {
-            return Err(SceneError::Checksum {
-                file: file.to_owned(),
-                field: format!("steps[{t}].crc32"),
-                stored: entry.crc32,
-                computed,
-            });
+            return Err(SceneError::Checksum { file: file.to_owned(), field: format!("steps[{t}].crc32"), stored: entry.crc32, computed });
         }
         let scale: [f32; 3] = std::array::from_fn(|i| (self.bounds_max[i] - self.bounds_min[i]) / QUANT_MAX);
         let n = entry.point_count as usize;
-        let mut cloud = PointCloud {
-            positions_world: Vec::with_capacity(n),
-            colors: Vec::with_capacity(n),
-        };
+        let mut cloud = PointCloud { positions_world: Vec::with_capacity(n), colors: Vec::with_capacity(n) };
         for p in block.chunks_exact(POINT_BYTES) {
-            let q = [
-                u16::from_le_bytes([p[0], p[1]]),
-                u16::from_le_bytes([p[2], p[3]]),
-                u16::from_le_bytes([p[4], p[5]]),
-            ];
-            cloud
-                .positions_world
-                .push(std::array::from_fn(|i| self.bounds_min[i] + f32::from(q[i]) * scale[i]));
+            let q = [u16::from_le_bytes([p[0], p[1]]), u16::from_le_bytes([p[2], p[3]]), u16::from_le_bytes([p[4], p[5]])];
+            cloud.positions_world.push(std::array::from_fn(|i| self.bounds_min[i] + f32::from(q[i]) * scale[i]));
             cloud.colors.push([p[6], p[7], p[8]]);
         }
         Ok(cloud)
@@ -323,10 +308,7 @@ mod tests {
                 colors: vec![[255, 0, 0], [0, 255, 0], [1, 2, 3]],
             },
             PointCloud::default(),
-            PointCloud {
-                positions_world: vec![[0.25, 1.0, -0.5]],
-                colors: vec![[9, 9, 9]],
-            },
+            PointCloud { positions_world: vec![[0.25, 1.0, -0.5]], colors: vec![[9, 9, 9]] },
         ]
     }
 
@@ -398,15 +380,9 @@ mod tests {
 
     #[test]
     fn encode_rejects_nan_and_clamps_outside() {
-        let nan = PointCloud {
-            positions_world: vec![[f32::NAN, 0.0, 0.0]],
-            colors: vec![[0; 3]],
-        };
+        let nan = PointCloud { positions_world: vec![[f32::NAN, 0.0, 0.0]], colors: vec![[0; 3]] };
         assert!(encode_step(&nan, MIN, MAX, 0).is_err());
-        let outside = PointCloud {
-            positions_world: vec![[50.0, -50.0, 1.0]],
-            colors: vec![[0; 3]],
-        };
+        let outside = PointCloud { positions_world: vec![[50.0, -50.0, 1.0]], colors: vec![[0; 3]] };
         let block = encode_step(&outside, MIN, MAX, 0).unwrap();
         assert_eq!(&block[0..4], &[0xff, 0xff, 0, 0]);
     }

@@ -68,19 +68,12 @@ pub type SceneResult<T> = Result<T, SceneError>;
 impl SceneError {
     /// An `Invalid` error.
     pub fn invalid(file: impl Into<String>, field: impl Into<String>, problem: impl Into<String>) -> Self {
-        Self::Invalid {
-            file: file.into(),
-            field: field.into(),
-            problem: problem.into(),
-        }
+        Self::Invalid { file: file.into(), field: field.into(), problem: problem.into() }
     }
 
     /// An `Io` error for `path`.
     pub fn io(path: &Path, source: std::io::Error) -> Self {
-        Self::Io {
-            path: path.display().to_string(),
-            source,
-        }
+        Self::Io { path: path.display().to_string(), source }
     }
 }
 

@@ -26,10 +26,7 @@ pub struct PoseEntry {
 
 impl From<Rigid3> for PoseEntry {
     fn from(camera_from_world: Rigid3) -> Self {
-        Self {
-            rotation: camera_from_world.rotation_rows(),
-            translation: camera_from_world.translation.to_array(),
-        }
+        Self { rotation: camera_from_world.rotation_rows(), translation: camera_from_world.translation.to_array() }
     }
 }
 
@@ -150,10 +147,7 @@ impl Manifest {
         if bytes.len() as u64 > MAX_MANIFEST_BYTES {
             return Err(SceneError::invalid(file, "(file)", format!("larger than {MAX_MANIFEST_BYTES} bytes")));
         }
-        let manifest: Self = serde_json::from_slice(bytes).map_err(|source| SceneError::Json {
-            file: file.to_owned(),
-            source,
-        })?;
+        let manifest: Self = serde_json::from_slice(bytes).map_err(|source| SceneError::Json { file: file.to_owned(), source })?;
         manifest.validate(file)?;
         Ok(manifest)
     }

@@ -255,19 +255,10 @@ impl SceneWriter {
         let mut clouds_file = File::create(&clouds_path).map_err(|e| SceneError::io(&clouds_path, e))?;
         // Reserve the index; it is written once all blocks are known.
         let index_len = cloud::index_byte_length(manifest.time_step_count);
-        clouds_file
-            .write_all(&vec![0u8; index_len as usize])
-            .map_err(|e| SceneError::io(&clouds_path, e))?;
+        clouds_file.write_all(&vec![0u8; index_len as usize]).map_err(|e| SceneError::io(&clouds_path, e))?;
         let b = manifest.bounds;
         let clouds_bounds = (b.min.map(|v| v as f32), b.max.map(|v| v as f32));
-        Ok(Self {
-            staged,
-            staging_dir,
-            manifest,
-            clouds_file,
-            clouds_bounds,
-            written_steps: Vec::new(),
-        })
+        Ok(Self { staged, staging_dir, manifest, clouds_file, clouds_bounds, written_steps: Vec::new() })
     }
 
     /// The manifest being written.

@@ -75,13 +75,7 @@ impl fmt::Display for SceneSummary {
         let max = self.points_per_step.iter().max().copied().unwrap_or(0);
         let mean = total as f64 / self.points_per_step.len().max(1) as f64;
         writeln!(f, "scene       {}", self.name)?;
-        writeln!(
-            f,
-            "time steps  {} at {} fps ({:.2} s)",
-            self.time_step_count,
-            self.fps,
-            f64::from(self.time_step_count) / self.fps
-        )?;
+        writeln!(f, "time steps  {} at {} fps ({:.2} s)", self.time_step_count, self.fps, f64::from(self.time_step_count) / self.fps)?;
         writeln!(f, "cameras     {}", self.cameras.len())?;
         for c in &self.cameras {
             writeln!(f, "  {:<16} {}x{}  fx {:.1} px  path {:.3}", c.name, c.width, c.height, c.fx, c.path_length)?;

@@ -27,20 +27,10 @@ pub fn small_manifest(cameras: usize, steps: u32) -> Manifest {
         name: "test".into(),
         fps: 25.0,
         time_step_count: steps,
-        bounds: Bounds {
-            min: [-2.0, -1.0, -2.0],
-            max: [2.0, 2.0, 2.0],
-        },
+        bounds: Bounds { min: [-2.0, -1.0, -2.0], max: [2.0, 2.0, 2.0] },
         cameras,
-        clouds: CloudsEntry {
-            file: "clouds.bin".into(),
-            byte_length: 0,
-        },
+        clouds: CloudsEntry { file: "clouds.bin".into(), byte_length: 0 },
         frame_format: FrameFormat::Png,
-        start_view: StartView {
-            time_step: 0,
-            pose: start,
-            vertical_fov_deg: 50.0,
-        },
+        start_view: StartView { time_step: 0, pose: start, vertical_fov_deg: 50.0 },
     }
 }
