@@ -20,6 +20,8 @@ enum Command {
     Synth(commands::synth::Args),
     /// Check a scene package and print its cameras, time steps, points and size.
     Info(commands::info::Args),
+    /// Render a camera path (nerfstudio camera_path.json or dynview path) through a scene.
+    Render(commands::render::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -27,6 +29,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Synth(args) => commands::synth::run(args),
         Command::Info(args) => commands::info::run(args),
+        Command::Render(args) => commands::render::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -8,6 +8,9 @@
 //! - [`camera_path`]: nerfstudio `camera_path.json` paths;
 //! - [`colmap`]: COLMAP text models;
 //! - [`depth_io`]: 16-bit depth images with a scale;
+//! - [`render`]: the paper's renderer (CPU) and its baselines;
+//! - [`metrics`]: PSNR, SSIM and flicker;
+//! - [`par`]: data parallelism (rayon on native, serial in the browser);
 //! - `fsutil` (native only): atomic file writes and staged output folders.
 //!
 //! No GPU, browser or OpenCV dependency lives here; the crate builds for `wasm32`.
@@ -16,9 +19,12 @@ pub mod camera;
 pub mod camera_path;
 pub mod colmap;
 pub mod depth_io;
+pub mod metrics;
+pub mod par;
 #[cfg(not(target_family = "wasm"))]
 pub mod fsutil;
 pub mod raster;
+pub mod render;
 pub mod rotation;
 pub mod scene;
 pub mod view_ranking;

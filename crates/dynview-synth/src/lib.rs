@@ -7,10 +7,12 @@
 //! - `input/<camera>/<frame:05>.png`: the input frames, one folder per camera;
 //! - `videos/<camera>.mp4`: one video per camera, when `ffmpeg` is installed;
 //! - `heldout/color/<frame:05>.png`, `heldout/depth/<frame:05>.png` (+ `scale.json`): the
-//!   held-out camera's ground truth;
-//! - `colmap/` and `heldout/colmap/`: ground-truth poses as COLMAP text models (image names
-//!   `<camera>/<frame file>`), with noise-free surface points of frame 0;
-//! - `camera_path.json`: the held-out path as a nerfstudio camera path;
+//!   moving held-out camera's ground truth; `heldout_static/` the same for a held-out camera
+//!   that stands still mid-arc (for flicker, whose ground truth changes only where things move);
+//! - `colmap/`, `heldout/colmap/` and `heldout_static/colmap/`: ground-truth poses as COLMAP
+//!   text models (image names `<camera>/<frame file>`), with noise-free surface points of frame 0;
+//! - `camera_path.json` and `camera_path_static.json`: the held-out paths as nerfstudio camera
+//!   paths;
 //! - `scene/`: a ground-truth scene package whose clouds are noisy samples of the visible
 //!   surfaces with a share of outliers;
 //! - `synth.json`: the configuration and what was written.
@@ -29,8 +31,6 @@ pub use write::generate;
 
 /// Marker file of a synth output folder.
 pub const SYNTH_MARKER: &str = "synth.json";
-/// Name of the held-out camera.
-pub const HELDOUT_NAME: &str = "heldout";
 
 /// What to generate.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -125,6 +125,50 @@ impl Rig {
         let eye = eye_on_arc(angle, ARC_RADIUS_M * 0.92, CAMERA_HEIGHT_M - 0.15);
         self.camera(Rigid3::camera_from_world_looking_at(eye, LOOK_AT, DVec3::Y))
     }
+
+    /// The static held-out camera: where the moving one passes at mid-event.
+    pub fn heldout_static(&self) -> Camera {
+        self.heldout(0.5 * self.duration_s)
+    }
+}
+
+/// The held-out (ground-truth) cameras.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Heldout {
+    /// Sweeps across the middle of the arc over the event (PSNR and SSIM).
+    Moving,
+    /// Stands still in the middle of the arc (flicker: its ground truth changes only where
+    /// things move).
+    Static,
+}
+
+impl Heldout {
+    /// Both held-out cameras.
+    pub const ALL: [Heldout; 2] = [Heldout::Moving, Heldout::Static];
+
+    /// Folder and image-name prefix.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Moving => "heldout",
+            Self::Static => "heldout_static",
+        }
+    }
+
+    /// File name of its nerfstudio camera path.
+    pub fn path_file(self) -> &'static str {
+        match self {
+            Self::Moving => "camera_path.json",
+            Self::Static => "camera_path_static.json",
+        }
+    }
+
+    /// The camera at time `t_s`.
+    pub fn camera(self, rig: &Rig, t_s: f64) -> Camera {
+        match self {
+            Self::Moving => rig.heldout(t_s),
+            Self::Static => rig.heldout_static(),
+        }
+    }
 }
 
 #[cfg(test)]

@@ -21,9 +21,9 @@ use dynview_core::scene::{PointCloud, ScenePackage, SceneWriter};
 use dynview_core::{Camera, RgbRaster};
 
 use crate::render::{View, render_view};
-use crate::rig::Rig;
+use crate::rig::{Heldout, Rig};
 use crate::scene::{Frame, default_objects};
-use crate::{HELDOUT_NAME, Progress, SYNTH_MARKER, SynthConfig, SynthError, SynthReport};
+use crate::{Progress, SYNTH_MARKER, SynthConfig, SynthError, SynthReport};
 
 /// Noise-free surface points per input camera kept for the COLMAP model (frame 0).
 const COLMAP_POINTS_PER_CAMERA: usize = 400;
@@ -98,15 +98,18 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: Progress) -> Res
         let dir = root.join("input").join(name);
         fs::create_dir_all(&dir).map_err(SynthError::io(&dir))?;
     }
-    for sub in ["heldout/color", "heldout/depth"] {
-        let dir = root.join(sub);
-        fs::create_dir_all(&dir).map_err(SynthError::io(&dir))?;
-    }
     let depth_scale = DepthScale::MILLIMETERS;
-    write_json(&root.join("heldout/depth").join(SCALE_FILE), &depth_scale)?;
+    for heldout in Heldout::ALL {
+        for sub in ["color", "depth"] {
+            let dir = root.join(heldout.name()).join(sub);
+            fs::create_dir_all(&dir).map_err(SynthError::io(&dir))?;
+        }
+        write_json(&root.join(heldout.name()).join("depth").join(SCALE_FILE), &depth_scale)?;
+    }
 
-    // Every (camera, frame) of the inputs, plus the held-out camera (index = cameras).
-    let tasks: Vec<(usize, u32)> = (0..config.frames).flat_map(|t| (0..=config.cameras).map(move |c| (c, t))).collect();
+    // Every (camera, frame) of the inputs, then the held-out cameras (indices from `cameras`).
+    let views_per_step = config.cameras + Heldout::ALL.len();
+    let tasks: Vec<(usize, u32)> = (0..config.frames).flat_map(|t| (0..views_per_step).map(move |c| (c, t))).collect();
     let total = tasks.len() as u64;
     let done = std::sync::atomic::AtomicU64::new(0);
     progress("render", 0, total);
@@ -115,13 +118,16 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: Progress) -> Res
         .map(|&(camera_index, t)| -> Result<TaskOutput, SynthError> {
             let time_s = config.time_s(t);
             let frame = Frame::at(&objects, time_s);
-            let heldout = camera_index == config.cameras;
-            let camera = if heldout { rig.heldout(time_s) } else { rig.input(camera_index, time_s) };
+            let heldout = camera_index.checked_sub(config.cameras).map(|k| Heldout::ALL[k]);
+            let camera = match heldout {
+                Some(h) => h.camera(&rig, time_s),
+                None => rig.input(camera_index, time_s),
+            };
             let view = render_view(&frame, &camera, config.supersample);
             let file = format!("{t:05}.png");
-            let output = if heldout {
-                save_png(&view.color, &root.join("heldout/color").join(&file))?;
-                let path = root.join("heldout/depth").join(&file);
+            let output = if let Some(h) = heldout {
+                save_png(&view.color, &root.join(h.name()).join("color").join(&file))?;
+                let path = root.join(h.name()).join("depth").join(&file);
                 let bytes =
                     depth_png_bytes(&view.depth_m, depth_scale).map_err(|source| SynthError::Image { path: path.clone(), source })?;
                 fs::write(&path, bytes).map_err(SynthError::io(&path))?;
@@ -146,10 +152,12 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: Progress) -> Res
     }
 
     write_colmap_models(config, &rig, &names, &per_step[0], &root)?;
-    let heldout_path: Vec<(Camera, f64)> = (0..config.frames)
-        .map(|t| (rig.heldout(config.time_s(t)), f64::from(t) / f64::from(config.frames.saturating_sub(1).max(1))))
-        .collect();
-    write_json(&root.join("camera_path.json"), &NerfstudioPath::from_frames(&heldout_path, config.fps))?;
+    for heldout in Heldout::ALL {
+        let path: Vec<(Camera, f64)> = (0..config.frames)
+            .map(|t| (heldout.camera(&rig, config.time_s(t)), f64::from(t) / f64::from(config.frames.saturating_sub(1).max(1))))
+            .collect();
+        write_json(&root.join(heldout.path_file()), &NerfstudioPath::from_frames(&path, config.fps))?;
+    }
 
     let clouds: Vec<PointCloud> = per_step
         .iter()
@@ -218,21 +226,24 @@ fn write_colmap_models(config: &SynthConfig, rig: &Rig, names: &[String], step0:
     }
     write_colmap(&model, &root.join("colmap"))?;
 
-    let mut heldout = ColmapModel::default();
-    let cam = rig.heldout(0.0);
-    heldout.cameras.insert(1, ColmapCamera::pinhole(&cam.intrinsics, cam.width_px, cam.height_px));
-    for t in 0..config.frames {
-        heldout.images.insert(
-            t + 1,
-            ColmapImage {
-                camera_id: 1,
-                camera_from_world: rig.heldout(config.time_s(t)).camera_from_world,
-                name: format!("{HELDOUT_NAME}/{t:05}.png"),
-                points2d: Vec::new(),
-            },
-        );
+    for heldout in Heldout::ALL {
+        let mut model = ColmapModel::default();
+        let cam = heldout.camera(rig, 0.0);
+        model.cameras.insert(1, ColmapCamera::pinhole(&cam.intrinsics, cam.width_px, cam.height_px));
+        for t in 0..config.frames {
+            model.images.insert(
+                t + 1,
+                ColmapImage {
+                    camera_id: 1,
+                    camera_from_world: heldout.camera(rig, config.time_s(t)).camera_from_world,
+                    name: format!("{}/{t:05}.png", heldout.name()),
+                    points2d: Vec::new(),
+                },
+            );
+        }
+        write_colmap(&model, &root.join(heldout.name()).join("colmap"))?;
     }
-    write_colmap(&heldout, &root.join("heldout/colmap"))
+    Ok(())
 }
 
 /// Writes a COLMAP text model into `dir`.

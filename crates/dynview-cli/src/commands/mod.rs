@@ -1,4 +1,5 @@
 //! One module per subcommand: argument parsing and wiring only, no math.
 
 pub mod info;
+pub mod render;
 pub mod synth;

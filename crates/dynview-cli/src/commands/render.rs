@@ -1,0 +1,130 @@
+//! `dynview render`: render a camera path through a scene package.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use dynview_core::camera_path::parse_path;
+use dynview_core::depth_io::{DepthScale, SCALE_FILE, depth_png_bytes};
+use dynview_core::fsutil::write_atomic;
+use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer, TimeStepInputs};
+use dynview_core::scene::ScenePackage;
+
+use crate::progress::StageBars;
+
+/// Arguments of `dynview render`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The scene package folder.
+    #[arg(long)]
+    scene: PathBuf,
+    /// Camera path: nerfstudio camera_path.json or dynview's own path format.
+    #[arg(long)]
+    path: PathBuf,
+    /// Output folder: <i:05>.png, depth/<i:05>.png and depth/scale.json.
+    #[arg(long)]
+    out: PathBuf,
+    /// Render every frame without the temporal terms.
+    #[arg(long)]
+    no_temporal: bool,
+    /// JSON file of render parameters (any subset of RenderParams; the rest keep defaults).
+    #[arg(long)]
+    params: Option<PathBuf>,
+    /// Method: full, no-temporal, blend, best-view or splat (overrides the params file).
+    #[arg(long)]
+    method: Option<String>,
+    /// Output width (overrides the path's; needs --height too).
+    #[arg(long, requires = "height")]
+    width: Option<u32>,
+    /// Output height (overrides the path's; needs --width too).
+    #[arg(long, requires = "width")]
+    height: Option<u32>,
+}
+
+/// Reads the parameters file and applies the command-line overrides.
+pub fn load_params(file: Option<&Path>, method: Option<&str>, no_temporal: bool) -> anyhow::Result<RenderParams> {
+    let mut params = match file {
+        Some(f) => {
+            let text = fs::read_to_string(f).with_context(|| format!("reading {}", f.display()))?;
+            serde_json::from_str(&text).with_context(|| format!("{}: not valid render parameters", f.display()))?
+        }
+        None => RenderParams::default(),
+    };
+    if let Some(m) = method {
+        params.method = serde_json::from_value(serde_json::Value::String(m.to_owned()))
+            .with_context(|| format!("unknown method {m:?}; known: full, no-temporal, blend, best-view, splat"))?;
+    }
+    if no_temporal && params.method == Method::Full {
+        params.method = Method::NoTemporal;
+    }
+    params.validate()?;
+    Ok(params)
+}
+
+/// Runs `dynview render`.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let params = load_params(args.params.as_deref(), args.method.as_deref(), args.no_temporal)?;
+    let package = ScenePackage::open(&args.scene).with_context(|| format!("opening scene package {}", args.scene.display()))?;
+    let path_bytes = fs::read(&args.path).with_context(|| format!("reading {}", args.path.display()))?;
+    let size = args.width.zip(args.height);
+    let frames = parse_path(&path_bytes, &args.path.display().to_string(), size)?;
+    let depth_dir = args.out.join("depth");
+    fs::create_dir_all(&depth_dir).with_context(|| format!("creating {}", depth_dir.display()))?;
+    if args.out.join(SCALE_FILE).exists() {
+        bail!("{} looks like a depth folder; choose another --out", args.out.display());
+    }
+
+    // One depth scale for the whole sequence: deep enough for the farthest corner of the scene.
+    let bounds = package.manifest().bounds;
+    let max_depth = frames
+        .iter()
+        .map(|f| {
+            let c = f.camera.center_world();
+            let corner = |i: usize, v: [f64; 3]| (v[i] - c[i]).abs();
+            (0..3).map(|i| corner(i, bounds.min).max(corner(i, bounds.max)).powi(2)).sum::<f64>().sqrt()
+        })
+        .fold(0.0, f64::max);
+    let scale = DepthScale::for_max_depth(max_depth);
+    write_atomic(&depth_dir.join(SCALE_FILE), serde_json::to_string_pretty(&scale)?.as_bytes())?;
+
+    let clock_origin = Instant::now();
+    let clock = move || clock_origin.elapsed().as_secs_f64() * 1000.0;
+    let bars = StageBars::new();
+    let mut renderer = StreamingRenderer::new();
+    let mut cached: Option<(u32, TimeStepInputs)> = None;
+    let mut last_step: Option<u32> = None;
+    let mut total_ms = 0.0;
+    let steps = package.time_step_count();
+    for (i, frame) in frames.iter().enumerate() {
+        let t = frame.time.time_step(steps);
+        if cached.as_ref().is_none_or(|(ct, _)| *ct != t) {
+            cached = Some((t, package.time_step_inputs(t, params.levels).with_context(|| format!("loading time step {t}"))?));
+        }
+        // Streaming only across consecutive (or equal) time steps; a jump drops the previous frame.
+        if last_step.is_some_and(|lt| lt.abs_diff(t) > 1) {
+            renderer.jump();
+        }
+        last_step = Some(t);
+        let inputs = &cached.as_ref().map(|(_, inputs)| inputs).context("time step not loaded")?;
+        let mut hooks = RenderHooks { clock: Some(&clock), on_level: None };
+        let output = renderer.render(&params, &frame.camera, inputs, &mut hooks).with_context(|| format!("rendering frame {i}"))?;
+        total_ms += output.timings.total_ms;
+        let color_path = args.out.join(format!("{i:05}.png"));
+        let mut png = Vec::new();
+        output.color.to_rgb8().write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+        write_atomic(&color_path, &png).with_context(|| format!("writing {}", color_path.display()))?;
+        let depth_path = depth_dir.join(format!("{i:05}.png"));
+        write_atomic(&depth_path, &depth_png_bytes(&output.depth, scale)?).with_context(|| format!("writing {}", depth_path.display()))?;
+        bars.update("render", i as u64 + 1, frames.len() as u64);
+    }
+    bars.finish();
+    println!(
+        "rendered {} frames with {} into {} ({:.0} ms per frame in the renderer)",
+        frames.len(),
+        params.method.label(),
+        args.out.display(),
+        total_ms / frames.len().max(1) as f64
+    );
+    Ok(())
+}

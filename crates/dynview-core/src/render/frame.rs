@@ -1,0 +1,397 @@
+//! Rendering one novel frame: the coarse-to-fine alternation of METHOD.md Part 2, and the
+//! baselines it is compared with.
+
+use super::params::{Method, RenderParams};
+use super::pushpull;
+use super::pyramid::{self, camera_at};
+use super::solve::{ColorTerms, ColorView, DepthTerms};
+use super::sparse::{SplatMaps, project_cloud, warp_frame};
+use super::timing::{Stage, Stopwatch, Timings};
+use super::warp::{ViewWarp, compute_visibility, warp_view};
+use super::weights;
+use crate::camera::Camera;
+use crate::raster::{Raster, Rgb, RgbRaster, ScalarRaster};
+use crate::scene::PointCloud;
+use crate::view_ranking::rank_views;
+
+/// Depth used where nothing at all is known (an empty cloud), in scene units.
+pub const FALLBACK_DEPTH: f32 = 1.0;
+/// Gray used where no color is known at all.
+pub const FALLBACK_COLOR: Rgb = [0.5, 0.5, 0.5];
+
+/// An input camera with its frame at every pyramid level (finest first), prepared once per
+/// time step and reused for every virtual camera at that time.
+#[derive(Clone, Debug)]
+pub struct InputView {
+    /// The camera at full resolution.
+    pub camera: Camera,
+    /// The frame at each level, finest first.
+    pub levels: Vec<RgbRaster>,
+}
+
+impl InputView {
+    /// Builds the pyramid of `image` (which must match `camera`'s size).
+    pub fn new(camera: Camera, image: RgbRaster, levels: usize) -> Self {
+        Self { camera, levels: pyramid::build(image, levels.max(1)) }
+    }
+
+    /// The camera and frame at `level` (the coarsest available when beyond).
+    fn at(&self, level: usize) -> (Camera, &RgbRaster) {
+        let image = &self.levels[level.min(self.levels.len() - 1)];
+        (camera_at(&self.camera, image.width, image.height), image)
+    }
+}
+
+/// Everything known about one time step: its sparse cloud and its input views.
+#[derive(Clone, Debug)]
+pub struct TimeStepInputs {
+    /// The sparse cloud of the time step.
+    pub cloud: PointCloud,
+    /// All input views at this time step (the renderer ranks and picks `params.views`).
+    pub views: Vec<InputView>,
+}
+
+/// A previously rendered frame, for the temporal terms.
+#[derive(Clone, Debug)]
+pub struct PreviousFrame {
+    /// Its camera.
+    pub camera: Camera,
+    /// Its color.
+    pub color: RgbRaster,
+    /// Its depth.
+    pub depth: ScalarRaster,
+}
+
+/// A rendered frame.
+#[derive(Clone, Debug)]
+pub struct RenderOutput {
+    /// Color at the requested resolution.
+    pub color: RgbRaster,
+    /// z-depth.
+    pub depth: ScalarRaster,
+    /// `sum_s w_P^s` at the finest level (how well the views agree; the viewer's "weights"
+    /// display). Zero for the non-variational baselines.
+    pub view_weight: ScalarRaster,
+    /// Indices of the input views used, best first.
+    pub views_used: Vec<usize>,
+    /// Whether the temporal terms were active.
+    pub temporal_used: bool,
+    /// Time per level and stage (zero without a clock).
+    pub timings: Timings,
+}
+
+/// Errors of rendering.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// A parameter is out of range.
+    #[error(transparent)]
+    Params(#[from] super::params::ParamsError),
+    /// No input view was given.
+    #[error("no input views for this time step")]
+    NoViews,
+    /// An input frame's size does not match its camera.
+    #[error("input view {index}: frame is {width}x{height}, camera says {camera_width}x{camera_height}")]
+    ViewSize {
+        /// The view.
+        index: usize,
+        /// Frame width.
+        width: usize,
+        /// Frame height.
+        height: usize,
+        /// Camera width.
+        camera_width: u32,
+        /// Camera height.
+        camera_height: u32,
+    },
+    /// The output camera is empty or too large.
+    #[error("output size {width}x{height} is not in 1..=16384")]
+    OutputSize {
+        /// Width.
+        width: u32,
+        /// Height.
+        height: u32,
+    },
+    /// The caller's level callback asked to stop.
+    #[error("rendering cancelled")]
+    Cancelled,
+}
+
+/// A coarse result offered to the caller after each pyramid level (progressive display).
+pub struct LevelPreview<'a> {
+    /// The level just finished (0 = finest).
+    pub level: usize,
+    /// Its color.
+    pub color: &'a RgbRaster,
+    /// Its depth.
+    pub depth: &'a ScalarRaster,
+}
+
+/// Optional hooks of a render: a clock for timings and a per-level callback that may cancel.
+#[derive(Default)]
+pub struct RenderHooks<'a> {
+    /// Milliseconds since an arbitrary origin; enables timings.
+    pub clock: Option<&'a dyn Fn() -> f64>,
+    /// Called after each level; returning `false` cancels the render.
+    pub on_level: Option<&'a mut dyn FnMut(LevelPreview) -> bool>,
+}
+
+/// Per-level state of the views: warps, visibility and weights.
+struct LevelViews<'a> {
+    views: Vec<(Camera, &'a RgbRaster)>,
+    warps: Vec<ViewWarp>,
+}
+
+impl<'a> LevelViews<'a> {
+    fn new(inputs: &'a TimeStepInputs, chosen: &[usize], level: usize) -> Self {
+        Self { views: chosen.iter().map(|&s| inputs.views[s].at(level)).collect(), warps: Vec::new() }
+    }
+
+    /// Recomputes the warps and visibility with `depth`.
+    fn update(&mut self, camera: &Camera, depth: &ScalarRaster, params: &RenderParams, watch: &mut Stopwatch) {
+        let views = &self.views;
+        self.warps = crate::par::map_range(views.len(), |s| warp_view(camera, depth, &views[s].0, views[s].1));
+        watch.lap(Stage::Warp);
+        let tol = params.visibility_tolerance;
+        let sizes: Vec<usize> = views.iter().map(|(_, img)| img.data.len()).collect();
+        #[cfg(feature = "parallel")]
+        {
+            use rayon::prelude::*;
+            self.warps.par_iter_mut().zip(sizes).for_each(|(w, n)| compute_visibility(w, n, tol));
+        }
+        #[cfg(not(feature = "parallel"))]
+        self.warps.iter_mut().zip(sizes).for_each(|(w, n)| compute_visibility(w, n, tol));
+        watch.lap(Stage::Visibility);
+    }
+
+    /// Visibility-weighted mean of the warps; pixels seen by no view keep `fallback`.
+    fn blend(&self, fallback: &RgbRaster) -> RgbRaster {
+        let mut out = fallback.clone();
+        for (i, px) in out.data.iter_mut().enumerate() {
+            let mut sum = [0.0f32; 3];
+            let mut count = 0.0;
+            for w in &self.warps {
+                if w.visibility[i] > 0.0 {
+                    sum = [sum[0] + w.color[i][0], sum[1] + w.color[i][1], sum[2] + w.color[i][2]];
+                    count += 1.0;
+                }
+            }
+            if count > 0.0 {
+                *px = sum.map(|v| v / count);
+            }
+        }
+        out
+    }
+}
+
+fn check_inputs(params: &RenderParams, camera: &Camera, inputs: &TimeStepInputs) -> Result<(), RenderError> {
+    params.validate()?;
+    if inputs.views.is_empty() {
+        return Err(RenderError::NoViews);
+    }
+    for (index, v) in inputs.views.iter().enumerate() {
+        let img = &v.levels[0];
+        if (img.width, img.height) != (v.camera.width_px as usize, v.camera.height_px as usize) {
+            return Err(RenderError::ViewSize {
+                index,
+                width: img.width,
+                height: img.height,
+                camera_width: v.camera.width_px,
+                camera_height: v.camera.height_px,
+            });
+        }
+    }
+    let (w, h) = (camera.width_px, camera.height_px);
+    if w == 0 || h == 0 || w > 16_384 || h > 16_384 {
+        return Err(RenderError::OutputSize { width: w, height: h });
+    }
+    Ok(())
+}
+
+/// Push-pull fills the sparse depth and color of `maps`.
+fn filled(maps: &SplatMaps) -> (ScalarRaster, RgbRaster) {
+    let depth_values = maps.depth.map(|d| if d.is_finite() { d } else { 0.0 });
+    (pushpull::fill(&depth_values, &maps.mask, FALLBACK_DEPTH), pushpull::fill(&maps.color, &maps.mask, FALLBACK_COLOR))
+}
+
+/// Renders the virtual `camera` at the time step of `inputs` with `params.method`. With
+/// `previous` (and the full method), the temporal terms are active; without it, `w_T = 0`.
+pub fn render_frame(
+    params: &RenderParams,
+    camera: &Camera,
+    inputs: &TimeStepInputs,
+    previous: Option<&PreviousFrame>,
+    hooks: &mut RenderHooks,
+) -> Result<RenderOutput, RenderError> {
+    check_inputs(params, camera, inputs)?;
+    let poses: Vec<_> = inputs.views.iter().map(|v| v.camera.camera_from_world).collect();
+    let chosen = rank_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views);
+    let mut timings = Timings::default();
+    let mut watch = Stopwatch::new(hooks.clock);
+    let output = match params.method {
+        Method::Splat | Method::BestView | Method::Blend => {
+            let maps = project_cloud(&inputs.cloud, camera);
+            watch.lap(Stage::Sparse);
+            let (depth, sparse_color) = filled(&maps);
+            watch.lap(Stage::PushPull);
+            let color = match params.method {
+                Method::Splat => sparse_color,
+                _ => {
+                    let used = if params.method == Method::BestView { &chosen[..1] } else { &chosen[..] };
+                    let mut views = LevelViews::new(inputs, used, 0);
+                    views.update(camera, &depth, params, &mut watch);
+                    if params.method == Method::BestView {
+                        // The single view wherever it lands; push-pull of it elsewhere.
+                        let warp = &views.warps[0];
+                        let valid = Raster::from_vec(depth.width, depth.height, (0..depth.data.len()).map(|i| if warp.valid(i) { 1.0 } else { 0.0 }).collect())
+                            .unwrap_or_else(|| Raster::filled(depth.width, depth.height, 0.0));
+                        let values = Raster { width: depth.width, height: depth.height, data: warp.color.clone() };
+                        let fill = if valid.data.iter().any(|&v| v > 0.0) { pushpull::fill(&values, &valid, FALLBACK_COLOR) } else { sparse_color };
+                        watch.lap(Stage::PushPull);
+                        fill
+                    } else {
+                        views.blend(&sparse_color)
+                    }
+                }
+            };
+            timings.levels.push(watch.finish_level(0, camera.width_px as usize, camera.height_px as usize));
+            RenderOutput {
+                view_weight: Raster::filled(depth.width, depth.height, 0.0),
+                color,
+                depth,
+                views_used: chosen.clone(),
+                temporal_used: false,
+                timings: Timings::default(),
+            }
+        }
+        Method::NoTemporal | Method::Full => {
+            let previous = if params.method == Method::Full { previous } else { None };
+            render_variational(params, camera, inputs, &chosen, previous, hooks, &mut watch, &mut timings)?
+        }
+    };
+    timings.total_ms = timings.levels.iter().map(|l| l.total_ms()).sum();
+    Ok(RenderOutput { timings, ..output })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn render_variational(
+    params: &RenderParams,
+    camera: &Camera,
+    inputs: &TimeStepInputs,
+    chosen: &[usize],
+    previous: Option<&PreviousFrame>,
+    hooks: &mut RenderHooks,
+    watch: &mut Stopwatch,
+    timings: &mut Timings,
+) -> Result<RenderOutput, RenderError> {
+    let sizes = pyramid::level_sizes(camera.width_px as usize, camera.height_px as usize, params.levels);
+    let mut depth = ScalarRaster::filled(1, 1, FALLBACK_DEPTH);
+    let mut color = RgbRaster::filled(1, 1, FALLBACK_COLOR);
+    let mut view_weight = ScalarRaster::filled(1, 1, 0.0);
+    for level in (0..params.levels).rev() {
+        let (w, h) = sizes[level];
+        let cam = camera_at(camera, w, h);
+        let sparse = project_cloud(&inputs.cloud, &cam);
+        let prev = previous.map(|p| warp_frame(&p.camera, &p.depth, &p.color, &cam));
+        watch.lap(Stage::Sparse);
+        let mut views = LevelViews::new(inputs, chosen, level);
+        if level + 1 == params.levels {
+            // Coarsest level: push-pull filled sparse depth, then the visibility-tested blend
+            // of the warped views (push-pull filled sparse color where no view sees).
+            let (d0, c0) = filled(&sparse);
+            depth = d0;
+            watch.lap(Stage::PushPull);
+            views.update(&cam, &depth, params, watch);
+            color = views.blend(&c0);
+        } else {
+            depth = pyramid::upsample(&depth, w, h);
+            color = pyramid::upsample(&color, w, h);
+            watch.lap(Stage::PushPull);
+        }
+        let mut scratch_d = vec![0.0f32; w * h];
+        let mut scratch_c = vec![[0.0f32; 3]; w * h];
+        for _ in 0..params.outer_iterations_at(level) {
+            // Depth with color fixed.
+            views.update(&cam, &depth, params, watch);
+            let depth_terms = depth_terms(params, &color, &views.warps, &sparse, prev.as_ref());
+            watch.lap(Stage::Weights);
+            let sys = depth_terms.system();
+            for _ in 0..params.depth_sweeps {
+                sys.sweep(&mut depth.data, &mut scratch_d, params.relaxation);
+            }
+            watch.lap(Stage::DepthSolve);
+            // Color with depth fixed.
+            views.update(&cam, &depth, params, watch);
+            let w_p: Vec<Vec<f32>> = views.warps.iter().map(|wp| weights::projection_weights(wp, &color, params.sigma)).collect();
+            let color_terms = color_terms(params, &views.warps, &w_p, prev.as_ref(), w, h);
+            watch.lap(Stage::Weights);
+            let sys = color_terms.system();
+            for _ in 0..params.color_sweeps {
+                sys.sweep(&mut color.data, &mut scratch_c, params.relaxation);
+            }
+            watch.lap(Stage::ColorSolve);
+            if level == 0 {
+                let mut sum = vec![0.0f32; w * h];
+                for wp in &w_p {
+                    for (s, v) in sum.iter_mut().zip(wp) {
+                        *s += v;
+                    }
+                }
+                view_weight = Raster { width: w, height: h, data: sum };
+            }
+        }
+        timings.levels.push(watch.finish_level(level, w, h));
+        if let Some(on_level) = hooks.on_level.as_mut()
+            && !on_level(LevelPreview { level, color: &color, depth: &depth })
+        {
+            return Err(RenderError::Cancelled);
+        }
+    }
+    Ok(RenderOutput {
+        color,
+        depth,
+        view_weight,
+        views_used: chosen.to_vec(),
+        temporal_used: previous.is_some(),
+        timings: Timings::default(),
+    })
+}
+
+/// The depth energy's terms from the current color, warps, sparse maps and previous frame.
+pub(crate) fn depth_terms(params: &RenderParams, color: &RgbRaster, warps: &[ViewWarp], sparse: &SplatMaps, prev: Option<&SplatMaps>) -> DepthTerms {
+    let n = color.data.len();
+    let mut sum_wp = vec![0.0f32; n];
+    let mut sum_vis = vec![0.0f32; n];
+    for warp in warps {
+        let wp = weights::projection_weights(warp, color, params.sigma);
+        for i in 0..n {
+            sum_wp[i] += wp[i];
+            sum_vis[i] += warp.visibility[i];
+        }
+    }
+    let w_d = weights::depth_smoothness_weights(color, &sum_wp, &sum_vis, params);
+    let w_h = weights::sparse_weights(sparse, color, params.sigma);
+    let attach: Vec<f32> = w_h.iter().map(|&w| params.lambda_pc * w).collect();
+    let (temporal, previous_depth) = match prev {
+        Some(p) => (weights::temporal_weights(p, warps, params.sigma).into_iter().map(|w| params.lambda_t * w).collect(), p.depth.data.clone()),
+        None => (vec![0.0; n], vec![0.0; n]),
+    };
+    DepthTerms { width: color.width, height: color.height, w_d, attach, sparse_depth: sparse.depth.data.clone(), temporal, previous_depth }
+}
+
+/// The color energy's terms from the warps, their weights and the previous frame.
+pub(crate) fn color_terms<'a>(params: &RenderParams, warps: &'a [ViewWarp], w_p: &'a [Vec<f32>], prev: Option<&SplatMaps>, width: usize, height: usize) -> ColorTerms<'a> {
+    let n = width * height;
+    let (temporal, previous_color) = match prev {
+        Some(p) => (weights::temporal_weights(p, warps, params.sigma).into_iter().map(|w| params.lambda_t * w).collect(), p.color.data.clone()),
+        None => (vec![0.0; n], vec![[0.0; 3]; n]),
+    };
+    ColorTerms {
+        width,
+        height,
+        views: warps.iter().zip(w_p).map(|(warp, w_p)| ColorView { warp, w_p }).collect(),
+        lambda_p: params.lambda_p,
+        lambda_g: params.lambda_g,
+        temporal,
+        previous_color,
+    }
+}

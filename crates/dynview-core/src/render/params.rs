@@ -1,0 +1,204 @@
+//! `RenderParams`: every parameter of the renderer, with the paper's defaults.
+
+use serde::{Deserialize, Serialize};
+
+/// What to render: the full method, or one of the baselines and ablations it is compared with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// (a) The sparse points splatted with a z-test, holes filled by push-pull.
+    Splat,
+    /// (b) The single best-ranked view warped with the push-pull-filled sparse depth.
+    BestView,
+    /// (c) A visibility-tested blend of the ranked views on push-pull-filled depth; no
+    /// optimisation.
+    Blend,
+    /// (d) The full method without the temporal terms.
+    NoTemporal,
+    /// (e) The full method (paper Section 3.2-3.4).
+    #[default]
+    Full,
+}
+
+impl Method {
+    /// All methods in the order of the comparison table.
+    pub const ALL: [Method; 5] = [Method::Splat, Method::BestView, Method::Blend, Method::NoTemporal, Method::Full];
+
+    /// Short label used in tables and on the command line.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Splat => "splat",
+            Self::BestView => "best-view",
+            Self::Blend => "blend",
+            Self::NoTemporal => "no-temporal",
+            Self::Full => "full",
+        }
+    }
+
+    /// True for the variational methods (d) and (e).
+    pub fn is_variational(self) -> bool {
+        matches!(self, Self::NoTemporal | Self::Full)
+    }
+}
+
+/// Every parameter of the renderer. CPU, GPU, command line and page all use this one struct.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RenderParams {
+    /// Which method to run.
+    pub method: Method,
+    /// `sigma`: color tolerance of all Gaussian weights (paper Eqs. wP, wH, wT, rF; 0.075).
+    pub sigma: f32,
+    /// `lambda_PC`: attachment of the depth to the sparse points (paper Eq. rendering_depth;
+    /// 0.25 to 2, default 1).
+    pub lambda_pc: f32,
+    /// `lambda_T`: temporal consistency of depth and color (paper Eqs.
+    /// depth_temporalconsistency and color_temporalconsistency; 0.01 to 0.1, default 0.05).
+    pub lambda_t: f32,
+    /// `lambda_P`: color data term per view (paper Eq. rendering_color; 5 to 20, default 10).
+    pub lambda_p: f32,
+    /// `lambda_G`: color gradient term per view (paper Eq. rendering_color; 5 to 20, default 10).
+    pub lambda_g: f32,
+    /// `n`: number of best-ranked input views used (paper Eq. rF; 4).
+    pub views: usize,
+    /// Pyramid levels; the coarsest has `1 / 4^(levels - 1)` of the pixels (paper Section 3.4:
+    /// 4 levels, coarsest 1/64).
+    pub levels: usize,
+    /// Outer iterations {weights, depth solve, weights, color solve} per level.
+    pub outer_iterations: usize,
+    /// Outer iterations at the finest level (fewer: it starts from the upsampled solution).
+    pub outer_iterations_finest: usize,
+    /// Red-black sweeps per depth solve.
+    pub depth_sweeps: usize,
+    /// Red-black sweeps per color solve.
+    pub color_sweeps: usize,
+    /// Over-relaxation factor of the sweeps (1 = Gauss-Seidel; any value in (0, 2) decreases
+    /// the energy monotonically).
+    pub relaxation: f32,
+    /// `eps_g` in `w_D`: added to `||grad I||^2` so flat regions do not divide by zero (ours; the
+    /// paper's Eq. wD has none).
+    pub eps_gradient: f32,
+    /// `eps_v` in `w_D`: added to `sum sigma_vis` so unseen pixels do not divide by zero (ours).
+    pub eps_visibility: f32,
+    /// Lower clamp of `w_D`, keeping the depth system well conditioned.
+    pub w_d_min: f32,
+    /// Upper clamp of `w_D`.
+    pub w_d_max: f32,
+    /// Relative depth tolerance of the visibility test `sigma_vis`.
+    pub visibility_tolerance: f32,
+}
+
+impl Default for RenderParams {
+    fn default() -> Self {
+        Self {
+            method: Method::Full,
+            sigma: 0.075,
+            lambda_pc: 1.0,
+            lambda_t: 0.05,
+            lambda_p: 10.0,
+            lambda_g: 10.0,
+            views: 4,
+            levels: 4,
+            outer_iterations: 3,
+            outer_iterations_finest: 2,
+            depth_sweeps: 24,
+            color_sweeps: 16,
+            relaxation: 1.6,
+            eps_gradient: 1e-3,
+            eps_visibility: 1e-3,
+            w_d_min: 0.01,
+            w_d_max: 100.0,
+            visibility_tolerance: 0.02,
+        }
+    }
+}
+
+/// A parameter out of range.
+#[derive(Debug, thiserror::Error)]
+#[error("render parameter `{field}`: {problem}")]
+pub struct ParamsError {
+    /// The parameter.
+    pub field: &'static str,
+    /// What is wrong.
+    pub problem: String,
+}
+
+impl RenderParams {
+    /// Checks every parameter's range.
+    pub fn validate(&self) -> Result<(), ParamsError> {
+        let bad = |field, problem: String| Err(ParamsError { field, problem });
+        for (field, v) in [
+            ("sigma", self.sigma),
+            ("eps_gradient", self.eps_gradient),
+            ("eps_visibility", self.eps_visibility),
+            ("w_d_min", self.w_d_min),
+            ("visibility_tolerance", self.visibility_tolerance),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(field, format!("must be finite and positive, found {v}"));
+            }
+        }
+        for (field, v) in [("lambda_pc", self.lambda_pc), ("lambda_t", self.lambda_t), ("lambda_p", self.lambda_p), ("lambda_g", self.lambda_g)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(field, format!("must be finite and non-negative, found {v}"));
+            }
+        }
+        if !(self.w_d_max.is_finite() && self.w_d_max >= self.w_d_min) {
+            return bad("w_d_max", format!("must be finite and at least w_d_min, found {}", self.w_d_max));
+        }
+        if !(self.relaxation > 0.0 && self.relaxation < 2.0) {
+            return bad("relaxation", format!("must be in (0, 2), found {}", self.relaxation));
+        }
+        if !(1..=16).contains(&self.views) {
+            return bad("views", format!("must be in 1..=16, found {}", self.views));
+        }
+        if !(1..=8).contains(&self.levels) {
+            return bad("levels", format!("must be in 1..=8, found {}", self.levels));
+        }
+        for (field, v) in [
+            ("outer_iterations", self.outer_iterations),
+            ("outer_iterations_finest", self.outer_iterations_finest),
+            ("depth_sweeps", self.depth_sweeps),
+            ("color_sweeps", self.color_sweeps),
+        ] {
+            if v > 1000 {
+                return bad(field, format!("must be at most 1000, found {v}"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Outer iterations at `level` (0 = finest).
+    pub fn outer_iterations_at(&self, level: usize) -> usize {
+        if level == 0 { self.outer_iterations_finest } else { self.outer_iterations }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_papers_and_valid() {
+        let p = RenderParams::default();
+        assert_eq!((p.sigma, p.lambda_pc, p.lambda_t, p.lambda_p, p.lambda_g, p.views, p.levels), (0.075, 1.0, 0.05, 10.0, 10.0, 4, 4));
+        p.validate().unwrap();
+    }
+
+    #[test]
+    fn json_with_partial_fields_and_unknown_field() {
+        let p: RenderParams = serde_json::from_str(r#"{"lambda_t": 0.1, "method": "blend"}"#).unwrap();
+        assert_eq!(p.lambda_t, 0.1);
+        assert_eq!(p.method, Method::Blend);
+        assert_eq!(p.sigma, 0.075);
+        assert!(serde_json::from_str::<RenderParams>(r#"{"lamda_t": 0.1}"#).is_err());
+    }
+
+    #[test]
+    fn validation_names_the_parameter() {
+        let p = RenderParams { relaxation: 2.0, ..RenderParams::default() };
+        assert_eq!(p.validate().unwrap_err().field, "relaxation");
+        let p = RenderParams { sigma: f32::NAN, ..RenderParams::default() };
+        assert_eq!(p.validate().unwrap_err().field, "sigma");
+    }
+}

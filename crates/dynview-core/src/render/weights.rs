@@ -1,0 +1,116 @@
+//! The per-pixel weights of METHOD.md: `w_P^s`, `w_D`, `w_H` (paper `w_D^`) and `w_T`.
+
+use super::params::RenderParams;
+use super::sparse::SplatMaps;
+use super::warp::ViewWarp;
+use crate::par;
+use crate::raster::{Rgb, RgbRaster};
+
+/// `exp(-||a - b||^2 / (2 sigma^2))`, the Gaussian color agreement shared by all weights.
+#[inline]
+pub fn agreement(a: Rgb, b: Rgb, sigma: f32) -> f32 {
+    let d2 = (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2);
+    (-d2 / (2.0 * sigma * sigma)).exp()
+}
+
+/// `w_P^s(x) = sigma_vis^s(x) exp(-||I^proj_s(x) - I_t(x)||^2 / (2 sigma^2))` (paper Eq. wP).
+pub fn projection_weights(warp: &ViewWarp, color: &RgbRaster, sigma: f32) -> Vec<f32> {
+    let mut out = vec![0.0f32; color.data.len()];
+    par::for_each_row_mut(&mut out, color.width, |y, row| {
+        let base = y * color.width;
+        for (x, w) in row.iter_mut().enumerate() {
+            let i = base + x;
+            let vis = warp.visibility[i];
+            *w = if vis > 0.0 { vis * agreement(warp.color[i], color.data[i], sigma) } else { 0.0 };
+        }
+    });
+    out
+}
+
+/// `||grad I(x)||^2` by central differences (one-sided at the border), summed over RGB.
+#[inline]
+fn gradient_sq(color: &RgbRaster, x: usize, y: usize) -> f32 {
+    let (w, h) = (color.width, color.height);
+    let (xl, xr) = (x.saturating_sub(1), (x + 1).min(w - 1));
+    let (yu, yd) = (y.saturating_sub(1), (y + 1).min(h - 1));
+    let sx = if xr > xl { 1.0 / (xr - xl) as f32 } else { 0.0 };
+    let sy = if yd > yu { 1.0 / (yd - yu) as f32 } else { 0.0 };
+    let (l, r, u, d) = (color.get(xl, y), color.get(xr, y), color.get(x, yu), color.get(x, yd));
+    (0..3).map(|k| ((r[k] - l[k]) * sx).powi(2) + ((d[k] - u[k]) * sy).powi(2)).sum()
+}
+
+/// `w_D(x) = sum_s w_P^s / ((||grad I||^2 + eps_g)(sum_s sigma_vis^s + eps_v))` (paper Eq. wD
+/// with our `eps` terms), clamped to `[w_d_min, w_d_max]`.
+pub fn depth_smoothness_weights(color: &RgbRaster, sum_wp: &[f32], sum_visibility: &[f32], params: &RenderParams) -> Vec<f32> {
+    let mut out = vec![0.0f32; color.data.len()];
+    par::for_each_row_mut(&mut out, color.width, |y, row| {
+        for (x, w) in row.iter_mut().enumerate() {
+            let i = y * color.width + x;
+            let g = gradient_sq(color, x, y) + params.eps_gradient;
+            let v = sum_visibility[i] + params.eps_visibility;
+            *w = (sum_wp[i] / (g * v)).clamp(params.w_d_min, params.w_d_max);
+        }
+    });
+    out
+}
+
+/// `w_H(x) = exp(-||I^(x) - I_t(x)||^2 / (2 sigma^2))` on pixels with a sparse point, 0 elsewhere
+/// (paper Eq. wH).
+pub fn sparse_weights(sparse: &SplatMaps, color: &RgbRaster, sigma: f32) -> Vec<f32> {
+    sparse
+        .mask
+        .data
+        .iter()
+        .zip(&sparse.color.data)
+        .zip(&color.data)
+        .map(|((&m, &s), &c)| if m > 0.0 { agreement(s, c, sigma) } else { 0.0 })
+        .collect()
+}
+
+/// `w_T(x) = 1/n sum_s exp(-||I^proj_{t-1}(x) - I^proj_s(x)||^2 / (2 sigma^2))` (paper Eq. wT),
+/// averaged over the views that are valid at `x`, and 0 where the previous frame does not cover
+/// `x` or no view is valid.
+pub fn temporal_weights(previous: &SplatMaps, warps: &[ViewWarp], sigma: f32) -> Vec<f32> {
+    let n = previous.mask.data.len();
+    (0..n)
+        .map(|i| {
+            if previous.mask.data[i] <= 0.0 {
+                return 0.0;
+            }
+            let (sum, count) = warps
+                .iter()
+                .filter(|w| w.valid(i))
+                .fold((0.0f32, 0u32), |(s, c), w| (s + agreement(previous.color.data[i], w.color[i], sigma), c + 1));
+            if count == 0 { 0.0 } else { sum / count as f32 }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn agreement_hand_checked() {
+        assert_eq!(agreement([0.2; 3], [0.2; 3], 0.075), 1.0);
+        // ||d||^2 = 3 * 0.075^2 -> exp(-1.5).
+        let w = agreement([0.0; 3], [0.075; 3], 0.075);
+        assert!((w - (-1.5f32).exp()).abs() < 1e-6);
+    }
+
+    #[test]
+    fn color_edge_lowers_w_d() {
+        // Left half dark, right half bright: w_D must drop at the edge.
+        let color = RgbRaster::from_vec(8, 3, (0..24).map(|i| if i % 8 < 4 { [0.1; 3] } else { [0.9; 3] }).collect()).unwrap();
+        let ones = vec![1.0f32; 24];
+        let params = RenderParams::default();
+        let w = depth_smoothness_weights(&color, &ones, &ones, &params);
+        let flat = w[8];
+        let edge = w[8 + 3];
+        assert!(edge < 0.05 * flat, "edge {edge} flat {flat}");
+        // Disagreeing views (sum w_P small relative to visibility) lower it too.
+        let low = vec![0.1f32; 24];
+        let w_low = depth_smoothness_weights(&color, &low, &ones, &params);
+        assert!(w_low[8] < flat);
+    }
+}
