@@ -19,10 +19,10 @@ pub mod camera;
 pub mod camera_path;
 pub mod colmap;
 pub mod depth_io;
-pub mod metrics;
-pub mod par;
 #[cfg(not(target_family = "wasm"))]
 pub mod fsutil;
+pub mod metrics;
+pub mod par;
 pub mod raster;
 pub mod render;
 pub mod rotation;

@@ -90,7 +90,8 @@ pub fn ssim(a: &RgbRaster, b: &RgbRaster) -> f64 {
         let mut sum = 0.0;
         for i in 0..w * h {
             let (vx, vy, cov) = (sxx[i] - mx[i] * mx[i], syy[i] - my[i] * my[i], sxy[i] - mx[i] * my[i]);
-            sum += ((2.0 * mx[i] * my[i] + SSIM_C1) * (2.0 * cov + SSIM_C2)) / ((mx[i] * mx[i] + my[i] * my[i] + SSIM_C1) * (vx + vy + SSIM_C2));
+            sum += ((2.0 * mx[i] * my[i] + SSIM_C1) * (2.0 * cov + SSIM_C2))
+                / ((mx[i] * mx[i] + my[i] * my[i] + SSIM_C1) * (vx + vy + SSIM_C2));
         }
         total += sum / (w * h) as f64;
     }

@@ -4,7 +4,9 @@
 //! - `cargo xtask demo [--fresh]`: installs what is missing, builds, makes the sample event and
 //!   shows it.
 
+mod bench;
 mod demo;
+mod eval;
 mod setup;
 mod test;
 mod util;
@@ -16,7 +18,12 @@ const USAGE: &str = "usage: cargo xtask <command>
 commands:
   test           install what is missing, then fmt, clippy, all tests, wasm32 build of the core
   demo [--fresh] install what is missing, build, make the sample event and show it
-                 (--fresh regenerates the event even if it exists)";
+                 (--fresh regenerates the event even if it exists)
+  bench          ms per frame of the full method at 480x270, 960x540 and 1920x1080
+                 (release build, all cores), per level and stage
+  eval [--frames N] [--params FILE] [--out DIR]
+                 quality table of the renderer and its baselines on the synthetic event
+                 (written to docs/results/)";
 
 fn main() -> std::process::ExitCode {
     match run() {
@@ -38,6 +45,10 @@ fn run() -> anyhow::Result<()> {
     match command.as_str() {
         "test" => test::run(rest),
         "demo" => demo::run(rest),
+        "bench" => bench::run(rest),
+        "bench-release" => bench::run_release(rest),
+        "eval" => eval::run(rest),
+        "eval-release" => eval::run_release(rest),
         "help" | "--help" | "-h" => {
             println!("{USAGE}");
             Ok(())

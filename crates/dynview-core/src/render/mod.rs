@@ -18,8 +18,8 @@ pub mod warp;
 pub mod weights;
 
 pub use frame::{
-    FALLBACK_COLOR, FALLBACK_DEPTH, InputView, LevelPreview, PreviousFrame, RenderError, RenderHooks, RenderOutput, TimeStepInputs,
-    render_frame,
+    FALLBACK_COLOR, FALLBACK_DEPTH, InputView, LevelPreview, LevelSolution, PreviousFrame, RenderError, RenderHooks, RenderOutput,
+    TimeStepInputs, render_frame,
 };
 pub use params::{Method, ParamsError, RenderParams};
 pub use timing::{LevelTimings, Stage, Timings};
@@ -49,9 +49,15 @@ impl StreamingRenderer {
     }
 
     /// Renders the next frame and keeps it as the previous one.
-    pub fn render(&mut self, params: &RenderParams, camera: &Camera, inputs: &TimeStepInputs, hooks: &mut RenderHooks) -> Result<RenderOutput, RenderError> {
+    pub fn render(
+        &mut self,
+        params: &RenderParams,
+        camera: &Camera,
+        inputs: &TimeStepInputs,
+        hooks: &mut RenderHooks,
+    ) -> Result<RenderOutput, RenderError> {
         let output = render_frame(params, camera, inputs, self.previous.as_ref(), hooks)?;
-        self.previous = Some(PreviousFrame { camera: *camera, color: output.color.clone(), depth: output.depth.clone() });
+        self.previous = Some(output.clone().into_previous(*camera));
         Ok(output)
     }
 }

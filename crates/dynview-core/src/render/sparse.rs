@@ -46,6 +46,71 @@ impl SplatMaps {
     }
 }
 
+impl SplatMaps {
+    /// Removes samples that cannot be right in this view, in two passes over a window of
+    /// `radius` pixels (`None`: half the mean spacing between samples, 1 to 8 pixels):
+    ///
+    /// 1. isolated front samples: no other sample in the window lies within `ratio` of its
+    ///    depth and at least two lie clearly behind it (an outlier floating in front);
+    /// 2. occluded samples: a remaining sample in the window is nearer by more than the factor
+    ///    `1 + ratio` (a point some input camera saw but this view cannot: a sparse cloud has
+    ///    no surfaces to hide it in a z-buffer).
+    ///
+    /// Returns the number of samples removed.
+    pub fn drop_inconsistent(&mut self, ratio: f32, radius: Option<usize>) -> usize {
+        let (w, h) = (self.depth.width, self.depth.height);
+        let covered = self.covered();
+        if covered == 0 {
+            return 0;
+        }
+        let spacing = ((w * h) as f32 / covered as f32).sqrt();
+        let r = radius.unwrap_or_else(|| (0.5 * spacing).ceil().clamp(1.0, 8.0) as usize);
+        let samples: Vec<usize> = (0..w * h).filter(|&i| self.mask.data[i] > 0.0).collect();
+        let window = |i: usize| {
+            let (x, y) = (i % w, i / w);
+            let (x0, x1) = (x.saturating_sub(r), (x + r).min(w - 1));
+            let (y0, y1) = (y.saturating_sub(r), (y + r).min(h - 1));
+            (y0..=y1).flat_map(move |yy| (x0..=x1).map(move |xx| yy * w + xx)).filter(move |&j| j != i)
+        };
+        let mut remove = Vec::new();
+        for &i in &samples {
+            let d = self.depth.data[i];
+            let (mut support, mut behind) = (0, 0);
+            for j in window(i) {
+                if self.mask.data[j] > 0.0 {
+                    let dj = self.depth.data[j];
+                    if (dj - d).abs() <= ratio * d {
+                        support += 1;
+                    } else if dj > d * (1.0 + ratio) {
+                        behind += 1;
+                    }
+                }
+            }
+            if support == 0 && behind >= 2 {
+                remove.push(i);
+            }
+        }
+        for &i in &remove {
+            self.mask.data[i] = 0.0;
+        }
+        let mut occluded = Vec::new();
+        for &i in &samples {
+            if self.mask.data[i] <= 0.0 {
+                continue;
+            }
+            let d = self.depth.data[i];
+            if window(i).any(|j| self.mask.data[j] > 0.0 && d > self.depth.data[j] * (1.0 + ratio)) {
+                occluded.push(i);
+            }
+        }
+        for &i in remove.iter().chain(&occluded) {
+            self.mask.data[i] = 0.0;
+            self.depth.data[i] = f32::INFINITY;
+        }
+        remove.len() + occluded.len()
+    }
+}
+
 /// Projects `cloud` into `camera` (`D^`, `I^` and `m` of METHOD.md).
 pub fn project_cloud(cloud: &PointCloud, camera: &Camera) -> SplatMaps {
     let mut maps = SplatMaps::empty(camera.width_px as usize, camera.height_px as usize);
@@ -117,6 +182,25 @@ mod tests {
         assert_eq!(centre, 2.0);
         assert_eq!(maps.color.get(5, 4), [0.0, 1.0, 0.0]);
         assert_eq!(maps.covered(), 1); // behind-camera and off-image points are dropped
+    }
+
+    #[test]
+    fn occluded_samples_are_dropped() {
+        let mut maps = SplatMaps::empty(20, 20);
+        // A near cluster (depth 2) with one far sample (depth 5) inside it; a far cluster
+        // (depth 5) with one outlier floating in front (depth 3).
+        for (x, y, d) in [(5, 5, 2.0), (7, 5, 2.0), (5, 7, 2.0), (7, 7, 2.0), (6, 6, 5.0)] {
+            maps.splat(x as f32, y as f32, d, [0.5; 3]);
+        }
+        for (x, y, d) in [(14, 14, 5.0), (16, 14, 5.0), (14, 16, 5.0), (16, 16, 5.0), (15, 15, 3.0)] {
+            maps.splat(x as f32, y as f32, d, [0.5; 3]);
+        }
+        let dropped = maps.drop_inconsistent(0.03, Some(2));
+        assert_eq!(dropped, 2);
+        assert_eq!(maps.mask.get(6, 6), 0.0, "occluded far sample");
+        assert_eq!(maps.mask.get(15, 15), 0.0, "floating outlier");
+        assert_eq!(maps.mask.get(16, 16), 1.0);
+        assert_eq!(maps.covered(), 8);
     }
 
     #[test]

@@ -37,12 +37,44 @@ impl PixelTransfer {
     pub fn apply(&self, x: f32, y: f32, depth: f32) -> Option<(f32, f32, f32)> {
         let m = &self.m;
         let hz = depth * (m[6] * x + m[7] * y + m[8]) + self.e[2];
-        if !(hz > 1e-6) {
+        if hz.is_nan() || hz <= 1e-6 {
             return None;
         }
         let hx = depth * (m[0] * x + m[1] * y + m[2]) + self.e[0];
         let hy = depth * (m[3] * x + m[4] * y + m[5]) + self.e[1];
         let inv = 1.0 / hz;
+        Some((hx * inv, hy * inv, hz))
+    }
+}
+
+/// [`PixelTransfer`] with the row's `y` folded in: per pixel only the `x` terms remain.
+#[derive(Clone, Copy, Debug)]
+pub struct RowTransfer {
+    mx: [f32; 3],
+    base: [f32; 3],
+    e: [f32; 3],
+}
+
+impl PixelTransfer {
+    /// The transfer of pixels on row `y`.
+    #[inline]
+    pub fn row(&self, y: f32) -> RowTransfer {
+        let m = &self.m;
+        RowTransfer { mx: [m[0], m[3], m[6]], base: [m[1] * y + m[2], m[4] * y + m[5], m[7] * y + m[8]], e: self.e }
+    }
+}
+
+impl RowTransfer {
+    /// Target pixel and depth of source pixel `(x, y)` at `depth` (as [`PixelTransfer::apply`]).
+    #[inline]
+    pub fn apply(&self, x: f32, depth: f32) -> Option<(f32, f32, f32)> {
+        let hz = depth * (self.mx[2] * x + self.base[2]) + self.e[2];
+        if hz.is_nan() || hz <= 1e-6 {
+            return None;
+        }
+        let inv = 1.0 / hz;
+        let hx = depth * (self.mx[0] * x + self.base[0]) + self.e[0];
+        let hy = depth * (self.mx[1] * x + self.base[1]) + self.e[1];
         Some((hx * inv, hy * inv, hz))
     }
 }
@@ -74,6 +106,9 @@ mod tests {
             let (u, v, z) = transfer.apply(x as f32, y as f32, d as f32).unwrap();
             assert!((f64::from(u) - px.x).abs() < 1e-3 && (f64::from(v) - px.y).abs() < 1e-3 && (f64::from(z) - depth).abs() < 1e-4);
         }
+        // The row form agrees.
+        let (by_row, direct) = (transfer.row(20.0).apply(10.0, 3.0).unwrap(), transfer.apply(10.0, 20.0, 3.0).unwrap());
+        assert!((by_row.0 - direct.0).abs() < 1e-3 && (by_row.1 - direct.1).abs() < 1e-3 && (by_row.2 - direct.2).abs() < 1e-5);
         // Identity transfer.
         let (u, v, z) = PixelTransfer::new(&a, &a).apply(12.0, 34.0, 2.0).unwrap();
         assert!((u - 12.0).abs() < 1e-4 && (v - 34.0).abs() < 1e-4 && (z - 2.0).abs() < 1e-5);

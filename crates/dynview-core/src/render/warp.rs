@@ -30,6 +30,9 @@ impl ViewWarp {
     }
 }
 
+/// One row of the three outputs of a warp.
+type WarpRow<'a> = (&'a mut [Rgb], (&'a mut [u32], &'a mut [f32]));
+
 /// Backward-warps `input` (seen by `input_camera`) into `novel` with z-depth `depth`. The
 /// visibility is left at 0; [`compute_visibility`] fills it.
 pub fn warp_view(novel: &Camera, depth: &ScalarRaster, input_camera: &Camera, input: &RgbRaster) -> ViewWarp {
@@ -39,24 +42,9 @@ pub fn warp_view(novel: &Camera, depth: &ScalarRaster, input_camera: &Camera, in
     let mut color = vec![[0.0f32; 3]; n];
     let mut target = vec![OUTSIDE; n];
     let mut depth_in_input = vec![0.0f32; n];
-    let (iw, ih) = (input.width, input.height);
-    // Rows in parallel; the three outputs are zipped per row.
-    let mut rows: Vec<(&mut [Rgb], (&mut [u32], &mut [f32]))> =
-        color.chunks_mut(w).zip(target.chunks_mut(w).zip(depth_in_input.chunks_mut(w))).collect();
-    let work = |y: usize, (c_row, (t_row, d_row)): &mut (&mut [Rgb], (&mut [u32], &mut [f32]))| {
-        for x in 0..w {
-            let d = depth.data[y * w + x];
-            if !(d.is_finite() && d > 0.0) {
-                continue;
-            }
-            let Some((u, v, z)) = transfer.apply(x as f32, y as f32, d) else { continue };
-            if let Some(c) = input.sample_bilinear(u, v) {
-                c_row[x] = c;
-                let (ui, vi) = ((u.round() as usize).min(iw - 1), (v.round() as usize).min(ih - 1));
-                t_row[x] = (vi * iw + ui) as u32;
-                d_row[x] = z;
-            }
-        }
+    let mut rows: Vec<WarpRow> = color.chunks_mut(w).zip(target.chunks_mut(w).zip(depth_in_input.chunks_mut(w))).collect();
+    let work = |y: usize, (c_row, (t_row, d_row)): &mut WarpRow| {
+        warp_row(&transfer, &depth.data[y * w..(y + 1) * w], y as f32, input, c_row, t_row, d_row);
     };
     #[cfg(feature = "parallel")]
     {
@@ -67,6 +55,50 @@ pub fn warp_view(novel: &Camera, depth: &ScalarRaster, input_camera: &Camera, in
     rows.iter_mut().enumerate().for_each(|(y, row)| work(y, row));
     drop(rows);
     ViewWarp { color, target, depth_in_input, visibility: vec![0.0; n] }
+}
+
+/// One row of [`warp_view`]: transfer, bilinear sample (edge pixels clamped), nearest input
+/// pixel and depth in the input camera.
+fn warp_row(
+    transfer: &PixelTransfer,
+    depth_row: &[f32],
+    y: f32,
+    input: &RgbRaster,
+    c_row: &mut [Rgb],
+    t_row: &mut [u32],
+    d_row: &mut [f32],
+) {
+    let (iw, ih) = (input.width, input.height);
+    let (wf, hf) = (iw as f32, ih as f32);
+    let data = &input.data;
+    let row = transfer.row(y);
+    for (x, &d) in depth_row.iter().enumerate() {
+        if !(d > 0.0 && d < f32::INFINITY) {
+            continue;
+        }
+        let Some((u, v, z)) = row.apply(x as f32, d) else { continue };
+        if !(u >= -0.5 && v >= -0.5 && u < wf - 0.5 && v < hf - 0.5) {
+            continue;
+        }
+        let uc = u.clamp(0.0, wf - 1.0);
+        let vc = v.clamp(0.0, hf - 1.0);
+        let (x0, y0) = (uc as usize, vc as usize);
+        let (fx, fy) = (uc - x0 as f32, vc - y0 as f32);
+        let dx = usize::from(x0 + 1 < iw);
+        let dy = if y0 + 1 < ih { iw } else { 0 };
+        let i00 = y0 * iw + x0;
+        let (a, b, c, e) = (data[i00], data[i00 + dx], data[i00 + dy], data[i00 + dy + dx]);
+        let mut out = [0.0f32; 3];
+        for k in 0..3 {
+            let top = a[k] + (b[k] - a[k]) * fx;
+            let bottom = c[k] + (e[k] - c[k]) * fx;
+            out[k] = top + (bottom - top) * fy;
+        }
+        c_row[x] = out;
+        let (ui, vi) = ((u + 0.5) as usize, (v + 0.5) as usize);
+        t_row[x] = (vi.min(ih - 1) * iw + ui.min(iw - 1)) as u32;
+        d_row[x] = z;
+    }
 }
 
 /// Fills `warp.visibility`: scatter every valid novel pixel's depth into a depth buffer the

@@ -39,14 +39,14 @@ fn gradient_sq(color: &RgbRaster, x: usize, y: usize) -> f32 {
     (0..3).map(|k| ((r[k] - l[k]) * sx).powi(2) + ((d[k] - u[k]) * sy).powi(2)).sum()
 }
 
-/// `w_D(x) = sum_s w_P^s / ((||grad I||^2 + eps_g)(sum_s sigma_vis^s + eps_v))` (paper Eq. wD
-/// with our `eps` terms), clamped to `[w_d_min, w_d_max]`.
+/// `w_D(x) = sum_s w_P^s / ((||grad (u I)||^2 + eps_g)(sum_s sigma_vis^s + eps_v))` (paper Eq.
+/// wD with our `eps` terms and gradient unit `u`), clamped to `[w_d_min, w_d_max]`.
 pub fn depth_smoothness_weights(color: &RgbRaster, sum_wp: &[f32], sum_visibility: &[f32], params: &RenderParams) -> Vec<f32> {
     let mut out = vec![0.0f32; color.data.len()];
     par::for_each_row_mut(&mut out, color.width, |y, row| {
         for (x, w) in row.iter_mut().enumerate() {
             let i = y * color.width + x;
-            let g = gradient_sq(color, x, y) + params.eps_gradient;
+            let g = gradient_sq(color, x, y) * params.gradient_unit * params.gradient_unit + params.eps_gradient;
             let v = sum_visibility[i] + params.eps_visibility;
             *w = (sum_wp[i] / (g * v)).clamp(params.w_d_min, params.w_d_max);
         }

@@ -1,0 +1,110 @@
+//! `cargo xtask bench`: milliseconds per frame of the full method at several resolutions, per
+//! pyramid level and per stage, on this machine with all cores (release build).
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use dynview_core::Camera;
+use dynview_core::camera_path::parse_path;
+use dynview_core::render::{LevelTimings, RenderHooks, RenderParams, TimeStepInputs, render_frame};
+use dynview_core::scene::ScenePackage;
+use dynview_synth::SynthConfig;
+
+use crate::util::{cargo, run_step, workspace_root};
+
+/// Resolutions of the benchmark.
+pub const SIZES: [(u32, u32); 3] = [(480, 270), (960, 540), (1920, 1080)];
+/// Timed runs per resolution (after one warm-up run); the median is reported.
+const RUNS: usize = 5;
+
+/// Entry from `cargo xtask bench`: re-runs itself in release mode.
+pub fn run(args: &[String]) -> anyhow::Result<()> {
+    let mut cmd = cargo();
+    cmd.args(["run", "--release", "--quiet", "-p", "xtask", "--", "bench-release"]).args(args);
+    run_step("benchmark (release build)", cmd)?;
+    Ok(())
+}
+
+/// A one-frame synthetic event at `width x height` (made once, cached under target/bench/).
+pub fn bench_event(width: u32, height: u32) -> anyhow::Result<(TimeStepInputs, Camera)> {
+    let dir = workspace_root().join(format!("target/bench/event_{width}x{height}"));
+    if !dir.join(dynview_synth::SYNTH_MARKER).is_file() {
+        println!("making a {width}x{height} synthetic frame in {} ...", dir.display());
+        let config = SynthConfig { frames: 1, width, height, videos: false, ..SynthConfig::default() };
+        dynview_synth::generate(&config, &dir, &|_, _, _| {})?;
+    }
+    let package = ScenePackage::open(dir.join("scene"))?;
+    let inputs = package.time_step_inputs(0, RenderParams::default().levels)?;
+    let path = parse_path(&std::fs::read(dir.join("camera_path.json"))?, "camera_path.json", None)?;
+    let camera = path.first().context("empty camera path")?.camera;
+    Ok((inputs, camera))
+}
+
+/// The benchmark itself (release build).
+pub fn run_release(args: &[String]) -> anyhow::Result<()> {
+    if let Some(a) = args.first() {
+        bail!("xtask bench takes no arguments, got {a:?}");
+    }
+    let params = RenderParams::default();
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut report = String::new();
+    let _ = writeln!(report, "Full method, {} views, {} levels, {threads} threads, median of {RUNS} runs:\n", params.views, params.levels);
+    let _ = writeln!(report, "| output | ms/frame | frames/s | paper (6.8 s) / ours |");
+    let _ = writeln!(report, "| --- | ---: | ---: | ---: |");
+    let mut details = String::new();
+    for (w, h) in SIZES {
+        let (inputs, camera) = bench_event(w, h)?;
+        let origin = Instant::now();
+        let clock = move || origin.elapsed().as_secs_f64() * 1000.0;
+        let mut runs = Vec::new();
+        for run in 0..=RUNS {
+            let mut hooks = RenderHooks { clock: Some(&clock), on_level: None };
+            let start = Instant::now();
+            let out = render_frame(&params, &camera, &inputs, None, &mut hooks)?;
+            let ms = start.elapsed().as_secs_f64() * 1000.0;
+            if run > 0 {
+                runs.push((ms, out.timings));
+            }
+        }
+        runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let (ms, timings) = &runs[runs.len() / 2];
+        let _ = writeln!(report, "| {w}x{h} | {ms:.0} | {:.2} | {:.1}x |", 1000.0 / ms, 6800.0 / ms);
+        let _ = writeln!(details, "\n{w}x{h}: per level and stage (ms)\n");
+        let _ =
+            writeln!(details, "| level | size | sparse | push-pull | warp | visibility | weights | depth solve | color solve | total |");
+        let _ = writeln!(details, "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
+        for l in &timings.levels {
+            let _ = writeln!(details, "{}", level_row(l));
+        }
+        println!("{w}x{h}: {ms:.0} ms");
+    }
+    println!("\n{report}{details}");
+    let out = workspace_root().join("target/bench/report.md");
+    write_report(&out, &format!("{report}{details}"))?;
+    println!("(also written to {})", out.display());
+    Ok(())
+}
+
+fn level_row(l: &LevelTimings) -> String {
+    format!(
+        "| {} | {}x{} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+        l.level,
+        l.width,
+        l.height,
+        l.sparse_ms,
+        l.pushpull_ms,
+        l.warp_ms,
+        l.visibility_ms,
+        l.weights_ms,
+        l.depth_solve_ms,
+        l.color_solve_ms,
+        l.total_ms()
+    )
+}
+
+fn write_report(path: &Path, text: &str) -> anyhow::Result<()> {
+    dynview_core::fsutil::write_atomic(path, text.as_bytes())?;
+    Ok(())
+}

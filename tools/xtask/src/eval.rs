@@ -1,0 +1,246 @@
+//! `cargo xtask eval`: the quality table of the renderer and its baselines on the synthetic
+//! event's held-out cameras, written to `docs/results/`.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use dynview_core::camera_path::{PathFrame, parse_path};
+use dynview_core::metrics::{flicker, psnr, ssim};
+use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer, TimeStepInputs};
+use dynview_core::scene::ScenePackage;
+use dynview_core::{RgbRaster, ScalarRaster};
+use dynview_synth::SynthConfig;
+
+use crate::util::{cargo, run_step, workspace_root};
+
+/// Entry from `cargo xtask eval`: re-runs itself in release mode (rendering in a debug build
+/// would take many minutes).
+pub fn run(args: &[String]) -> anyhow::Result<()> {
+    let mut cmd = cargo();
+    cmd.args(["run", "--release", "--quiet", "-p", "xtask", "--", "eval-release"]).args(args);
+    run_step("evaluation (release build)", cmd)?;
+    Ok(())
+}
+
+struct Options {
+    frames: Option<usize>,
+    methods: Vec<Method>,
+    verbose: bool,
+    params: RenderParams,
+    out: PathBuf,
+}
+
+fn parse_options(args: &[String]) -> anyhow::Result<Options> {
+    let mut options = Options {
+        frames: None,
+        methods: Method::ALL.to_vec(),
+        verbose: false,
+        params: RenderParams::default(),
+        out: workspace_root().join("docs/results"),
+    };
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--frames" => options.frames = Some(it.next().context("--frames needs a number")?.parse()?),
+            "--params" => {
+                let file = it.next().context("--params needs a file")?;
+                options.params =
+                    serde_json::from_str(&fs::read_to_string(file)?).with_context(|| format!("{file}: not render parameters"))?;
+            }
+            "--out" => options.out = PathBuf::from(it.next().context("--out needs a folder")?),
+            "--methods" => {
+                options.methods = it
+                    .next()
+                    .context("--methods needs a list")?
+                    .split(',')
+                    .map(|m| {
+                        serde_json::from_value(serde_json::Value::String(m.to_owned())).with_context(|| format!("unknown method {m:?}"))
+                    })
+                    .collect::<anyhow::Result<_>>()?;
+            }
+            "--verbose" => options.verbose = true,
+            other => {
+                bail!("unknown option {other:?} for xtask eval (known: --frames N, --methods a,b, --params FILE, --out DIR, --verbose)")
+            }
+        }
+    }
+    Ok(options)
+}
+
+/// One row of the table.
+struct Row {
+    method: Method,
+    psnr_moving: f64,
+    ssim_moving: f64,
+    psnr_static: f64,
+    flicker_static: f64,
+    ms_per_frame: f64,
+}
+
+/// The evaluation itself (release build).
+pub fn run_release(args: &[String]) -> anyhow::Result<()> {
+    let options = parse_options(args)?;
+    let event = workspace_root().join("target/eval/event");
+    let config = SynthConfig::default();
+    if !event.join(dynview_synth::SYNTH_MARKER).is_file() {
+        println!("making the synthetic event in {} ...", event.display());
+        dynview_synth::generate(&SynthConfig { videos: false, ..config.clone() }, &event, &|_, _, _| {})?;
+    }
+    let package = ScenePackage::open(event.join("scene"))?;
+    let frames = options.frames.unwrap_or(package.time_step_count() as usize).min(package.time_step_count() as usize);
+    let moving = load_sequence(&event, "camera_path.json", "heldout", frames)?;
+    let still = load_sequence(&event, "camera_path_static.json", "heldout_static", frames)?;
+    let inputs: Vec<TimeStepInputs> =
+        (0..frames as u32).map(|t| package.time_step_inputs(t, options.params.levels)).collect::<Result<_, _>>()?;
+
+    let mut rows = Vec::new();
+    let mut strips: Vec<(Method, RgbRaster, ScalarRaster)> = Vec::new();
+    let strip_frame = frames / 2;
+    for &method in &options.methods {
+        let params = RenderParams { method, ..options.params.clone() };
+        let (moving_out, ms) = render_sequence(&params, &moving.0, &inputs)?;
+        let (static_out, _) = render_sequence(&params, &still.0, &inputs)?;
+        let mean = |v: Vec<f64>| v.iter().sum::<f64>() / v.len() as f64;
+        if options.verbose {
+            let per_frame = |out: &[(RgbRaster, ScalarRaster)], truth: &[RgbRaster]| {
+                out.iter().zip(truth).map(|((c, _), gt)| format!("{:.1}", psnr(c, gt))).collect::<Vec<_>>().join(" ")
+            };
+            println!("{} moving: {}", method.label(), per_frame(&moving_out, &moving.1));
+            println!("{} static: {}", method.label(), per_frame(&static_out, &still.1));
+        }
+        let colors: Vec<RgbRaster> = static_out.iter().map(|(c, _)| c.clone()).collect();
+        let row = Row {
+            method,
+            psnr_moving: mean(moving_out.iter().zip(&moving.1).map(|((c, _), gt)| psnr(c, gt)).collect()),
+            ssim_moving: mean(moving_out.iter().zip(&moving.1).map(|((c, _), gt)| ssim(c, gt)).collect()),
+            psnr_static: mean(static_out.iter().zip(&still.1).map(|((c, _), gt)| psnr(c, gt)).collect()),
+            flicker_static: flicker(&colors, &still.1).unwrap_or(f64::NAN),
+            ms_per_frame: ms,
+        };
+        println!(
+            "{:<12} PSNR {:.2} dB  SSIM {:.4}  static PSNR {:.2} dB  flicker {:.5}  {:.0} ms/frame",
+            method.label(),
+            row.psnr_moving,
+            row.ssim_moving,
+            row.psnr_static,
+            row.flicker_static,
+            row.ms_per_frame
+        );
+        rows.push(row);
+        let (c, d) = &moving_out[strip_frame];
+        strips.push((method, c.clone(), d.clone()));
+    }
+    if options.methods.len() != Method::ALL.len() {
+        return Ok(());
+    }
+    let table = markdown_table(&rows, frames, &config);
+    println!("\n{table}");
+    fs::create_dir_all(&options.out)?;
+    dynview_core::fsutil::write_atomic(&options.out.join("eval.md"), table.as_bytes())?;
+    write_strip(&options.out.join("eval_strip.png"), &moving.1[strip_frame], &strips)?;
+    println!("wrote {} and {}", options.out.join("eval.md").display(), options.out.join("eval_strip.png").display());
+    Ok(())
+}
+
+type Sequence = (Vec<PathFrame>, Vec<RgbRaster>);
+
+fn load_sequence(event: &Path, path_file: &str, folder: &str, frames: usize) -> anyhow::Result<Sequence> {
+    let path = parse_path(&fs::read(event.join(path_file))?, path_file, None)?;
+    let truth = (0..frames)
+        .map(|t| {
+            let file = event.join(folder).join("color").join(format!("{t:05}.png"));
+            let img = image::open(&file).with_context(|| format!("reading {}", file.display()))?;
+            Ok(RgbRaster::from_rgb8(&img.to_rgb8()))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    Ok((path.into_iter().take(frames).collect(), truth))
+}
+
+fn render_sequence(
+    params: &RenderParams,
+    path: &[PathFrame],
+    inputs: &[TimeStepInputs],
+) -> anyhow::Result<(Vec<(RgbRaster, ScalarRaster)>, f64)> {
+    let mut renderer = StreamingRenderer::new();
+    let mut out = Vec::new();
+    let start = Instant::now();
+    for (t, frame) in path.iter().enumerate() {
+        let output = renderer.render(params, &frame.camera, &inputs[t], &mut RenderHooks::default())?;
+        out.push((output.color, output.depth));
+    }
+    Ok((out, start.elapsed().as_secs_f64() * 1000.0 / path.len().max(1) as f64))
+}
+
+fn markdown_table(rows: &[Row], frames: usize, config: &SynthConfig) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# Renderer evaluation on the synthetic event\n");
+    let _ = writeln!(
+        s,
+        "`dynview synth` defaults ({} cameras, {} frames used of {}, {}x{}, seed {}): ground-truth scene package (clouds: {:.1}% of pixels per camera, {} mm noise, {:.0}% outliers). \
+         PSNR and SSIM on the moving held-out camera, averaged over frames; flicker on the static held-out camera: mean absolute frame-to-frame change of the output on pixels whose \
+         ground truth changes by less than 2/255, minus the same for the ground truth (lower is better). Time: this machine, all cores, per frame including sparse projection.\n",
+        config.cameras,
+        frames,
+        config.frames,
+        config.width,
+        config.height,
+        config.seed,
+        config.point_fraction * 100.0,
+        config.point_noise_m * 1000.0,
+        config.outlier_fraction * 100.0
+    );
+    let _ = writeln!(s, "| method | PSNR (dB) | SSIM | static PSNR (dB) | flicker (x1000) | ms/frame |");
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: |");
+    for (r, letter) in rows.iter().zip(["a", "b", "c", "d", "e"]) {
+        let _ = writeln!(
+            s,
+            "| ({letter}) {} | {:.2} | {:.4} | {:.2} | {:.3} | {:.0} |",
+            r.method.label(),
+            r.psnr_moving,
+            r.ssim_moving,
+            r.psnr_static,
+            r.flicker_static * 1000.0,
+            r.ms_per_frame
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nReproduce: `cargo xtask eval` (strip: `docs/results/eval_strip.png`: ground truth, (c) blend, (e) full, depth of (e))."
+    );
+    s
+}
+
+/// A false-color depth image (near yellow, far blue), scaled between the 2nd and 98th
+/// percentiles.
+fn colorize_depth(depth: &ScalarRaster) -> RgbRaster {
+    let mut finite: Vec<f32> = depth.data.iter().copied().filter(|d| d.is_finite()).collect();
+    finite.sort_by(|a, b| a.total_cmp(b));
+    let (lo, hi) = if finite.is_empty() { (0.0, 1.0) } else { (finite[finite.len() / 50], finite[finite.len() * 49 / 50]) };
+    depth.map(|d| {
+        if !d.is_finite() {
+            return [0.0; 3];
+        }
+        let u = ((d - lo) / (hi - lo).max(1e-6)).clamp(0.0, 1.0);
+        [1.0 - u, 0.8 - 0.5 * u, 0.2 + 0.8 * u]
+    })
+}
+
+fn write_strip(path: &Path, truth: &RgbRaster, renders: &[(Method, RgbRaster, ScalarRaster)]) -> anyhow::Result<()> {
+    let pick = |m: Method| renders.iter().find(|(rm, _, _)| *rm == m).context("method missing");
+    let (_, blend, _) = pick(Method::Blend)?;
+    let (_, full, full_depth) = pick(Method::Full)?;
+    let panels = [truth.clone(), blend.clone(), full.clone(), colorize_depth(full_depth)];
+    let (w, h) = (truth.width / 2, truth.height / 2);
+    let mut strip = image::RgbImage::new(w as u32 * panels.len() as u32, h as u32);
+    for (k, panel) in panels.iter().enumerate() {
+        let small = image::imageops::resize(&panel.to_rgb8(), w as u32, h as u32, image::imageops::FilterType::Triangle);
+        image::imageops::replace(&mut strip, &small, (k * w) as i64, 0);
+    }
+    let mut bytes = Vec::new();
+    strip.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
+    dynview_core::fsutil::write_atomic(path, &bytes)?;
+    Ok(())
+}
