@@ -158,13 +158,41 @@ pub struct LevelPreview<'a> {
     pub depth: &'a ScalarRaster,
 }
 
-/// Optional hooks of a render: a clock for timings and a per-level callback that may cancel.
+/// Optional hooks of a render: a clock for timings, a per-level callback that may cancel, and
+/// a trace of every linear solve (for tests and diagnostics; it costs an energy evaluation
+/// per sweep).
 #[derive(Default)]
 pub struct RenderHooks<'a> {
     /// Milliseconds since an arbitrary origin; enables timings.
     pub clock: Option<&'a dyn Fn() -> f64>,
     /// Called after each level; returning `false` cancels the render.
     pub on_level: Option<&'a mut dyn FnMut(LevelPreview) -> bool>,
+    /// When set, every solve appends its trace here.
+    pub solve_traces: Option<&'a mut Vec<SolveTrace>>,
+}
+
+/// Which energy a solve minimises.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SolveKind {
+    /// `E_D`, color fixed.
+    Depth,
+    /// `E_I`, depth fixed.
+    Color,
+}
+
+/// The course of one linear solve.
+#[derive(Clone, Debug)]
+pub struct SolveTrace {
+    /// Pyramid level.
+    pub level: usize,
+    /// Outer iteration at that level.
+    pub iteration: usize,
+    /// Depth or color.
+    pub kind: SolveKind,
+    /// The energy before the first sweep and after each sweep.
+    pub energies: Vec<f64>,
+    /// Relative residual `||b - A u|| / ||b||` after the last sweep.
+    pub final_residual: f64,
 }
 
 /// Per-level state of the views: warps, visibility and weights.
@@ -391,14 +419,27 @@ fn render_variational(
         // w_T from the fresh estimate of this level (before the temporal terms pull on it).
         let w_t: Option<Vec<f32>> = prev.as_ref().map(|p| weights::temporal_weights(p, &views.warps, params.sigma));
         let temporal = prev.as_ref().zip(w_t.as_deref());
-        for _ in 0..params.outer_iterations_at(level) {
+        for iteration in 0..params.outer_iterations_at(level) {
             // Depth with color fixed.
             views.update(&cam, &depth, params, watch);
             let depth_terms = depth_terms(params, &color, &views.warps, &sparse, temporal);
             watch.lap(Stage::Weights);
             let sys = depth_terms.system();
+            let mut energies = hooks.solve_traces.is_some().then(|| vec![depth_terms.energy(&depth.data)]);
             for _ in 0..params.depth_sweeps {
                 sys.sweep(&mut depth.data, &mut scratch_d, params.relaxation);
+                if let Some(e) = energies.as_mut() {
+                    e.push(depth_terms.energy(&depth.data));
+                }
+            }
+            if let (Some(traces), Some(energies)) = (hooks.solve_traces.as_mut(), energies) {
+                traces.push(SolveTrace {
+                    level,
+                    iteration,
+                    kind: SolveKind::Depth,
+                    energies,
+                    final_residual: sys.relative_residual(&depth.data),
+                });
             }
             views.depth_changed();
             watch.lap(Stage::DepthSolve);
@@ -408,8 +449,21 @@ fn render_variational(
             let color_terms = color_terms(params, &views.warps, &w_p, &sparse, temporal, w, h);
             watch.lap(Stage::Weights);
             let sys = color_terms.system();
+            let mut energies = hooks.solve_traces.is_some().then(|| vec![color_terms.energy(&color.data)]);
             for _ in 0..params.color_sweeps {
                 sys.sweep(&mut color.data, &mut scratch_c, params.relaxation);
+                if let Some(e) = energies.as_mut() {
+                    e.push(color_terms.energy(&color.data));
+                }
+            }
+            if let (Some(traces), Some(energies)) = (hooks.solve_traces.as_mut(), energies) {
+                traces.push(SolveTrace {
+                    level,
+                    iteration,
+                    kind: SolveKind::Color,
+                    energies,
+                    final_residual: sys.relative_residual(&color.data),
+                });
             }
             watch.lap(Stage::ColorSolve);
             if level == 0 {

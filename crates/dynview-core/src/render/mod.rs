@@ -19,7 +19,7 @@ pub mod weights;
 
 pub use frame::{
     FALLBACK_COLOR, FALLBACK_DEPTH, InputView, LevelPreview, LevelSolution, PreviousFrame, RenderError, RenderHooks, RenderOutput,
-    TimeStepInputs, render_frame,
+    SolveKind, SolveTrace, TimeStepInputs, render_frame,
 };
 pub use params::{Method, ParamsError, RenderParams};
 pub use timing::{LevelTimings, Stage, Timings};

@@ -437,3 +437,66 @@ mod tests {
         assert!(sys.relative_residual(&u) < 1e-4, "residual {}", sys.relative_residual(&u));
     }
 }
+
+#[cfg(test)]
+mod color_tests {
+    use super::*;
+    use crate::camera::{Camera, Intrinsics, Rigid3};
+    use crate::raster::{RgbRaster, ScalarRaster};
+    use crate::render::warp::{compute_visibility, warp_view};
+
+    #[test]
+    fn color_system_is_the_energy_gradient_and_sweeps_descend() {
+        let cam =
+            Camera { intrinsics: Intrinsics::from_vertical_fov(0.8, 9, 7), camera_from_world: Rigid3::IDENTITY, width_px: 9, height_px: 7 };
+        let mut other = cam;
+        other.camera_from_world.translation.x = -0.2;
+        let image =
+            RgbRaster::from_vec(9, 7, (0..63).map(|i| [(i % 9) as f32 / 9.0, (i / 9) as f32 / 7.0, ((i * 7) % 5) as f32 / 5.0]).collect())
+                .unwrap();
+        let depth = ScalarRaster::filled(9, 7, 2.0);
+        let mut warps = vec![warp_view(&cam, &depth, &cam, &image), warp_view(&cam, &depth, &other, &image)];
+        for w in &mut warps {
+            compute_visibility(w, 63, 0.02);
+        }
+        let w_p: Vec<Vec<f32>> = warps
+            .iter()
+            .enumerate()
+            .map(|(s, w)| (0..63).map(|i| if w.valid(i) { 0.3 + 0.1 * s as f32 + 0.01 * i as f32 } else { 0.0 }).collect())
+            .collect();
+        let terms = ColorTerms {
+            width: 9,
+            height: 7,
+            views: warps.iter().zip(&w_p).map(|(warp, w_p)| ColorView { warp, w_p }).collect(),
+            lambda_p: 10.0,
+            lambda_g: 10.0,
+            temporal: (0..63).map(|i| 0.05 * (i % 3) as f32).collect(),
+            previous_color: vec![[0.2, 0.4, 0.6]; 63],
+        };
+        let sys = terms.system();
+        let u: Vec<Rgb> = (0..63).map(|i| [((i * 13) % 7) as f32 / 7.0, 0.5, ((i * 5) % 11) as f32 / 11.0]).collect();
+        for i in [0usize, 4, 30, 62] {
+            let (x, y) = (i % 9, i / 9);
+            let gs = sys.neighbour_sum(&u, i, x, y);
+            for k in 0..3 {
+                let analytic = 2.0 * (f64::from(u[i][k]) / f64::from(sys.inv_diag[i]) - f64::from(gs[k]));
+                let h = 1e-2f32;
+                let (mut up, mut dn) = (u.clone(), u.clone());
+                up[i][k] += h;
+                dn[i][k] -= h;
+                let numeric = (terms.energy(&up) - terms.energy(&dn)) / (2.0 * f64::from(h));
+                assert!((analytic - numeric).abs() < 2e-2 * analytic.abs().max(1.0), "pixel {i} channel {k}: {analytic} vs {numeric}");
+            }
+        }
+        let mut v = u.clone();
+        let mut scratch = v.clone();
+        let mut last = terms.energy(&v);
+        for _ in 0..200 {
+            sys.sweep(&mut v, &mut scratch, 1.6);
+            let e = terms.energy(&v);
+            assert!(e <= last * (1.0 + 1e-6));
+            last = e;
+        }
+        assert!(sys.relative_residual(&v) < 1e-4);
+    }
+}

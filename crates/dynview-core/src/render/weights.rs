@@ -114,3 +114,57 @@ mod tests {
         assert!(w_low[8] < flat);
     }
 }
+
+#[cfg(test)]
+mod more_tests {
+    use super::*;
+    use crate::camera::{Camera, Intrinsics, Rigid3};
+    use crate::raster::{Raster, ScalarRaster};
+    use crate::render::warp::{compute_visibility, warp_view};
+
+    #[test]
+    fn outlier_sparse_point_gets_low_w_h() {
+        let color = RgbRaster::filled(4, 1, [0.3, 0.5, 0.2]);
+        let mut sparse = SplatMaps {
+            depth: ScalarRaster::filled(4, 1, f32::INFINITY),
+            color: Raster::filled(4, 1, [0.0; 3]),
+            mask: ScalarRaster::filled(4, 1, 0.0),
+        };
+        // Pixel 1: a point of the surface's color; pixel 2: an outlier of another color.
+        for (i, c) in [(1, [0.31, 0.5, 0.21]), (2, [0.9, 0.1, 0.8])] {
+            sparse.depth.data[i] = 3.0;
+            sparse.color.data[i] = c;
+            sparse.mask.data[i] = 1.0;
+        }
+        let w_h = sparse_weights(&sparse, &color, 0.075);
+        assert_eq!(w_h[0], 0.0, "no point, no weight");
+        assert!(w_h[1] > 0.9, "{w_h:?}");
+        assert!(w_h[2] < 0.01, "{w_h:?}");
+    }
+
+    #[test]
+    fn moving_object_lowers_w_t() {
+        // The current input shows gray on the left half and a red object on the right half; the
+        // previous frame showed gray everywhere (the object moved in on the right).
+        let cam = Camera {
+            intrinsics: Intrinsics::from_vertical_fov(0.8, 16, 8),
+            camera_from_world: Rigid3::IDENTITY,
+            width_px: 16,
+            height_px: 8,
+        };
+        let image = RgbRaster::from_vec(16, 8, (0..128).map(|i| if i % 16 < 8 { [0.5; 3] } else { [0.9, 0.1, 0.1] }).collect()).unwrap();
+        let depth = ScalarRaster::filled(16, 8, 3.0);
+        let mut warp = warp_view(&cam, &depth, &cam, &image);
+        compute_visibility(&mut warp, 128, 0.02);
+        let previous =
+            SplatMaps { depth: depth.clone(), color: RgbRaster::filled(16, 8, [0.5; 3]), mask: ScalarRaster::filled(16, 8, 1.0) };
+        let w_t = temporal_weights(&previous, &[warp], 0.075);
+        assert!(w_t[4 * 16 + 2] > 0.99, "static pixel {}", w_t[4 * 16 + 2]);
+        assert!(w_t[4 * 16 + 12] < 0.01, "moving pixel {}", w_t[4 * 16 + 12]);
+        // No previous frame at a pixel: no temporal weight.
+        let mut holes = previous.clone();
+        holes.mask.data[0] = 0.0;
+        let image2 = warp_view(&cam, &depth, &cam, &image);
+        assert_eq!(temporal_weights(&holes, &[image2], 0.075)[0], 0.0);
+    }
+}
