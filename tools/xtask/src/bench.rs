@@ -60,7 +60,7 @@ pub fn run_release(args: &[String]) -> anyhow::Result<()> {
         let clock = move || origin.elapsed().as_secs_f64() * 1000.0;
         let mut runs = Vec::new();
         for run in 0..=RUNS {
-            let mut hooks = RenderHooks { clock: Some(&clock), on_level: None };
+            let mut hooks = RenderHooks { clock: Some(&clock), ..RenderHooks::default() };
             let start = Instant::now();
             let out = render_frame(&params, &camera, &inputs, None, &mut hooks)?;
             let ms = start.elapsed().as_secs_f64() * 1000.0;

@@ -107,7 +107,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         last_step = Some(t);
         let inputs = &cached.as_ref().map(|(_, inputs)| inputs).context("time step not loaded")?;
-        let mut hooks = RenderHooks { clock: Some(&clock), on_level: None };
+        let mut hooks = RenderHooks { clock: Some(&clock), ..RenderHooks::default() };
         let output = renderer.render(&params, &frame.camera, inputs, &mut hooks).with_context(|| format!("rendering frame {i}"))?;
         total_ms += output.timings.total_ms;
         let color_path = args.out.join(format!("{i:05}.png"));
