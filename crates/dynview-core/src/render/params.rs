@@ -78,9 +78,11 @@ pub struct RenderParams {
     /// Pyramid levels; the coarsest has `1 / 4^(levels - 1)` of the pixels (paper Section 3.4:
     /// 4 levels, coarsest 1/64).
     pub levels: usize,
-    /// Outer iterations {weights, depth solve, weights, color solve} per level.
+    /// Outer iterations {weights, depth solve, weights, color solve} per coarse level.
     pub outer_iterations: usize,
-    /// Outer iterations at the finest level (fewer: it starts from the upsampled solution).
+    /// Outer iterations at the finest level. One is enough: it starts from the upsampled
+    /// solution, and more re-weight `w_P` against an ever smoother color (on the synthetic
+    /// event 3/2 iterations gave 29.4 dB at 0.8 s, 2/1 gives 29.7 dB at 0.5 s).
     pub outer_iterations_finest: usize,
     /// Red-black sweeps per depth solve.
     pub depth_sweeps: usize,
@@ -127,10 +129,10 @@ impl Default for RenderParams {
             views: 4,
             levels: 4,
             temporal_levels: 1,
-            outer_iterations: 3,
-            outer_iterations_finest: 2,
+            outer_iterations: 2,
+            outer_iterations_finest: 1,
             depth_sweeps: 24,
-            color_sweeps: 16,
+            color_sweeps: 12,
             relaxation: 1.6,
             gradient_unit: 255.0,
             eps_gradient: 1.0,
