@@ -123,3 +123,31 @@ fn progressive_levels_arrive_coarse_to_fine_and_can_cancel() {
     assert!(matches!(result, Err(dynview_core::render::RenderError::Cancelled)));
     assert_eq!(seen, vec![(3, 24), (2, 48)]);
 }
+
+#[test]
+fn a_stepped_job_gives_each_level_then_exactly_the_frame_render_frame_gives() {
+    use dynview_core::render::{FrameJob, PreviousFrame, Progress};
+    let package = package();
+    let params = RenderParams::default();
+    let inputs = package.time_step_inputs(1, params.levels).unwrap();
+    let camera = package.camera(2, 1).unwrap();
+    let whole = render_frame(&params, &camera, &inputs, None, &mut RenderHooks::default()).unwrap();
+    let mut job = FrameJob::<_, &PreviousFrame>::new(params.clone(), camera, &inputs, None).unwrap();
+    let mut levels = Vec::new();
+    let stepped = loop {
+        assert_eq!(job.next_level(), Some(params.levels - 1 - levels.len()));
+        match job.step(&mut RenderHooks::default()).unwrap() {
+            Progress::Level(level) => {
+                assert_eq!(job.preview(level).color.width, camera.width_px as usize >> level);
+                levels.push(level);
+            }
+            Progress::Done(output) => break output,
+        }
+    };
+    assert_eq!(levels, vec![3, 2, 1]);
+    assert_eq!(job.next_level(), None);
+    assert!(job.step(&mut RenderHooks::default()).is_err(), "a finished job does no more work");
+    assert_eq!(stepped.color, whole.color);
+    assert_eq!(stepped.depth, whole.depth);
+    assert_eq!(stepped.coarse_levels.len(), 3);
+}

@@ -8,6 +8,7 @@
 //! - [`camera_path`]: nerfstudio `camera_path.json` paths;
 //! - [`colmap`]: COLMAP text models;
 //! - [`depth_io`]: 16-bit depth images with a scale;
+//! - [`display`]: render outputs as pictures (false-color depth, view weights, RGBA);
 //! - [`render`]: the paper's renderer (CPU) and its baselines;
 //! - [`metrics`]: PSNR, SSIM and flicker;
 //! - [`par`]: data parallelism (rayon on native, serial in the browser);
@@ -19,6 +20,7 @@ pub mod camera;
 pub mod camera_path;
 pub mod colmap;
 pub mod depth_io;
+pub mod display;
 #[cfg(not(target_family = "wasm"))]
 pub mod fsutil;
 pub mod metrics;

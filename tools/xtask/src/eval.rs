@@ -213,26 +213,11 @@ fn markdown_table(rows: &[Row], frames: usize, config: &SynthConfig) -> String {
     s
 }
 
-/// A false-color depth image (near yellow, far blue), scaled between the 2nd and 98th
-/// percentiles.
-fn colorize_depth(depth: &ScalarRaster) -> RgbRaster {
-    let mut finite: Vec<f32> = depth.data.iter().copied().filter(|d| d.is_finite()).collect();
-    finite.sort_by(|a, b| a.total_cmp(b));
-    let (lo, hi) = if finite.is_empty() { (0.0, 1.0) } else { (finite[finite.len() / 50], finite[finite.len() * 49 / 50]) };
-    depth.map(|d| {
-        if !d.is_finite() {
-            return [0.0; 3];
-        }
-        let u = ((d - lo) / (hi - lo).max(1e-6)).clamp(0.0, 1.0);
-        [1.0 - u, 0.8 - 0.5 * u, 0.2 + 0.8 * u]
-    })
-}
-
 fn write_strip(path: &Path, truth: &RgbRaster, renders: &[(Method, RgbRaster, ScalarRaster)]) -> anyhow::Result<()> {
     let pick = |m: Method| renders.iter().find(|(rm, _, _)| *rm == m).context("method missing");
     let (_, blend, _) = pick(Method::Blend)?;
     let (_, full, full_depth) = pick(Method::Full)?;
-    let panels = [truth.clone(), blend.clone(), full.clone(), colorize_depth(full_depth)];
+    let panels = [truth.clone(), blend.clone(), full.clone(), dynview_core::display::colorize_depth(full_depth)];
     let (w, h) = (truth.width / 2, truth.height / 2);
     let mut strip = image::RgbImage::new(w as u32 * panels.len() as u32, h as u32);
     for (k, panel) in panels.iter().enumerate() {

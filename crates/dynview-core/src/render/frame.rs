@@ -1,18 +1,18 @@
 //! Rendering one novel frame: the coarse-to-fine alternation of METHOD.md Part 2, and the
 //! baselines it is compared with.
 
-use super::params::{Method, RenderParams};
+use super::job::{FrameJob, Progress};
+use super::params::RenderParams;
 use super::pushpull;
 use super::pyramid::{self, camera_at};
 use super::solve::{ColorTerms, ColorView, DepthTerms};
-use super::sparse::{SplatMaps, project_cloud, warp_frame};
+use super::sparse::{SplatMaps, project_cloud};
 use super::timing::{Stage, Stopwatch, Timings};
 use super::warp::{ViewWarp, compute_visibility, warp_view};
 use super::weights;
 use crate::camera::Camera;
-use crate::raster::{Raster, Rgb, RgbRaster, ScalarRaster};
+use crate::raster::{Rgb, RgbRaster, ScalarRaster};
 use crate::scene::PointCloud;
-use crate::view_ranking::{rank_views, view_score};
 
 /// Depth used where nothing at all is known (an empty cloud), in scene units.
 pub const FALLBACK_DEPTH: f32 = 1.0;
@@ -36,7 +36,7 @@ impl InputView {
     }
 
     /// The camera and frame at `level` (the coarsest available when beyond).
-    fn at(&self, level: usize) -> (Camera, &RgbRaster) {
+    pub(super) fn at(&self, level: usize) -> (Camera, &RgbRaster) {
         let image = &self.levels[level.min(self.levels.len() - 1)];
         (camera_at(&self.camera, image.width, image.height), image)
     }
@@ -73,7 +73,7 @@ pub struct PreviousFrame {
     pub levels: Vec<LevelSolution>,
 }
 
-fn previous_camera(previous: Option<&PreviousFrame>) -> Camera {
+pub(super) fn previous_camera(previous: Option<&PreviousFrame>) -> Camera {
     previous.map(|p| p.camera).unwrap_or(Camera {
         intrinsics: crate::camera::Intrinsics { fx: 1.0, fy: 1.0, cx: 0.0, cy: 0.0 },
         camera_from_world: crate::camera::Rigid3::IDENTITY,
@@ -196,25 +196,25 @@ pub struct SolveTrace {
 }
 
 /// Per-level state of the views: warps, visibility and weights.
-struct LevelViews<'a> {
+pub(super) struct LevelViews<'a> {
     views: Vec<(Camera, &'a RgbRaster)>,
-    warps: Vec<ViewWarp>,
+    pub(super) warps: Vec<ViewWarp>,
     /// False once the depth changed since the warps were computed.
     fresh: bool,
 }
 
 impl<'a> LevelViews<'a> {
-    fn new(inputs: &'a TimeStepInputs, chosen: &[usize], level: usize) -> Self {
+    pub(super) fn new(inputs: &'a TimeStepInputs, chosen: &[usize], level: usize) -> Self {
         Self { views: chosen.iter().map(|&s| inputs.views[s].at(level)).collect(), warps: Vec::new(), fresh: false }
     }
 
     /// Marks the warps stale (the depth changed).
-    fn depth_changed(&mut self) {
+    pub(super) fn depth_changed(&mut self) {
         self.fresh = false;
     }
 
     /// Recomputes the warps and visibility with `depth`.
-    fn update(&mut self, camera: &Camera, depth: &ScalarRaster, params: &RenderParams, watch: &mut Stopwatch) {
+    pub(super) fn update(&mut self, camera: &Camera, depth: &ScalarRaster, params: &RenderParams, watch: &mut Stopwatch) {
         if self.fresh {
             return;
         }
@@ -236,7 +236,7 @@ impl<'a> LevelViews<'a> {
 
     /// Mean of the visible warps weighted by `view_weights` (one per view); pixels seen by no
     /// view keep `fallback`.
-    fn blend(&self, fallback: &RgbRaster, view_weights: &[f32]) -> RgbRaster {
+    pub(super) fn blend(&self, fallback: &RgbRaster, view_weights: &[f32]) -> RgbRaster {
         let mut out = fallback.clone();
         for (i, px) in out.data.iter_mut().enumerate() {
             let mut sum = [0.0f32; 3];
@@ -255,7 +255,7 @@ impl<'a> LevelViews<'a> {
     }
 }
 
-fn check_inputs(params: &RenderParams, camera: &Camera, inputs: &TimeStepInputs) -> Result<(), RenderError> {
+pub(super) fn check_inputs(params: &RenderParams, camera: &Camera, inputs: &TimeStepInputs) -> Result<(), RenderError> {
     params.validate()?;
     if inputs.views.is_empty() {
         return Err(RenderError::NoViews);
@@ -280,7 +280,7 @@ fn check_inputs(params: &RenderParams, camera: &Camera, inputs: &TimeStepInputs)
 }
 
 /// The sparse maps of the cloud in `camera`, with the consistency filter applied.
-fn sparse_maps(params: &RenderParams, cloud: &PointCloud, camera: &Camera) -> SplatMaps {
+pub(super) fn sparse_maps(params: &RenderParams, cloud: &PointCloud, camera: &Camera) -> SplatMaps {
     let mut maps = project_cloud(cloud, camera);
     if params.sparse_consistency > 0.0 {
         maps.drop_inconsistent(params.sparse_consistency, None);
@@ -289,13 +289,14 @@ fn sparse_maps(params: &RenderParams, cloud: &PointCloud, camera: &Camera) -> Sp
 }
 
 /// Push-pull fills the sparse depth and color of `maps`.
-fn filled(maps: &SplatMaps) -> (ScalarRaster, RgbRaster) {
+pub(super) fn filled(maps: &SplatMaps) -> (ScalarRaster, RgbRaster) {
     let depth_values = maps.depth.map(|d| if d.is_finite() { d } else { 0.0 });
     (pushpull::fill(&depth_values, &maps.mask, FALLBACK_DEPTH), pushpull::fill(&maps.color, &maps.mask, FALLBACK_COLOR))
 }
 
 /// Renders the virtual `camera` at the time step of `inputs` with `params.method`. With
 /// `previous` (and the full method), the temporal terms are active; without it, `w_T = 0`.
+/// This runs a [`FrameJob`] to completion; `hooks.on_level` sees every level and may cancel.
 pub fn render_frame(
     params: &RenderParams,
     camera: &Camera,
@@ -303,198 +304,26 @@ pub fn render_frame(
     previous: Option<&PreviousFrame>,
     hooks: &mut RenderHooks,
 ) -> Result<RenderOutput, RenderError> {
-    check_inputs(params, camera, inputs)?;
-    let poses: Vec<_> = inputs.views.iter().map(|v| v.camera.camera_from_world).collect();
-    let chosen = rank_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views);
-    let mut timings = Timings::default();
-    let mut watch = Stopwatch::new(hooks.clock);
-    let output = match params.method {
-        Method::Splat | Method::BestView | Method::Blend => {
-            let maps = sparse_maps(params, &inputs.cloud, camera);
-            watch.lap(Stage::Sparse);
-            let (depth, sparse_color) = filled(&maps);
-            watch.lap(Stage::PushPull);
-            let color = match params.method {
-                Method::Splat => sparse_color,
-                _ => {
-                    let used = if params.method == Method::BestView { &chosen[..1] } else { &chosen[..] };
-                    let mut views = LevelViews::new(inputs, used, 0);
-                    views.update(camera, &depth, params, &mut watch);
-                    if params.method == Method::BestView {
-                        // The single view wherever it lands; push-pull of it elsewhere.
-                        let warp = &views.warps[0];
-                        let valid = Raster::from_vec(
-                            depth.width,
-                            depth.height,
-                            (0..depth.data.len()).map(|i| if warp.valid(i) { 1.0 } else { 0.0 }).collect(),
-                        )
-                        .unwrap_or_else(|| Raster::filled(depth.width, depth.height, 0.0));
-                        let values = Raster { width: depth.width, height: depth.height, data: warp.color.clone() };
-                        let fill = if valid.data.iter().any(|&v| v > 0.0) {
-                            pushpull::fill(&values, &valid, FALLBACK_COLOR)
-                        } else {
-                            sparse_color
-                        };
-                        watch.lap(Stage::PushPull);
-                        fill
-                    } else {
-                        views.blend(&sparse_color, &vec![1.0; used.len()])
-                    }
-                }
-            };
-            timings.levels.push(watch.finish_level(0, camera.width_px as usize, camera.height_px as usize));
-            RenderOutput {
-                view_weight: Raster::filled(depth.width, depth.height, 0.0),
-                color,
-                depth,
-                views_used: chosen.clone(),
-                temporal_used: false,
-                timings: Timings::default(),
-                coarse_levels: Vec::new(),
-            }
-        }
-        Method::NoTemporal | Method::Full => {
-            let previous = if params.method == Method::Full { previous } else { None };
-            render_variational(params, camera, inputs, &chosen, previous, hooks, &mut watch, &mut timings)?
-        }
-    };
-    timings.total_ms = timings.levels.iter().map(|l| l.total_ms()).sum();
-    Ok(RenderOutput { timings, ..output })
-}
-
-#[allow(clippy::too_many_arguments)]
-fn render_variational(
-    params: &RenderParams,
-    camera: &Camera,
-    inputs: &TimeStepInputs,
-    chosen: &[usize],
-    previous: Option<&PreviousFrame>,
-    hooks: &mut RenderHooks,
-    watch: &mut Stopwatch,
-    timings: &mut Timings,
-) -> Result<RenderOutput, RenderError> {
-    let sizes = pyramid::level_sizes(camera.width_px as usize, camera.height_px as usize, params.levels);
-    // The color initial guess weights views by their rank score r_F (relative to the best).
-    let scores: Vec<f64> = chosen
-        .iter()
-        .map(|&s| view_score(&camera.camera_from_world, &inputs.views[s].camera.camera_from_world, f64::from(params.sigma)))
-        .collect();
-    let best = scores.iter().copied().fold(f64::MIN_POSITIVE, f64::max);
-    let init_weights: Vec<f32> = scores.iter().map(|s| (s / best).max(1e-6) as f32).collect();
-    let mut depth = ScalarRaster::filled(1, 1, FALLBACK_DEPTH);
-    let mut color = RgbRaster::filled(1, 1, FALLBACK_COLOR);
-    let mut view_weight = ScalarRaster::filled(1, 1, 0.0);
-    let mut coarse_levels = Vec::new();
-    for level in (0..params.levels).rev() {
-        let (w, h) = sizes[level];
-        let cam = camera_at(camera, w, h);
-        let sparse = sparse_maps(params, &inputs.cloud, &cam);
-        // The previous frame's solution at this level, warped into this level's camera.
-        let prev = previous
-            .filter(|_| level < params.temporal_levels)
-            .and_then(|p| p.levels.get(level))
-            .map(|l| warp_frame(&camera_at(&previous_camera(previous), l.color.width, l.color.height), &l.depth, &l.color, &cam));
-        watch.lap(Stage::Sparse);
-        let mut views = LevelViews::new(inputs, chosen, level);
-        if level + 1 == params.levels {
-            // Coarsest level: push-pull filled sparse depth, then the visibility-tested blend
-            // of the warped views (push-pull filled sparse color where no view sees).
-            let (d0, c0) = filled(&sparse);
-            depth = d0;
-            watch.lap(Stage::PushPull);
-            views.update(&cam, &depth, params, watch);
-            color = views.blend(&c0, &init_weights);
-        } else {
-            // Finer levels: upsampled depth; color re-initialised with the warped mean, the
-            // upsampled color only where no view sees (an upsampled, blurred color would make
-            // every sharp warp disagree with it in w_P and keep the blur).
-            depth = pyramid::upsample(&depth, w, h);
-            let coarse_color = pyramid::upsample(&color, w, h);
-            watch.lap(Stage::PushPull);
-            views.update(&cam, &depth, params, watch);
-            color = views.blend(&coarse_color, &init_weights);
-        }
-        let mut scratch_d = vec![0.0f32; w * h];
-        let mut scratch_c = vec![[0.0f32; 3]; w * h];
-        // w_T from the fresh estimate of this level (before the temporal terms pull on it).
-        let w_t: Option<Vec<f32>> = prev.as_ref().map(|p| weights::temporal_weights(p, &views.warps, params.sigma));
-        let temporal = prev.as_ref().zip(w_t.as_deref());
-        for iteration in 0..params.outer_iterations_at(level) {
-            // Depth with color fixed.
-            views.update(&cam, &depth, params, watch);
-            let depth_terms = depth_terms(params, &color, &views.warps, &sparse, temporal);
-            watch.lap(Stage::Weights);
-            let sys = depth_terms.system();
-            let mut energies = hooks.solve_traces.is_some().then(|| vec![depth_terms.energy(&depth.data)]);
-            for _ in 0..params.depth_sweeps {
-                sys.sweep(&mut depth.data, &mut scratch_d, params.relaxation);
-                if let Some(e) = energies.as_mut() {
-                    e.push(depth_terms.energy(&depth.data));
+    let mut job = FrameJob::new(params.clone(), *camera, inputs, previous)?;
+    loop {
+        match job.step(hooks)? {
+            Progress::Level(level) => {
+                if let Some(on_level) = hooks.on_level.as_mut()
+                    && !on_level(job.preview(level))
+                {
+                    return Err(RenderError::Cancelled);
                 }
             }
-            if let (Some(traces), Some(energies)) = (hooks.solve_traces.as_mut(), energies) {
-                traces.push(SolveTrace {
-                    level,
-                    iteration,
-                    kind: SolveKind::Depth,
-                    energies,
-                    final_residual: sys.relative_residual(&depth.data),
-                });
-            }
-            views.depth_changed();
-            watch.lap(Stage::DepthSolve);
-            // Color with depth fixed.
-            views.update(&cam, &depth, params, watch);
-            let w_p: Vec<Vec<f32>> = views.warps.iter().map(|wp| weights::projection_weights(wp, &color, params.sigma)).collect();
-            let color_terms = color_terms(params, &views.warps, &w_p, &sparse, temporal, w, h);
-            watch.lap(Stage::Weights);
-            let sys = color_terms.system();
-            let mut energies = hooks.solve_traces.is_some().then(|| vec![color_terms.energy(&color.data)]);
-            for _ in 0..params.color_sweeps {
-                sys.sweep(&mut color.data, &mut scratch_c, params.relaxation);
-                if let Some(e) = energies.as_mut() {
-                    e.push(color_terms.energy(&color.data));
+            Progress::Done(output) => {
+                if let Some(on_level) = hooks.on_level.as_mut()
+                    && !on_level(LevelPreview { level: 0, color: &output.color, depth: &output.depth })
+                {
+                    return Err(RenderError::Cancelled);
                 }
+                return Ok(*output);
             }
-            if let (Some(traces), Some(energies)) = (hooks.solve_traces.as_mut(), energies) {
-                traces.push(SolveTrace {
-                    level,
-                    iteration,
-                    kind: SolveKind::Color,
-                    energies,
-                    final_residual: sys.relative_residual(&color.data),
-                });
-            }
-            watch.lap(Stage::ColorSolve);
-            if level == 0 {
-                let mut sum = vec![0.0f32; w * h];
-                for wp in &w_p {
-                    for (s, v) in sum.iter_mut().zip(wp) {
-                        *s += v;
-                    }
-                }
-                view_weight = Raster { width: w, height: h, data: sum };
-            }
-        }
-        timings.levels.push(watch.finish_level(level, w, h));
-        if level > 0 {
-            coarse_levels.insert(0, LevelSolution { color: color.clone(), depth: depth.clone() });
-        }
-        if let Some(on_level) = hooks.on_level.as_mut()
-            && !on_level(LevelPreview { level, color: &color, depth: &depth })
-        {
-            return Err(RenderError::Cancelled);
         }
     }
-    Ok(RenderOutput {
-        color,
-        depth,
-        view_weight,
-        views_used: chosen.to_vec(),
-        temporal_used: previous.is_some(),
-        timings: Timings::default(),
-        coarse_levels,
-    })
 }
 
 /// The depth energy's terms from the current color, warps, sparse maps and previous frame.

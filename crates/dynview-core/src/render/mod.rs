@@ -3,10 +3,12 @@
 //! streaming. Also the baselines it is compared with (see [`Method`]).
 //!
 //! - [`render_frame`] renders one frame, optionally with a previous frame for the temporal terms;
+//! - [`FrameJob`] renders one frame a pyramid level at a time (progressive display, cancel);
 //! - [`StreamingRenderer`] carries the previous frame from call to call (playback), and drops it
 //!   on [`StreamingRenderer::jump`] (the viewer jumped in time: no temporal terms).
 
 mod frame;
+mod job;
 mod params;
 pub mod pushpull;
 pub mod pyramid;
@@ -21,6 +23,7 @@ pub use frame::{
     FALLBACK_COLOR, FALLBACK_DEPTH, InputView, LevelPreview, LevelSolution, PreviousFrame, RenderError, RenderHooks, RenderOutput,
     SolveKind, SolveTrace, TimeStepInputs, render_frame,
 };
+pub use job::{FrameJob, Progress};
 pub use params::{Method, ParamsError, RenderParams};
 pub use timing::{LevelTimings, Stage, Timings};
 

@@ -3,6 +3,7 @@
 
 pub mod cloud;
 pub mod error;
+pub mod frame;
 pub mod limits;
 pub mod manifest;
 #[cfg(not(target_family = "wasm"))]
@@ -11,6 +12,7 @@ pub mod summary;
 
 pub use cloud::{CloudIndex, PointCloud};
 pub use error::{SceneError, SceneResult};
+pub use frame::{decode_frame, encode_frame};
 pub use manifest::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, PoseEntry, StartView};
 #[cfg(not(target_family = "wasm"))]
 pub use package::{ScenePackage, SceneWriter};

@@ -10,14 +10,13 @@ use std::path::{Path, PathBuf};
 
 use super::cloud::{self, CloudIndex, PointCloud};
 use super::error::{SceneError, SceneResult};
-use super::limits::{MAX_FRAME_FILE_BYTES, MAX_IMAGE_SIDE_PX, MAX_MANIFEST_BYTES};
-use super::manifest::{FRAMES_DIR, FrameFormat, MANIFEST_FILE, Manifest};
+use super::limits::{MAX_FRAME_FILE_BYTES, MAX_MANIFEST_BYTES};
+use super::manifest::{FRAMES_DIR, MANIFEST_FILE, Manifest};
 use crate::camera::Camera;
 use crate::fsutil::StagedDir;
 use crate::raster::RgbRaster;
 
-/// JPEG quality of frames written by [`SceneWriter`].
-pub const JPEG_QUALITY: u8 = 92;
+pub use super::frame::{JPEG_QUALITY, decode_frame, encode_frame};
 
 /// An opened, validated scene package. Opening reads `scene.json` and the clouds index only;
 /// clouds and frames are read on demand, one time step at a time.
@@ -186,43 +185,6 @@ fn dir_size(path: &Path) -> SceneResult<u64> {
         total += if meta.is_dir() { dir_size(&entry.path())? } else { meta.len() };
     }
     Ok(total)
-}
-
-/// Decodes frame bytes of the given format, refusing images whose header claims a size other
-/// than `width x height` before decoding the pixels.
-pub fn decode_frame(bytes: &[u8], format: FrameFormat, width: u32, height: u32, file: &str) -> SceneResult<RgbRaster> {
-    let image_format = match format {
-        FrameFormat::Jpeg => image::ImageFormat::Jpeg,
-        FrameFormat::Png => image::ImageFormat::Png,
-        FrameFormat::Webp => image::ImageFormat::WebP,
-    };
-    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), image_format);
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(MAX_IMAGE_SIDE_PX);
-    limits.max_image_height = Some(MAX_IMAGE_SIDE_PX);
-    limits.max_alloc = Some(u64::from(width) * u64::from(height) * 16 + (1 << 20));
-    reader.limits(limits);
-    let decoded = reader.decode().map_err(|source| SceneError::Image { file: file.to_owned(), source })?;
-    if (decoded.width(), decoded.height()) != (width, height) {
-        return Err(SceneError::invalid(
-            file,
-            "(image size)",
-            format!("{}x{}, expected {width}x{height}", decoded.width(), decoded.height()),
-        ));
-    }
-    Ok(RgbRaster::from_rgb8(&decoded.to_rgb8()))
-}
-
-/// Encodes a frame in the package's frame format.
-pub fn encode_frame(image: &image::RgbImage, format: FrameFormat, file: &str) -> SceneResult<Vec<u8>> {
-    let mut out = Vec::new();
-    let result = match format {
-        FrameFormat::Jpeg => image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, JPEG_QUALITY).encode_image(image),
-        FrameFormat::Png => image.write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png),
-        FrameFormat::Webp => image.write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::WebP),
-    };
-    result.map_err(|source| SceneError::Image { file: file.to_owned(), source })?;
-    Ok(out)
 }
 
 /// Writes a scene package: frames (any order, from any thread), then clouds in time order,
