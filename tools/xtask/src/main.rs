@@ -2,14 +2,18 @@
 //!
 //! - `cargo xtask test`: installs what is missing, then runs every check and test;
 //! - `cargo xtask demo [--fresh]`: installs what is missing, builds, makes the sample event and
-//!   shows it.
+//!   serves the viewer with it.
 
 mod bench;
+mod bench_web;
 mod demo;
 mod eval;
+mod fixtures;
+mod serve;
 mod setup;
 mod test;
 mod util;
+mod web;
 
 use anyhow::bail;
 
@@ -17,10 +21,16 @@ const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
   test           install what is missing, then fmt, clippy, all tests, wasm32 build of the core
-  demo [--fresh] install what is missing, build, make the sample event and show it
-                 (--fresh regenerates the event even if it exists)
+  serve SCENE [--port N]
+                 build the wasm package and serve the viewer with a scene package folder
+  e2e            only the page's end-to-end tests (Playwright, headless Chromium)
+  demo [--fresh] [--port N] [--no-serve]
+                 install what is missing, build, make the sample event and serve the
+                 viewer on 127.0.0.1 (--fresh regenerates the event even if it exists)
   bench          ms per frame of the full method at 480x270, 960x540 and 1920x1080
                  (release build, all cores), per level and stage
+  bench-web      the viewer in headless Chromium on the demo event: time to first frame,
+                 CPU-path ms per frame at 480x270 and 960x540, wasm package size
   eval [--frames N] [--params FILE] [--out DIR]
                  quality table of the renderer and its baselines on the synthetic event
                  (written to docs/results/)";
@@ -45,8 +55,11 @@ fn run() -> anyhow::Result<()> {
     match command.as_str() {
         "test" => test::run(rest),
         "demo" => demo::run(rest),
+        "e2e" => test::run_end_to_end(rest),
+        "serve" => demo::serve_scene(rest),
         "bench" => bench::run(rest),
         "bench-release" => bench::run_release(rest),
+        "bench-web" => bench_web::run(rest),
         "eval" => eval::run(rest),
         "eval-release" => eval::run_release(rest),
         "help" | "--help" | "-h" => {

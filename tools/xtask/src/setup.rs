@@ -15,7 +15,11 @@ pub type Packages = &'static [(&'static str, &'static str)];
 pub const DEMO_PACKAGES: Packages = &[("ffmpeg", "videos of the sample event")];
 
 /// Packages of `cargo xtask test`.
-pub const TEST_PACKAGES: Packages = &[("ffmpeg", "synthetic event videos")];
+pub const TEST_PACKAGES: Packages = &[
+    ("ffmpeg", "synthetic event videos"),
+    ("chromium", "headless browser tests of the wasm API and the page"),
+    ("chromium-driver", "wasm-bindgen-test-runner drives Chromium through it"),
+];
 
 fn is_installed(package: &str) -> bool {
     Command::new("dpkg-query")
@@ -57,6 +61,15 @@ pub fn ensure_packages(packages: Packages) -> anyhow::Result<()> {
 
 fn names(packages: Packages, keep: impl Fn(&str) -> bool) -> Vec<String> {
     packages.iter().map(|(p, _)| p.to_string()).filter(|p| keep(p)).collect()
+}
+
+/// Installs Debian's nodejs and npm when `node` or `npm` is missing (a newer Node on PATH is
+/// kept).
+pub fn ensure_node() -> anyhow::Result<()> {
+    if have("node") && have("npm") {
+        return Ok(());
+    }
+    ensure_packages(&[("nodejs", "runs the page's tests"), ("npm", "installs playwright-core for the page's tests")])
 }
 
 /// Makes sure rustup has the wasm32 target and the rustfmt and clippy components.

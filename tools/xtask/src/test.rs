@@ -1,9 +1,18 @@
-//! `cargo xtask test`: every check and test, after set-up.
+//! `cargo xtask test`: every check and test, after set-up: formatting, clippy (native and
+//! wasm32), native tests, the wasm API's tests in headless Chromium, the page's unit tests and
+//! its end-to-end tests in headless Chromium against the real server.
+
+use std::process::Command;
 
 use anyhow::bail;
 
-use crate::setup;
-use crate::util::{cargo, run_step};
+use crate::fixtures::{BrowserFixture, browser_fixture};
+use crate::serve::{self, Site};
+use crate::util::{cargo, run_step, workspace_root};
+use crate::{setup, web};
+
+/// Size of the browser-test event: small enough for a fast CI, large enough to be a real scene.
+const FIXTURE: (u32, u32, u32) = (4, 320, 180);
 
 /// Runs the whole test suite.
 pub fn run(args: &[String]) -> anyhow::Result<()> {
@@ -11,7 +20,10 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
         bail!("xtask test takes no arguments, got {extra:?}");
     }
     setup::ensure_packages(setup::TEST_PACKAGES)?;
+    setup::ensure_node()?;
     setup::ensure_rust_tools()?;
+    web::ensure_wasm_bindgen()?;
+    web::ensure_npm_packages()?;
     let mut timings = Vec::new();
 
     let mut fmt = cargo();
@@ -30,9 +42,89 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
     wasm.args(["build", "-p", "dynview-core", "--no-default-features", "--target", "wasm32-unknown-unknown"]);
     timings.push(("wasm32 build of dynview-core", run_step("wasm32 build of the core", wasm)?));
 
+    let fixture = fixture()?;
+
+    let mut clippy_wasm = cargo();
+    clippy_wasm
+        .args(["clippy", "-p", "dynview-web", "--all-targets", "--target", "wasm32-unknown-unknown", "--", "-D", "warnings"])
+        .env("DYNVIEW_WASM_FIXTURE", &fixture.bundle);
+    timings.push(("clippy (wasm32)", run_step("clippy of the wasm crate and its tests for wasm32", clippy_wasm)?));
+
+    let chromedriver = which("chromedriver").unwrap_or_else(|| "/usr/bin/chromedriver".into());
+    let mut wasm_tests = cargo();
+    wasm_tests
+        .args(["test", "-p", "dynview-web", "--target", "wasm32-unknown-unknown"])
+        .env("CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER", "wasm-bindgen-test-runner")
+        .env("CHROMEDRIVER", chromedriver)
+        .env("DYNVIEW_WASM_FIXTURE", &fixture.bundle);
+    timings.push(("wasm API tests (Chromium)", run_step("wasm API tests in headless Chromium", wasm_tests)?));
+
+    let mut unit = Command::new("node");
+    unit.current_dir(web::web_dir()).args(["--test", "tests/unit/"]);
+    timings.push(("page unit tests (node)", run_step("the page's unit tests", unit)?));
+
+    timings.push(("end-to-end tests (Playwright)", end_to_end(&fixture)?));
+
     println!("\nall checks passed:");
     for (name, secs) in timings {
         println!("  {name:<32} {secs:>7.1} s");
     }
     Ok(())
+}
+
+/// The full path of `program` on PATH.
+fn which(program: &str) -> Option<String> {
+    let out = Command::new("sh").arg("-c").arg(format!("command -v {program}")).output().ok()?;
+    let path = String::from_utf8_lossy(&out.stdout).trim().to_owned();
+    (out.status.success() && !path.is_empty()).then_some(path)
+}
+
+/// Builds the debug CLI (same features as the workspace tests, so nothing is rebuilt) and
+/// makes the browser-test fixture with it.
+fn fixture() -> anyhow::Result<BrowserFixture> {
+    let root = workspace_root();
+    let mut build_cli = cargo();
+    build_cli.args(["build", "--workspace", "--bins"]);
+    run_step("build dynview (debug) for the fixtures", build_cli)?;
+    let (frames, width, height) = FIXTURE;
+    browser_fixture(&root.join("target/debug/dynview"), &root.join("target/browser-fixture"), frames, width, height)
+}
+
+/// `cargo xtask e2e`: only the end-to-end tests of the page (fixture, wasm package, server,
+/// Playwright).
+pub fn run_end_to_end(args: &[String]) -> anyhow::Result<()> {
+    if let Some(extra) = args.first() {
+        bail!("xtask e2e takes no arguments, got {extra:?}");
+    }
+    setup::ensure_packages(setup::TEST_PACKAGES)?;
+    setup::ensure_node()?;
+    web::ensure_npm_packages()?;
+    end_to_end(&fixture()?)?;
+    Ok(())
+}
+
+/// Builds the wasm package, serves the page with the fixture scenes on a free port and runs
+/// the Playwright tests; returns their duration.
+fn end_to_end(fixture: &BrowserFixture) -> anyhow::Result<f64> {
+    let root = workspace_root();
+    web::build_package()?;
+    let site = Site {
+        web_dir: web::web_dir(),
+        scenes: vec![("e2e".into(), fixture.event.join("scene")), ("corrupt".into(), fixture.corrupt_scene.clone())],
+    };
+    let server = serve::start(&site, 0)?;
+    let out = root.join("target/e2e");
+    std::fs::create_dir_all(&out)?;
+    let mut e2e = Command::new("node");
+    e2e.current_dir(web::web_dir())
+        .args(["--test", "--test-concurrency=1", "tests/e2e/"])
+        .env("DYNVIEW_BASE_URL", format!("http://{}/", server.addr))
+        .env("DYNVIEW_BIN", root.join("target/debug/dynview"))
+        .env("DYNVIEW_E2E_OUT", &out)
+        .env("DYNVIEW_E2E_SCENE", fixture.event.join("scene"))
+        .env("CHROMIUM", which("chromium").unwrap_or_else(|| "/usr/bin/chromium".into()));
+    let secs = run_step("end-to-end tests of the page in headless Chromium", e2e)?;
+    drop(server);
+    println!("    screenshots: {}", out.display());
+    Ok(secs)
 }

@@ -1,0 +1,369 @@
+//! The `Viewer` class the page (its worker) drives: open a scene, load time steps, render a
+//! view a pyramid level at a time, read pictures, export camera paths.
+
+use std::rc::Rc;
+
+use dynview_core::camera::Camera;
+use dynview_core::camera_path::{NerfstudioPath, parse_path};
+use dynview_core::display::{self, DisplayMode};
+use dynview_core::raster::{RgbRaster, ScalarRaster};
+use dynview_core::render::{FrameJob, PreviousFrame, Progress, RenderHooks, RenderParams, TimeStepInputs, Timings};
+use js_sys::{Function, Promise};
+use serde::{Deserialize, Serialize};
+use wasm_bindgen::prelude::*;
+
+use crate::scene::{LoadStats, RemoteScene};
+use crate::source::{ReadError, Source};
+use crate::view::{PathView, SceneInfo, View};
+
+#[wasm_bindgen]
+extern "C" {
+    #[wasm_bindgen(js_namespace = performance, js_name = now)]
+    fn performance_now() -> f64;
+}
+
+fn error(message: impl std::fmt::Display) -> JsError {
+    JsError::new(&message.to_string())
+}
+
+impl From<ReadError> for JsError {
+    fn from(e: ReadError) -> Self {
+        error(e)
+    }
+}
+
+fn to_js<T: Serialize>(value: &T) -> Result<JsValue, JsError> {
+    value.serialize(&serde_wasm_bindgen::Serializer::json_compatible()).map_err(error)
+}
+
+/// A frame in the making: the job and what it renders.
+struct Active {
+    job: FrameJob<Rc<TimeStepInputs>, Rc<PreviousFrame>>,
+    camera: Camera,
+    time_step: u32,
+    started_ms: f64,
+    /// Level shown by [`Viewer::picture`] (the last finished).
+    level: Option<usize>,
+}
+
+/// The last finished frame.
+struct Finished {
+    frame: Rc<PreviousFrame>,
+    view_weight: ScalarRaster,
+    views_used: usize,
+    time_step: u32,
+    timings: Timings,
+    wall_ms: f64,
+    temporal_used: bool,
+}
+
+/// The state of a render after [`Viewer::step`].
+#[derive(Serialize)]
+struct StepReport {
+    /// Level just finished (0 = finest).
+    level: usize,
+    /// True when the frame is complete.
+    done: bool,
+    /// Size of the level's picture.
+    width: usize,
+    height: usize,
+    /// Milliseconds since [`Viewer::begin`].
+    elapsed_ms: f64,
+    /// Whether the temporal terms were used (on completion).
+    temporal_used: bool,
+}
+
+/// Parameters of one render request.
+#[derive(Deserialize)]
+struct Request {
+    view: View,
+    time_step: u32,
+    width: u32,
+    height: u32,
+    /// Streaming (playback): use the previous finished frame for the temporal terms.
+    #[serde(default)]
+    streaming: bool,
+}
+
+/// The viewer: an opened scene, render parameters, the frame in progress and the last finished
+/// frame (the previous frame of streaming playback). All math is dynview-core's.
+#[wasm_bindgen]
+pub struct Viewer {
+    scene: Rc<RemoteScene>,
+    params: RenderParams,
+    active: Option<Active>,
+    finished: Option<Finished>,
+}
+
+#[wasm_bindgen]
+impl Viewer {
+    /// Opens the scene package at `url` (its folder, or its `scene.json`): reads and validates
+    /// the manifest and the clouds index. Frames and clouds are read per time step later.
+    #[wasm_bindgen(js_name = openUrl)]
+    pub async fn open_url(url: String) -> Result<Viewer, JsError> {
+        Ok(Self::new(RemoteScene::open(Source::url(&url)).await?))
+    }
+
+    /// Opens a scene package from dropped or picked files: `files[i]` is at `paths[i]`
+    /// (relative paths; the package root is the folder of the shallowest `scene.json`).
+    #[wasm_bindgen(js_name = openFiles)]
+    pub async fn open_files(files: Vec<web_sys::File>, paths: Vec<String>) -> Result<Viewer, JsError> {
+        if files.len() != paths.len() {
+            return Err(error(format!("{} files but {} paths", files.len(), paths.len())));
+        }
+        let source = Source::files(paths.into_iter().zip(files).collect())?;
+        Ok(Self::new(RemoteScene::open(source).await?))
+    }
+
+    fn new(scene: RemoteScene) -> Self {
+        Self { scene: Rc::new(scene), params: RenderParams::default(), active: None, finished: None }
+    }
+
+    /// The scene: name, fps, time steps, cameras, bounds, start view.
+    pub fn info(&self) -> Result<JsValue, JsError> {
+        to_js(&SceneInfo::new(self.scene.manifest()))
+    }
+
+    /// The view of input camera `camera` at time step `time_step` (for snapping to it).
+    #[wasm_bindgen(js_name = inputView)]
+    pub fn input_view(&self, camera: usize, time_step: u32) -> Result<JsValue, JsError> {
+        let manifest = self.scene.manifest();
+        if camera >= manifest.cameras.len() || time_step >= manifest.time_step_count {
+            return Err(error(format!("camera {camera} at time step {time_step} is not in the scene")));
+        }
+        let cam = manifest.camera_at(camera, time_step);
+        to_js(&View::of_camera(&cam, crate::view::pivot_distance(manifest, &cam)))
+    }
+
+    /// The render parameters (`RenderParams` as JSON-like object).
+    pub fn params(&self) -> Result<JsValue, JsError> {
+        to_js(&self.params)
+    }
+
+    /// Replaces the render parameters; fields left out keep their defaults. Invalid values
+    /// are rejected with the field's name.
+    #[wasm_bindgen(js_name = setParams)]
+    pub fn set_params(&mut self, params: JsValue) -> Result<(), JsError> {
+        let value: serde_json::Value = serde_wasm_bindgen::from_value(params).map_err(|e| error(format!("params: {e}")))?;
+        let params: RenderParams = serde_json::from_value(value).map_err(|e| error(format!("params: {e}")))?;
+        params.validate().map_err(error)?;
+        if params.levels != self.params.levels {
+            // Cached pyramids were built for the old depth; the previous frame too.
+            self.scene.clear_cache();
+            self.finished = None;
+        }
+        self.params = params;
+        Ok(())
+    }
+
+    /// Memory budget of decoded time steps, in bytes.
+    #[wasm_bindgen(js_name = setCacheBudget)]
+    pub fn set_cache_budget(&self, bytes: f64) {
+        self.scene.set_cache_budget(bytes.max(0.0) as usize);
+    }
+
+    /// Bytes and frames read so far, and bytes held by the cache.
+    #[wasm_bindgen(js_name = loadStats)]
+    pub fn load_stats(&self) -> Result<JsValue, JsError> {
+        #[derive(Serialize)]
+        struct Stats {
+            #[serde(flatten)]
+            read: LoadStats,
+            cache_bytes: usize,
+        }
+        to_js(&Stats { read: self.scene.stats(), cache_bytes: self.scene.cache_used_bytes() })
+    }
+
+    /// True when time step `t` is loaded (a render of it can begin at once).
+    #[wasm_bindgen(js_name = isLoaded)]
+    pub fn is_loaded(&self, t: u32) -> bool {
+        self.scene.cached(t).is_some()
+    }
+
+    /// Loads time step `t` (its cloud and every camera's frame) into the cache. Resolves when
+    /// done; `onProgress(stats, framesDone, framesTotal)` is called as frames arrive.
+    #[wasm_bindgen(js_name = loadStep)]
+    pub fn load_step(&self, t: u32, on_progress: Option<Function>) -> Promise {
+        let scene = self.scene.clone();
+        let levels = self.params.levels;
+        wasm_bindgen_futures::future_to_promise(async move {
+            let progress = |stats: LoadStats, done: u32, total: u32| {
+                if let (Some(f), Ok(stats)) = (on_progress.as_ref(), to_js(&stats)) {
+                    // A throwing callback must not abort the load.
+                    let _ = f.call3(&JsValue::NULL, &stats, &done.into(), &total.into());
+                }
+            };
+            scene.load_step(t, levels, progress).await.map_err(|e| JsValue::from(error(e)))?;
+            Ok(JsValue::UNDEFINED)
+        })
+    }
+
+    /// Starts rendering `{view, time_step, width, height, streaming}`; the step must be
+    /// loaded. Drops any render in progress. With `streaming`, the last finished frame feeds
+    /// the temporal terms (playback); without, none does (a jump).
+    pub fn begin(&mut self, request: JsValue) -> Result<(), JsError> {
+        let request: Request = serde_wasm_bindgen::from_value(request).map_err(|e| error(format!("render request: {e}")))?;
+        let camera = request.view.camera(request.width, request.height).map_err(error)?;
+        self.active = None;
+        let inputs = self
+            .scene
+            .cached(request.time_step)
+            .ok_or_else(|| error(format!("time step {} is not loaded: call loadStep({}) first", request.time_step, request.time_step)))?;
+        let previous = self.finished.as_ref().filter(|_| request.streaming).map(|f| f.frame.clone());
+        let job = FrameJob::new(self.params.clone(), camera, inputs, previous).map_err(error)?;
+        self.active = Some(Active { job, camera, time_step: request.time_step, started_ms: performance_now(), level: None });
+        Ok(())
+    }
+
+    /// True while a render is in progress.
+    #[wasm_bindgen(js_name = isRendering)]
+    pub fn is_rendering(&self) -> bool {
+        self.active.is_some()
+    }
+
+    /// Drops the render in progress.
+    pub fn cancel(&mut self) {
+        self.active = None;
+    }
+
+    /// Forgets the last finished frame: the next streaming render has no temporal terms.
+    pub fn jump(&mut self) {
+        self.finished = None;
+    }
+
+    /// Solves the next pyramid level of the render in progress. Returns `{level, done, width,
+    /// height, elapsed_ms, temporal_used}`.
+    pub fn step(&mut self) -> Result<JsValue, JsError> {
+        let active = self.active.as_mut().ok_or_else(|| error("no render in progress: call begin() first"))?;
+        let clock = performance_now;
+        let mut hooks = RenderHooks { clock: Some(&clock), ..RenderHooks::default() };
+        let progress = active.job.step(&mut hooks).map_err(error)?;
+        let elapsed_ms = performance_now() - active.started_ms;
+        let report = match progress {
+            Progress::Level(level) => {
+                active.level = Some(level);
+                let preview = active.job.preview(level);
+                StepReport {
+                    level,
+                    done: false,
+                    width: preview.color.width,
+                    height: preview.color.height,
+                    elapsed_ms,
+                    temporal_used: false,
+                }
+            }
+            Progress::Done(output) => {
+                let Some(active) = self.active.take() else { return Err(error("no render in progress")) };
+                let output = *output;
+                let (width, height, temporal_used) = (output.color.width, output.color.height, output.temporal_used);
+                let views_used = output.views_used.len();
+                let view_weight = output.view_weight.clone();
+                let timings = output.timings.clone();
+                self.finished = Some(Finished {
+                    frame: Rc::new(output.into_previous(active.camera)),
+                    view_weight,
+                    views_used,
+                    time_step: active.time_step,
+                    timings,
+                    wall_ms: elapsed_ms,
+                    temporal_used,
+                });
+                StepReport { level: 0, done: true, width, height, elapsed_ms, temporal_used }
+            }
+        };
+        to_js(&report)
+    }
+
+    /// Renders `request` to completion (loading nothing: the step must be loaded) and returns
+    /// the picture. `onLevel(report)` is called after each coarse level.
+    #[wasm_bindgen(js_name = renderNow)]
+    pub fn render_now(&mut self, request: JsValue, mode: &str, on_level: Option<Function>) -> Result<web_sys::ImageData, JsError> {
+        self.begin(request)?;
+        loop {
+            let report = self.step()?;
+            if self.active.is_none() {
+                break;
+            }
+            if let Some(f) = on_level.as_ref() {
+                f.call1(&JsValue::NULL, &report).map_err(|e| error(format!("onLevel threw: {e:?}")))?;
+            }
+        }
+        self.picture(mode)
+    }
+
+    /// The picture of the render in progress (its last finished level) or else of the last
+    /// finished frame, as `mode` = `color`, `depth` or `weights`, at that level's resolution.
+    pub fn picture(&self, mode: &str) -> Result<web_sys::ImageData, JsError> {
+        let mode: DisplayMode = serde_json::from_value(serde_json::Value::String(mode.to_owned()))
+            .map_err(|_| error(format!("display mode {mode:?}: use color, depth or weights")))?;
+        let (color, depth, weights, views): (&RgbRaster, &ScalarRaster, Option<&ScalarRaster>, usize) =
+            match (self.active.as_ref().and_then(|a| a.level.map(|l| (a, l))), self.finished.as_ref()) {
+                (Some((active, level)), _) => {
+                    let p = active.job.preview(level);
+                    (p.color, p.depth, None, self.params.views)
+                }
+                (None, Some(f)) => (&f.frame.levels[0].color, &f.frame.levels[0].depth, Some(&f.view_weight), f.views_used),
+                (None, None) => return Err(error("nothing rendered yet")),
+            };
+        let picture = display::picture(mode, color, depth, weights, views);
+        let rgba = display::to_rgba8(&picture);
+        // A copy owned by JS (not a view of wasm memory), so the worker can transfer it.
+        let pixels = js_sys::Uint8ClampedArray::from(rgba.as_slice());
+        web_sys::ImageData::new_with_js_u8_clamped_array_and_sh(&pixels, picture.width as u32, picture.height as u32)
+            .map_err(|e| error(format!("ImageData: {e:?}")))
+    }
+
+    /// Timings of the last finished frame: `{time_step, wall_ms, temporal_used, timings}` with
+    /// per-level, per-stage milliseconds.
+    #[wasm_bindgen(js_name = lastFrame)]
+    pub fn last_frame(&self) -> Result<JsValue, JsError> {
+        #[derive(Serialize)]
+        struct Report<'a> {
+            time_step: u32,
+            wall_ms: f64,
+            temporal_used: bool,
+            timings: &'a Timings,
+        }
+        match &self.finished {
+            Some(f) => to_js(&Report { time_step: f.time_step, wall_ms: f.wall_ms, temporal_used: f.temporal_used, timings: &f.timings }),
+            None => Ok(JsValue::NULL),
+        }
+    }
+
+    /// A nerfstudio `camera_path.json` (the format `dynview render` reads) of `keyframes`
+    /// (`[{view, time_step}]`) rendered at `width x height`, `fps` frames per second.
+    #[wasm_bindgen(js_name = exportCameraPath)]
+    pub fn export_camera_path(&self, keyframes: JsValue, width: u32, height: u32, fps: f64) -> Result<String, JsError> {
+        #[derive(Deserialize)]
+        struct Keyframe {
+            view: View,
+            time_step: u32,
+        }
+        let keyframes: Vec<Keyframe> = serde_wasm_bindgen::from_value(keyframes).map_err(|e| error(format!("keyframes: {e}")))?;
+        if keyframes.is_empty() {
+            return Err(error("keyframes: none recorded"));
+        }
+        if !(fps.is_finite() && fps > 0.0) {
+            return Err(error(format!("fps {fps} must be positive")));
+        }
+        let last = self.scene.manifest().time_step_count.saturating_sub(1).max(1);
+        let frames = keyframes
+            .iter()
+            .enumerate()
+            .map(|(i, k)| {
+                let camera = k.view.camera(width, height).map_err(|e| error(format!("keyframes[{i}]: {e}")))?;
+                Ok((camera, f64::from(k.time_step.min(last)) / f64::from(last)))
+            })
+            .collect::<Result<Vec<_>, JsError>>()?;
+        serde_json::to_string_pretty(&NerfstudioPath::from_frames(&frames, fps)).map_err(error)
+    }
+
+    /// Parses a camera path (nerfstudio `camera_path.json` or dynview's own format) into
+    /// `[{view, time_step, width, height}]` for this scene.
+    #[wasm_bindgen(js_name = importCameraPath)]
+    pub fn import_camera_path(&self, json: &str, file: &str) -> Result<JsValue, JsError> {
+        let frames = parse_path(json.as_bytes(), file, None).map_err(error)?;
+        let manifest = self.scene.manifest();
+        to_js(&frames.iter().map(|f| PathView::new(f, manifest)).collect::<Vec<_>>())
+    }
+}

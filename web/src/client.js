@@ -1,0 +1,111 @@
+// The page's side of the renderer worker: opening scenes, render requests (the newest one
+// wins), small queries, and which renderer backs the view.
+
+/** Renderers the page knows; a worker reports which it has (`backends`). */
+export const RENDERERS = {
+  cpu: "CPU (wasm, worker)",
+  gpu: "GPU (WebGPU)",
+};
+
+/**
+ * Picks the renderer at start: the GPU when the worker has it and the browser has WebGPU,
+ * else the CPU.
+ * @param {string[]} backends what the worker can run
+ * @param {boolean} hasWebGpu whether `navigator.gpu` exists
+ */
+export function chooseRenderer(backends, hasWebGpu) {
+  return backends.includes("gpu") && hasWebGpu ? "gpu" : "cpu";
+}
+
+/** Talks to `worker.js`. Frames and errors arrive through the callbacks. */
+export class RendererClient {
+  /**
+   * @param {{onFrame: Function, onProgress: Function, onError: Function, onIdle: Function}} handlers
+   */
+  constructor(handlers) {
+    this.handlers = handlers;
+    this.worker = new Worker(new URL("./worker.js", import.meta.url), { type: "module" });
+    this.nextId = 1;
+    this.replies = new Map();
+    this.openWaiter = null;
+    this.worker.onmessage = (event) => this.receive(event.data);
+    this.worker.onerror = (event) => {
+      const message = `the renderer worker failed to start: ${event.message || "unknown error"}`;
+      if (this.openWaiter) this.openWaiter.reject(new Error(message));
+      else handlers.onError(message);
+    };
+  }
+
+  receive(msg) {
+    switch (msg.type) {
+      case "opened":
+        this.openWaiter?.resolve(msg);
+        this.openWaiter = null;
+        break;
+      case "frame":
+        this.handlers.onFrame(msg);
+        break;
+      case "progress":
+        this.handlers.onProgress(msg);
+        break;
+      case "idle":
+        this.handlers.onIdle?.();
+        break;
+      case "reply": {
+        const waiter = this.replies.get(msg.id);
+        this.replies.delete(msg.id);
+        waiter?.resolve(msg.value);
+        break;
+      }
+      case "error": {
+        if (msg.open && this.openWaiter) {
+          this.openWaiter.reject(new Error(msg.message));
+          this.openWaiter = null;
+        } else if (this.replies.has(msg.id)) {
+          this.replies.get(msg.id).reject(new Error(msg.message));
+          this.replies.delete(msg.id);
+        } else {
+          this.handlers.onError(msg.message, msg.id);
+        }
+        break;
+      }
+    }
+  }
+
+  /** Opens a scene by URL or files; resolves with `{info, backends}`. */
+  open(message, transfer = []) {
+    return new Promise((resolve, reject) => {
+      this.openWaiter = { resolve, reject };
+      this.worker.postMessage(message, transfer);
+    });
+  }
+
+  openUrl(url) {
+    return this.open({ type: "open", url });
+  }
+
+  openFiles(files, paths) {
+    return this.open({ type: "open-files", files, paths });
+  }
+
+  /** Calls a Viewer query in the worker; resolves with its value. */
+  call(method, ...args) {
+    const id = this.nextId++;
+    return new Promise((resolve, reject) => {
+      this.replies.set(id, { resolve, reject });
+      this.worker.postMessage({ type: "call", id, method, args });
+    });
+  }
+
+  /** Asks for a frame; returns its id. A newer request replaces an older one. */
+  render(request) {
+    const id = this.nextId++;
+    this.worker.postMessage({ type: "render", request: { ...request, id } });
+    return id;
+  }
+
+  /** Starts loading a time step in the background (playback look-ahead). */
+  prefetch(timeStep) {
+    this.worker.postMessage({ type: "prefetch", time_step: timeStep });
+  }
+}
