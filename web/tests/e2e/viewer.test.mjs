@@ -99,6 +99,7 @@ test("opens the scene, shows a non-blank first frame equal to the native render"
   const db = psnr(image, native);
   console.log(`page vs native render: ${db.toFixed(1)} dB`);
   assert.ok(db > MIN_PSNR_VS_NATIVE_DB, `page render differs from the native render: ${db.toFixed(1)} dB`);
+  fs.rmSync(dir, { recursive: true, force: true });
   await page.screenshot({ path: path.join(OUT, "02-full-resolution.png") });
   assert.deepEqual(errors, []);
   await page.close();
@@ -202,5 +203,57 @@ test("the page handles input while the worker renders", async () => {
   assert.ok(probe.timerMs < 50, `a timer waited ${probe.timerMs.toFixed(1)} ms during a render`);
   assert.notDeepEqual(during.view.eye, viewBefore.eye, "the key press did not move the camera during the render");
   console.log(`timer latency during a render: ${probe.timerMs.toFixed(1)} ms`);
+  await page.close();
+});
+
+test("keyframes export as a camera path, and the layout fits a phone", async () => {
+  const context = await browser.newContext({ viewport: { width: 390, height: 844 }, isMobile: true, hasTouch: true, deviceScaleFactor: 2 });
+  const page = await context.newPage();
+  await page.goto(SCENE_URL);
+  await firstFrame(page);
+  await page.click("#key-add");
+  await page.keyboard.press("2"); // snap to input camera 2
+  await page.waitForFunction(() => location.hash.includes("eye="));
+  await page.click("#key-add");
+  assert.equal(await page.textContent("#key-count"), "2 keyframes");
+  const json = JSON.parse(await page.evaluate(() => window.dynview.cameraPathJson()));
+  assert.equal(json.camera_path.length, 2);
+  assert.equal(json.camera_path[0].camera_to_world.length, 16);
+  assert.notDeepEqual(json.camera_path[0].camera_to_world, json.camera_path[1].camera_to_world);
+  // Nothing overflows the phone's width.
+  const overflow = await page.evaluate(() => document.documentElement.scrollWidth - window.innerWidth);
+  assert.ok(overflow <= 0, `the page is ${overflow} px wider than the phone`);
+  await page.screenshot({ path: path.join(OUT, "07-phone.png"), fullPage: true });
+  await context.close();
+});
+
+test("a keyframe path plays back and exports as a WebM video and a camera_path.json", async () => {
+  const { page, errors } = await openPage();
+  await firstFrame(page);
+  await page.click("#key-add");
+  await page.keyboard.press("3");
+  await page.waitForFunction(() => window.dynview.state.view && !window.dynview.state.rendering);
+  await page.$eval("#time", (el) => {
+    el.value = "1";
+    el.dispatchEvent(new Event("change"));
+  });
+  await page.click("#key-add");
+  const pathDownload = page.waitForEvent("download");
+  await page.click("#key-export");
+  const pathFile = await (await pathDownload).path();
+  const exported = JSON.parse(fs.readFileSync(pathFile, "utf8"));
+  assert.equal(exported.camera_path.length, 2);
+  assert.equal(exported.camera_path[1].render_time, 1 / 3);
+
+  const videoDownload = page.waitForEvent("download", { timeout: 120_000 });
+  await page.click("#video-export");
+  const download = await videoDownload;
+  assert.match(download.suggestedFilename(), /\.webm$/);
+  const bytes = fs.readFileSync(await download.path());
+  assert.ok(bytes.length > 1000, `video of ${bytes.length} bytes`);
+  assert.deepEqual([...bytes.subarray(0, 4)], [0x1a, 0x45, 0xdf, 0xa3], "not a WebM (EBML) file");
+  // The path played: the view ends at the last keyframe's time.
+  assert.equal(await page.evaluate(() => window.dynview.state.timeStep), 1);
+  assert.deepEqual(errors, []);
   await page.close();
 });
