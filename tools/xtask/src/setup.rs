@@ -19,6 +19,7 @@ pub const TEST_PACKAGES: Packages = &[
     ("ffmpeg", "synthetic event videos"),
     ("chromium", "headless browser tests of the wasm API and the page"),
     ("chromium-driver", "wasm-bindgen-test-runner drives Chromium through it"),
+    ("mesa-vulkan-drivers", "lavapipe: the GPU renderer's tests run on the CPU through Vulkan"),
 ];
 
 fn is_installed(package: &str) -> bool {

@@ -1,0 +1,189 @@
+//! The red-black over-relaxed Gauss-Seidel solver of dynview-core's grid systems on the GPU
+//! (`shaders/red_black.wgsl`): one dispatch per colour, all sweeps in one command buffer.
+
+use dynview_core::raster::Rgb;
+use dynview_core::render::solve::GridSystem;
+use wgpu::util::DeviceExt;
+
+use crate::context::{GpuContext, GpuError};
+
+/// The shader's uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    width: u32,
+    height: u32,
+    parity: u32,
+    channels: u32,
+    omega: f32,
+    _pad: [u32; 3],
+}
+
+/// Side of the square workgroup of `red_black.wgsl`.
+const WORKGROUP: u32 = 8;
+
+/// The compiled sweep pipeline.
+#[derive(Debug)]
+pub struct GridSolver {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+impl GridSolver {
+    /// Compiles the pipeline on `ctx`'s device.
+    pub fn new(ctx: &GpuContext) -> Self {
+        let device = &ctx.device;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("red_black.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("shaders/red_black.wgsl").into()),
+        });
+        let uniform = wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+            count: None,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("red_black"),
+            entries: &[
+                uniform,
+                storage_entry(1, true),
+                storage_entry(2, true),
+                storage_entry(3, true),
+                storage_entry(4, true),
+                storage_entry(5, false),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("red_black"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("red_black"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("sweep"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Self { pipeline, layout }
+    }
+
+    /// `sweeps` red-black sweeps of the depth system `sys` on `u` (in place), as
+    /// [`GridSystem::sweep`] does them.
+    pub fn solve_depth(&self, ctx: &GpuContext, sys: &GridSystem<f32>, u: &mut [f32], sweeps: usize, omega: f32) -> Result<(), GpuError> {
+        self.solve(ctx, sys, &sys.rhs, u, 1, sweeps, omega)
+    }
+
+    /// `sweeps` red-black sweeps of the color system `sys` on `u` (in place; the three
+    /// channels share the system).
+    pub fn solve_color(&self, ctx: &GpuContext, sys: &GridSystem<Rgb>, u: &mut [Rgb], sweeps: usize, omega: f32) -> Result<(), GpuError> {
+        let rhs: &[f32] = bytemuck::cast_slice(&sys.rhs);
+        self.solve(ctx, sys, rhs, bytemuck::cast_slice_mut(u), 3, sweeps, omega)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn solve<T>(
+        &self,
+        ctx: &GpuContext,
+        sys: &GridSystem<T>,
+        rhs: &[f32],
+        u: &mut [f32],
+        channels: u32,
+        sweeps: usize,
+        omega: f32,
+    ) -> Result<(), GpuError> {
+        let n = sys.width * sys.height;
+        let sizes_agree = [sys.right.len(), sys.down.len(), sys.inv_diag.len()].iter().all(|&l| l == n)
+            && rhs.len() == n * channels as usize
+            && u.len() == n * channels as usize;
+        if !sizes_agree {
+            return Err(GpuError::Size(format!("grid system of {}x{}: array lengths disagree", sys.width, sys.height)));
+        }
+        let limit = ctx.device.limits().max_storage_buffer_binding_size as usize;
+        if std::mem::size_of_val(u) > limit {
+            return Err(GpuError::Size(format!(
+                "{} bytes of unknowns exceed the device's storage binding limit of {limit}",
+                std::mem::size_of_val(u)
+            )));
+        }
+        let device = &ctx.device;
+        let storage = |label: &str, data: &[f32], usage: wgpu::BufferUsages| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytemuck::cast_slice(data), usage })
+        };
+        let read = wgpu::BufferUsages::STORAGE;
+        let right = storage("right", &sys.right, read);
+        let down = storage("down", &sys.down, read);
+        let inv_diag = storage("inv_diag", &sys.inv_diag, read);
+        let rhs = storage("rhs", rhs, read);
+        let unknowns = storage("u", u, read | wgpu::BufferUsages::COPY_SRC);
+        let bind_groups: Vec<wgpu::BindGroup> = (0..2u32)
+            .map(|parity| {
+                let params = Params { width: sys.width as u32, height: sys.height as u32, parity, channels, omega, _pad: [0; 3] };
+                let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("red_black params"),
+                    contents: bytemuck::bytes_of(&params),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+                let entries: Vec<wgpu::BindGroupEntry> = [&uniform, &right, &down, &inv_diag, &rhs, &unknowns]
+                    .iter()
+                    .enumerate()
+                    .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+                    .collect();
+                device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("red_black"), layout: &self.layout, entries: &entries })
+            })
+            .collect();
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("red_black") });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("red_black"), timestamp_writes: None });
+            pass.set_pipeline(&self.pipeline);
+            let groups = ((sys.width as u32).div_ceil(WORKGROUP), (sys.height as u32).div_ceil(WORKGROUP));
+            for _ in 0..sweeps {
+                for bind_group in &bind_groups {
+                    pass.set_bind_group(0, bind_group, &[]);
+                    pass.dispatch_workgroups(groups.0, groups.1, 1);
+                }
+            }
+        }
+        let staging = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("u read-back"),
+            size: std::mem::size_of_val(u) as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        encoder.copy_buffer_to_buffer(&unknowns, 0, &staging, 0, std::mem::size_of_val(u) as u64);
+        ctx.queue.submit([encoder.finish()]);
+        read_back(ctx, &staging, u)
+    }
+}
+
+/// Copies a mapped read-back buffer into `out` (blocks natively until the GPU is done).
+fn read_back(ctx: &GpuContext, staging: &wgpu::Buffer, out: &mut [f32]) -> Result<(), GpuError> {
+    let slice = staging.slice(..);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |result| {
+        let _ = tx.send(result);
+    });
+    ctx.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::ReadBack(e.to_string()))?;
+    rx.recv().map_err(|e| GpuError::ReadBack(e.to_string()))?.map_err(|e| GpuError::ReadBack(e.to_string()))?;
+    {
+        let view = slice.get_mapped_range().map_err(|e| GpuError::ReadBack(e.to_string()))?;
+        out.copy_from_slice(bytemuck::cast_slice(&view));
+    }
+    staging.unmap();
+    Ok(())
+}

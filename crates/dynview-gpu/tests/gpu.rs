@@ -1,0 +1,128 @@
+//! The GPU path against the CPU path, on whatever adapter wgpu finds (lavapipe in CI, with
+//! validation on), and every shader through naga's validator.
+
+use dynview_core::raster::Rgb;
+use dynview_core::render::solve::{DepthTerms, GridSystem};
+use dynview_gpu::{GpuContext, GridSolver, SHADERS};
+
+/// Largest difference allowed between a GPU and a CPU solve after 24 sweeps, relative to the
+/// solution's range. Both do the same float operations in the same order; the GPU may fuse a
+/// multiply and an add, which changes the last bit.
+const MAX_RELATIVE_DIFFERENCE: f32 = 1e-4;
+
+#[test]
+fn every_shader_parses_and_validates() {
+    for (name, source) in SHADERS {
+        let module = naga::front::wgsl::parse_str(source).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
+        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+    }
+}
+
+/// A deterministic pseudo-random sequence in [0, 1).
+fn noise(seed: u32) -> impl FnMut() -> f32 {
+    let mut state = seed.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    move || {
+        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (state >> 8) as f32 / (1u32 << 24) as f32
+    }
+}
+
+fn context() -> GpuContext {
+    let ctx = GpuContext::new_blocking().unwrap_or_else(|e| panic!("{e}"));
+    eprintln!("adapter: {} ({:?}, {})", ctx.adapter_info.name, ctx.adapter_info.backend, ctx.adapter_info.driver);
+    ctx
+}
+
+/// A depth system like the renderer's: smoothness weights over 4 decades, sparse attachment on
+/// a few pixels, temporal terms on most.
+fn depth_terms(width: usize, height: usize) -> DepthTerms {
+    let n = width * height;
+    let mut r = noise(7);
+    DepthTerms {
+        width,
+        height,
+        w_d: (0..n).map(|_| 10f32.powf(-3.0 + 4.0 * r())).collect(),
+        attach: (0..n).map(|_| if r() < 0.05 { 1.0 + r() } else { 0.0 }).collect(),
+        sparse_depth: (0..n).map(|_| 2.0 + 5.0 * r()).collect(),
+        temporal: (0..n).map(|_| if r() < 0.8 { 0.1 * r() } else { 0.0 }).collect(),
+        previous_depth: (0..n).map(|_| 2.0 + 5.0 * r()).collect(),
+    }
+}
+
+fn max_difference(a: &[f32], b: &[f32]) -> f32 {
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max)
+}
+
+#[test]
+fn depth_sweeps_on_the_gpu_match_the_cpu() {
+    let ctx = context();
+    let solver = GridSolver::new(&ctx);
+    // An odd size, so partial workgroups and both parities at the borders are exercised.
+    let (w, h) = (97, 61);
+    let sys = depth_terms(w, h).system();
+    let start: Vec<f32> = {
+        let mut r = noise(3);
+        (0..w * h).map(|_| 2.0 + 5.0 * r()).collect()
+    };
+    let mut cpu = start.clone();
+    let mut scratch = vec![0.0; w * h];
+    for _ in 0..24 {
+        sys.sweep(&mut cpu, &mut scratch, 1.6);
+    }
+    let mut gpu = start.clone();
+    solver.solve_depth(&ctx, &sys, &mut gpu, 24, 1.6).unwrap();
+    let range = 5.0;
+    let diff = max_difference(&cpu, &gpu);
+    assert!(diff <= MAX_RELATIVE_DIFFERENCE * range, "GPU vs CPU depth after 24 sweeps: max difference {diff} ({})", ctx.adapter_info.name);
+    // And the sweeps did something: the solution moved and the residual fell.
+    assert!(max_difference(&start, &gpu) > 0.1);
+    assert!(sys.relative_residual(&gpu) < sys.relative_residual(&start) * 0.5);
+}
+
+#[test]
+fn color_sweeps_on_the_gpu_match_the_cpu() {
+    let ctx = context();
+    let solver = GridSolver::new(&ctx);
+    let (w, h) = (64, 33);
+    let n = w * h;
+    let mut r = noise(11);
+    let right: Vec<f32> = (0..n).map(|i| if i % w + 1 < w { r() } else { 0.0 }).collect();
+    let down: Vec<f32> = (0..n).map(|i| if i + w < n { r() } else { 0.0 }).collect();
+    let data: Vec<f32> = (0..n).map(|_| 0.5 + 2.0 * r()).collect();
+    let inv_diag: Vec<f32> = (0..n)
+        .map(|i| {
+            let left = if i % w > 0 { right[i - 1] } else { 0.0 };
+            let up = if i >= w { down[i - w] } else { 0.0 };
+            1.0 / (right[i] + down[i] + left + up + data[i])
+        })
+        .collect();
+    let rhs: Vec<Rgb> = (0..n).map(|i| [data[i] * r(), data[i] * r(), data[i] * r()]).collect();
+    let sys = GridSystem { width: w, height: h, right, down, inv_diag, rhs };
+    let start: Vec<Rgb> = (0..n).map(|_| [r(), r(), r()]).collect();
+    let mut cpu = start.clone();
+    let mut scratch = vec![[0.0; 3]; n];
+    for _ in 0..12 {
+        sys.sweep(&mut cpu, &mut scratch, 1.6);
+    }
+    let mut gpu = start.clone();
+    solver.solve_color(&ctx, &sys, &mut gpu, 12, 1.6).unwrap();
+    let diff = max_difference(bytemuck_flat(&cpu), bytemuck_flat(&gpu));
+    assert!(diff <= MAX_RELATIVE_DIFFERENCE, "GPU vs CPU color after 12 sweeps: max difference {diff}");
+    assert!(max_difference(bytemuck_flat(&start), bytemuck_flat(&gpu)) > 0.05);
+}
+
+fn bytemuck_flat(v: &[Rgb]) -> &[f32] {
+    v.as_flattened()
+}
+
+#[test]
+fn mismatched_sizes_are_an_error_not_a_panic() {
+    let ctx = context();
+    let solver = GridSolver::new(&ctx);
+    let sys = depth_terms(8, 8).system();
+    let mut too_short = vec![0.0; 10];
+    let err = solver.solve_depth(&ctx, &sys, &mut too_short, 1, 1.0).unwrap_err();
+    assert!(err.to_string().contains("disagree"), "{err}");
+}
