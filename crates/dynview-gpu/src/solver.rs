@@ -159,20 +159,25 @@ impl GridSolver {
                 }
             }
         }
-        let staging = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("u read-back"),
-            size: std::mem::size_of_val(u) as u64,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        encoder.copy_buffer_to_buffer(&unknowns, 0, &staging, 0, std::mem::size_of_val(u) as u64);
         ctx.queue.submit([encoder.finish()]);
-        read_back(ctx, &staging, u)
+        read_buffer(ctx, &unknowns, u)
     }
 }
 
-/// Copies a mapped read-back buffer into `out` (blocks natively until the GPU is done).
-fn read_back(ctx: &GpuContext, staging: &wgpu::Buffer, out: &mut [f32]) -> Result<(), GpuError> {
+/// Reads `buffer` (which must have `COPY_SRC`) into `out` through a staging buffer; blocks
+/// natively until the GPU is done.
+pub(crate) fn read_buffer(ctx: &GpuContext, buffer: &wgpu::Buffer, out: &mut [f32]) -> Result<(), GpuError> {
+    let size = std::mem::size_of_val(out) as u64;
+    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("read-back"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read-back") });
+    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+    ctx.queue.submit([encoder.finish()]);
+    let staging = &staging;
     let slice = staging.slice(..);
     let (tx, rx) = std::sync::mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |result| {

@@ -126,3 +126,62 @@ fn mismatched_sizes_are_an_error_not_a_panic() {
     let err = solver.solve_depth(&ctx, &sys, &mut too_short, 1, 1.0).unwrap_err();
     assert!(err.to_string().contains("disagree"), "{err}");
 }
+
+use dynview_core::raster::Raster;
+use dynview_core::render::{pushpull, pyramid};
+use dynview_gpu::{GpuImage, ImageKernels};
+
+/// A random RGB image of `w x h`.
+fn rgb_image(w: usize, h: usize, seed: u32) -> Raster<Rgb> {
+    let mut r = noise(seed);
+    Raster { width: w, height: h, data: (0..w * h).map(|_| [r(), r(), r()]).collect() }
+}
+
+#[test]
+fn pyramid_resampling_on_the_gpu_matches_the_cpu() {
+    let ctx = context();
+    let kernels = ImageKernels::new(&ctx);
+    // Odd sizes: the last row and column of the box filter average what exists.
+    let image = rgb_image(75, 43, 5);
+    let gpu = GpuImage::upload(&ctx, image.data.as_flattened(), 75, 43, 3).unwrap();
+    let down = kernels.downsample(&ctx, &gpu).unwrap();
+    let cpu_down = pyramid::downsample(&image);
+    assert_eq!((down.width, down.height), (cpu_down.width, cpu_down.height));
+    let diff = max_difference(&down.download(&ctx).unwrap(), cpu_down.data.as_flattened());
+    assert!(diff <= 1e-6, "downsample: max difference {diff}");
+    for (w, h) in [(150, 86), (301, 171), (40, 20)] {
+        let up = kernels.upsample(&ctx, &gpu, w, h).unwrap();
+        let cpu_up = pyramid::upsample(&image, w, h);
+        let diff = max_difference(&up.download(&ctx).unwrap(), cpu_up.data.as_flattened());
+        assert!(diff <= 1e-5, "upsample to {w}x{h}: max difference {diff}");
+    }
+}
+
+#[test]
+fn push_pull_on_the_gpu_matches_the_cpu() {
+    let ctx = context();
+    let kernels = ImageKernels::new(&ctx);
+    let (w, h) = (97, 55);
+    let image = rgb_image(w, h, 9);
+    let mut r = noise(13);
+    // Sparse known pixels (3%), as the splatted cloud gives, some with fractional weights.
+    let weights = Raster {
+        width: w,
+        height: h,
+        data: (0..w * h).map(|_| if r() < 0.03 { if r() < 0.8 { 1.0 } else { r() } } else { 0.0 }).collect(),
+    };
+    let cpu = pushpull::fill(&image, &weights, [0.5; 3]);
+    let values = GpuImage::upload(&ctx, image.data.as_flattened(), w, h, 3).unwrap();
+    let weights_gpu = GpuImage::upload(&ctx, &weights.data, w, h, 1).unwrap();
+    let gpu = kernels.push_pull(&ctx, &values, &weights_gpu, [0.5; 3]).unwrap().download(&ctx).unwrap();
+    let diff = max_difference(&gpu, cpu.data.as_flattened());
+    assert!(diff <= 1e-5, "push-pull RGB: max difference {diff}");
+    // Scalar (depth) with nothing known: the fallback everywhere.
+    let depth = GpuImage::upload(&ctx, &vec![3.0; w * h], w, h, 1).unwrap();
+    let none = GpuImage::upload(&ctx, &vec![0.0; w * h], w, h, 1).unwrap();
+    let filled = kernels.push_pull(&ctx, &depth, &none, [7.0, 0.0, 0.0]).unwrap().download(&ctx).unwrap();
+    assert!(filled.iter().all(|&v| v == 7.0));
+    // Sizes that disagree are an error.
+    let wrong = GpuImage::upload(&ctx, &[1.0; 4], 2, 2, 1).unwrap();
+    assert!(kernels.push_pull(&ctx, &values, &wrong, [0.0; 3]).is_err());
+}

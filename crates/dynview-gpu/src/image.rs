@@ -1,0 +1,307 @@
+//! Images on the GPU (flat `f32` storage buffers, `channels` per pixel) and the image kernels
+//! of the renderer: pyramid resampling (`shaders/pyramid.wgsl`) and push-pull hole filling
+//! (`shaders/pushpull.wgsl`).
+
+use wgpu::util::DeviceExt;
+
+use crate::context::{GpuContext, GpuError};
+
+/// An image in a storage buffer.
+#[derive(Debug)]
+pub struct GpuImage {
+    /// The pixels, `channels` floats each, row-major.
+    pub buffer: wgpu::Buffer,
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Floats per pixel (1 or 3).
+    pub channels: usize,
+}
+
+const IMAGE_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_SRC).union(wgpu::BufferUsages::COPY_DST);
+
+impl GpuImage {
+    fn check(ctx: &GpuContext, width: usize, height: usize, channels: usize) -> Result<u64, GpuError> {
+        if width == 0 || height == 0 || !(1..=4).contains(&channels) {
+            return Err(GpuError::Size(format!("image of {width}x{height}x{channels}: empty or unsupported channel count")));
+        }
+        let bytes = (width * height * channels * 4) as u64;
+        let limit = ctx.device.limits().max_storage_buffer_binding_size;
+        if bytes > limit {
+            return Err(GpuError::Size(format!(
+                "image of {width}x{height}x{channels} needs {bytes} bytes, the device binds at most {limit}"
+            )));
+        }
+        Ok(bytes)
+    }
+
+    /// Uploads `data` (`width * height * channels` floats).
+    pub fn upload(ctx: &GpuContext, data: &[f32], width: usize, height: usize, channels: usize) -> Result<Self, GpuError> {
+        Self::check(ctx, width, height, channels)?;
+        if data.len() != width * height * channels {
+            return Err(GpuError::Size(format!("{} floats for an image of {width}x{height}x{channels}", data.len())));
+        }
+        let buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("image"),
+            contents: bytemuck::cast_slice(data),
+            usage: IMAGE_USAGE,
+        });
+        Ok(Self { buffer, width, height, channels })
+    }
+
+    /// An uninitialised (zeroed) image.
+    pub fn zeroed(ctx: &GpuContext, width: usize, height: usize, channels: usize) -> Result<Self, GpuError> {
+        let size = Self::check(ctx, width, height, channels)?;
+        let buffer =
+            ctx.device.create_buffer(&wgpu::BufferDescriptor { label: Some("image"), size, usage: IMAGE_USAGE, mapped_at_creation: false });
+        Ok(Self { buffer, width, height, channels })
+    }
+
+    /// Reads the pixels back (blocks natively until the GPU is done).
+    pub fn download(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
+        let mut out = vec![0.0f32; self.width * self.height * self.channels];
+        crate::solver::read_buffer(ctx, &self.buffer, &mut out)?;
+        Ok(out)
+    }
+}
+
+/// The image kernels, compiled once per device.
+#[derive(Debug)]
+pub struct ImageKernels {
+    downsample: Kernel,
+    upsample: Kernel,
+    premultiply: Kernel,
+    pull: Kernel,
+    top: Kernel,
+    push: Kernel,
+}
+
+/// A compute pipeline whose bind group is a uniform block then storage buffers.
+#[derive(Debug)]
+struct Kernel {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    workgroup: u32,
+}
+
+impl Kernel {
+    /// `storage[i]` is true for a read-only binding `i + 1`.
+    fn new(ctx: &GpuContext, module: &wgpu::ShaderModule, entry: &str, storage_read_only: &[bool], workgroup: u32) -> Self {
+        let device = &ctx.device;
+        let buffer_entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+            count: None,
+        };
+        let mut entries = vec![buffer_entry(0, wgpu::BufferBindingType::Uniform)];
+        for (i, &read_only) in storage_read_only.iter().enumerate() {
+            entries.push(buffer_entry(i as u32 + 1, wgpu::BufferBindingType::Storage { read_only }));
+        }
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(entry), entries: &entries });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(entry),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: Some(&pipeline_layout),
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Self { pipeline, layout, workgroup }
+    }
+
+    /// Records one dispatch over `width x height` with `uniform` and `buffers`.
+    fn dispatch(
+        &self,
+        ctx: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        uniform: &[u8],
+        buffers: &[&wgpu::Buffer],
+        width: usize,
+        height: usize,
+    ) {
+        let device = &ctx.device;
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("dims"),
+            contents: uniform,
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() }];
+        for (i, b) in buffers.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: b.as_entire_binding() });
+        }
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &self.layout, entries: &entries });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups((width as u32).div_ceil(self.workgroup), (height as u32).div_ceil(self.workgroup), 1);
+    }
+}
+
+/// `pyramid.wgsl`'s uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct PyramidDims {
+    src_width: u32,
+    src_height: u32,
+    dst_width: u32,
+    dst_height: u32,
+    channels: u32,
+    scale_x: f32,
+    scale_y: f32,
+    _pad: u32,
+}
+
+/// `pushpull.wgsl`'s uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct PushPullDims {
+    width: u32,
+    height: u32,
+    other_width: u32,
+    other_height: u32,
+    channels: u32,
+    scale_x: f32,
+    scale_y: f32,
+    _pad: u32,
+    fallback: [f32; 4],
+}
+
+/// Half a size, rounded up (as dynview-core's pyramid).
+fn half(n: usize) -> usize {
+    n.div_ceil(2).max(1)
+}
+
+impl ImageKernels {
+    /// Compiles the kernels on `ctx`'s device.
+    pub fn new(ctx: &GpuContext) -> Self {
+        let module = |name: &str, source: &str| {
+            ctx.device
+                .create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(source.into()) })
+        };
+        let pyramid = module("pyramid.wgsl", include_str!("shaders/pyramid.wgsl"));
+        let pushpull = module("pushpull.wgsl", include_str!("shaders/pushpull.wgsl"));
+        let pp = [true, true, true, false, false];
+        Self {
+            downsample: Kernel::new(ctx, &pyramid, "downsample", &[true, false], 8),
+            upsample: Kernel::new(ctx, &pyramid, "upsample", &[true, false], 8),
+            premultiply: Kernel::new(ctx, &pushpull, "premultiply", &pp, 8),
+            pull: Kernel::new(ctx, &pushpull, "pull", &pp, 8),
+            top: Kernel::new(ctx, &pushpull, "top", &pp, 1),
+            push: Kernel::new(ctx, &pushpull, "push", &pp, 8),
+        }
+    }
+
+    fn resample(&self, ctx: &GpuContext, kernel: &Kernel, image: &GpuImage, width: usize, height: usize) -> Result<GpuImage, GpuError> {
+        let out = GpuImage::zeroed(ctx, width, height, image.channels)?;
+        let dims = PyramidDims {
+            src_width: image.width as u32,
+            src_height: image.height as u32,
+            dst_width: width as u32,
+            dst_height: height as u32,
+            channels: image.channels as u32,
+            scale_x: image.width as f32 / width as f32,
+            scale_y: image.height as f32 / height as f32,
+            _pad: 0,
+        };
+        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("resample") });
+        kernel.dispatch(ctx, &mut encoder, bytemuck::bytes_of(&dims), &[&image.buffer, &out.buffer], width, height);
+        ctx.queue.submit([encoder.finish()]);
+        Ok(out)
+    }
+
+    /// 2x2 box downsampling (dynview-core's `pyramid::downsample`).
+    pub fn downsample(&self, ctx: &GpuContext, image: &GpuImage) -> Result<GpuImage, GpuError> {
+        self.resample(ctx, &self.downsample, image, half(image.width), half(image.height))
+    }
+
+    /// Bilinear upsampling to `width x height` (dynview-core's `pyramid::upsample`).
+    pub fn upsample(&self, ctx: &GpuContext, image: &GpuImage, width: usize, height: usize) -> Result<GpuImage, GpuError> {
+        self.resample(ctx, &self.upsample, image, width, height)
+    }
+
+    /// Push-pull fill of `values` where `weights` (1 channel, same size) are 0, as dynview-core's
+    /// `pushpull::fill`; `fallback` (first `channels` entries) where nothing is known.
+    pub fn push_pull(&self, ctx: &GpuContext, values: &GpuImage, weights: &GpuImage, fallback: [f32; 3]) -> Result<GpuImage, GpuError> {
+        if (weights.width, weights.height, weights.channels) != (values.width, values.height, 1) {
+            return Err(GpuError::Size(format!(
+                "push-pull weights are {}x{}x{}, values {}x{}",
+                weights.width, weights.height, weights.channels, values.width, values.height
+            )));
+        }
+        let channels = values.channels;
+        let dims = |width: usize, height: usize, other: (usize, usize)| PushPullDims {
+            width: width as u32,
+            height: height as u32,
+            other_width: other.0 as u32,
+            other_height: other.1 as u32,
+            channels: channels as u32,
+            scale_x: other.0 as f32 / width as f32,
+            scale_y: other.1 as f32 / height as f32,
+            _pad: 0,
+            fallback: [fallback[0], fallback[1], fallback[2], 0.0],
+        };
+        let scratch = GpuImage::zeroed(ctx, 1, 1, 1)?;
+        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("push-pull") });
+        // Pull: premultiplied levels down to 1x1.
+        let (w, h) = (values.width, values.height);
+        let mut levels = vec![(GpuImage::zeroed(ctx, w, h, channels)?, GpuImage::zeroed(ctx, w, h, 1)?)];
+        let d = dims(w, h, (w, h));
+        let (v0, w0) = &levels[0];
+        self.premultiply.dispatch(
+            ctx,
+            &mut encoder,
+            bytemuck::bytes_of(&d),
+            &[&values.buffer, &weights.buffer, &weights.buffer, &v0.buffer, &w0.buffer],
+            w,
+            h,
+        );
+        while levels.last().is_some_and(|(v, _)| v.width > 1 || v.height > 1) {
+            let (fine_v, fine_w) = &levels[levels.len() - 1];
+            let (nw, nh) = (half(fine_v.width), half(fine_v.height));
+            let (cv, cw) = (GpuImage::zeroed(ctx, nw, nh, channels)?, GpuImage::zeroed(ctx, nw, nh, 1)?);
+            let d = dims(nw, nh, (fine_v.width, fine_v.height));
+            self.pull.dispatch(
+                ctx,
+                &mut encoder,
+                bytemuck::bytes_of(&d),
+                &[&fine_v.buffer, &fine_w.buffer, &fine_w.buffer, &cv.buffer, &cw.buffer],
+                nw,
+                nh,
+            );
+            levels.push((cv, cw));
+        }
+        // Push: the 1x1 top, then each finer level from the coarser fill.
+        let (top_v, top_w) = &levels[levels.len() - 1];
+        let mut filled = GpuImage::zeroed(ctx, 1, 1, channels)?;
+        self.top.dispatch(
+            ctx,
+            &mut encoder,
+            bytemuck::bytes_of(&dims(1, 1, (1, 1))),
+            &[&top_v.buffer, &top_w.buffer, &top_w.buffer, &filled.buffer, &scratch.buffer],
+            1,
+            1,
+        );
+        for (v, wt) in levels.iter().rev().skip(1) {
+            let next = GpuImage::zeroed(ctx, v.width, v.height, channels)?;
+            let d = dims(v.width, v.height, (filled.width, filled.height));
+            self.push.dispatch(
+                ctx,
+                &mut encoder,
+                bytemuck::bytes_of(&d),
+                &[&v.buffer, &wt.buffer, &filled.buffer, &next.buffer, &scratch.buffer],
+                v.width,
+                v.height,
+            );
+            filled = next;
+        }
+        ctx.queue.submit([encoder.finish()]);
+        Ok(filled)
+    }
+}
