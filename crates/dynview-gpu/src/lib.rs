@@ -1,24 +1,28 @@
 //! dynview's renderer on the GPU, as wgpu compute passes (WGSL in `src/shaders/`), natively
 //! (Vulkan; lavapipe in tests) and in the browser (WebGPU).
 //!
-//! Status: the device context, the red-black solver of the depth and color systems
-//! ([`GridSolver`], matching dynview-core's [`dynview_core::render::solve::GridSystem`] sweep
-//! for sweep), and the image kernels ([`ImageKernels`]: pyramid down/upsampling and push-pull
-//! fill, matching dynview-core's `pyramid` and `pushpull`). The other stages of METHOD.md
-//! Part 2 (projection, warps, visibility, weights, temporal warp) and the frame loop are still
-//! to come; the renderer runs on the CPU.
+//! Status: the device context and, each matching its dynview-core counterpart, the red-black
+//! solver of the depth and color systems ([`GridSolver`]), the image kernels
+//! ([`ImageKernels`]: pyramid down/upsampling, push-pull fill) and the backward warps with
+//! their visibility ([`WarpKernels`]). The other stages of METHOD.md Part 2 (sparse
+//! projection, weights, system assembly, temporal warp) and the frame loop are still to come;
+//! the renderer runs on the CPU.
 
 mod context;
 mod image;
+mod kernel;
 mod solver;
+mod warp;
 
 pub use context::{GpuContext, GpuError};
 pub use image::{GpuImage, ImageKernels};
 pub use solver::GridSolver;
+pub use warp::{GpuWarp, WarpKernels};
 
 /// Every WGSL shader of the crate, by file name (validated by naga in the tests).
 pub const SHADERS: &[(&str, &str)] = &[
     ("red_black.wgsl", include_str!("shaders/red_black.wgsl")),
     ("pyramid.wgsl", include_str!("shaders/pyramid.wgsl")),
     ("pushpull.wgsl", include_str!("shaders/pushpull.wgsl")),
+    ("warp.wgsl", include_str!("shaders/warp.wgsl")),
 ];

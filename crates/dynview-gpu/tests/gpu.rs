@@ -185,3 +185,63 @@ fn push_pull_on_the_gpu_matches_the_cpu() {
     let wrong = GpuImage::upload(&ctx, &[1.0; 4], 2, 2, 1).unwrap();
     assert!(kernels.push_pull(&ctx, &values, &wrong, [0.0; 3]).is_err());
 }
+
+use dynview_core::camera::{Camera, Intrinsics, Rigid3};
+use dynview_core::render::warp::{compute_visibility, warp_view};
+use dynview_gpu::WarpKernels;
+use glam::DVec3;
+
+fn camera(eye: DVec3, w: u32, h: u32) -> Camera {
+    Camera {
+        intrinsics: Intrinsics::from_vertical_fov(0.8, w, h),
+        camera_from_world: Rigid3::camera_from_world_looking_at(eye, DVec3::new(0.0, 0.0, 0.0), DVec3::Y),
+        width_px: w,
+        height_px: h,
+    }
+}
+
+#[test]
+fn warps_and_visibility_on_the_gpu_match_the_cpu() {
+    let ctx = context();
+    let kernels = WarpKernels::new(&ctx);
+    let (w, h) = (120, 70);
+    let novel = camera(DVec3::new(0.3, 0.4, 5.0), w as u32, h as u32);
+    let input_camera = camera(DVec3::new(-1.2, 0.2, 4.5), 160, 90);
+    let input = rgb_image(160, 90, 21);
+    // A depth map with occlusion edges: a near box in front of a slanted far plane, some
+    // invalid pixels.
+    let depth = Raster {
+        width: w,
+        height: h,
+        data: (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                if (40..70).contains(&x) && (20..45).contains(&y) {
+                    3.0
+                } else if x == 5 {
+                    0.0
+                } else {
+                    5.0 + 0.01 * x as f32 + 0.02 * y as f32
+                }
+            })
+            .collect(),
+    };
+    let mut cpu = warp_view(&novel, &depth, &input_camera, &input);
+    compute_visibility(&mut cpu, 160 * 90, 0.01);
+    let depth_gpu = GpuImage::upload(&ctx, &depth.data, w, h, 1).unwrap();
+    let input_gpu = GpuImage::upload(&ctx, input.data.as_flattened(), 160, 90, 3).unwrap();
+    let gpu = kernels.warp_view(&ctx, &novel, &depth_gpu, &input_camera, &input_gpu, 0.01).unwrap();
+    let color = gpu.color.download(&ctx).unwrap();
+    let visibility = gpu.visibility.download(&ctx).unwrap();
+    // Colors: equal up to rounding where the sample position is the same.
+    let diff = max_difference(&color, cpu.color.as_flattened());
+    assert!(diff <= 1e-3, "warped color: max difference {diff}");
+    // Visibility is a discrete test; a last-bit difference in a depth may flip a pixel at a
+    // tie. Allow at most 0.2% of pixels.
+    let flips = visibility.iter().zip(&cpu.visibility).filter(|(a, b)| a != b).count();
+    assert!(flips * 500 <= w * h, "visibility differs on {flips} of {} pixels", w * h);
+    let visible = cpu.visibility.iter().filter(|&&v| v > 0.0).count();
+    assert!(visible > w * h / 2 && visible < w * h, "the test scene must have visible and hidden pixels ({visible})");
+    let outside = (0..w * h).filter(|&i| !cpu.valid(i)).count();
+    assert!(outside > 0, "the test scene must have pixels outside the input");
+}

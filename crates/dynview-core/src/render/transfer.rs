@@ -31,6 +31,11 @@ impl PixelTransfer {
         Self { m: rows, e: [e.x as f32, e.y as f32, e.z as f32] }
     }
 
+    /// `M` (row-major) and `e`, for implementations elsewhere (the GPU path).
+    pub fn coefficients(&self) -> ([f32; 9], [f32; 3]) {
+        (self.m, self.e)
+    }
+
     /// Target pixel and depth of source pixel `(x, y)` at depth `depth`; `None` when it lands
     /// at or behind the target camera.
     #[inline]
