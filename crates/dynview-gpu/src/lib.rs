@@ -3,17 +3,19 @@
 //!
 //! Status: the device context and, each matching its dynview-core counterpart, the red-black
 //! solver of the depth and color systems ([`GridSolver`]), the image kernels
-//! ([`ImageKernels`]: pyramid down/upsampling, push-pull fill) and the backward warps with
-//! their visibility ([`WarpKernels`]). The other stages of METHOD.md Part 2 (sparse
-//! projection, weights, system assembly, temporal warp) and the frame loop are still to come;
-//! the renderer runs on the CPU.
+//! ([`ImageKernels`]: pyramid down/upsampling, push-pull fill), the backward warps with their
+//! visibility ([`WarpKernels`]), and the weights with the assembly of both systems
+//! ([`AssembleKernels`]). The sparse projection, the temporal warp and `w_T`, the color
+//! initial guess and the frame loop are still to come; the renderer runs on the CPU.
 
+mod assemble;
 mod context;
 mod image;
 mod kernel;
 mod solver;
 mod warp;
 
+pub use assemble::{AssembleKernels, GpuSystem};
 pub use context::{GpuContext, GpuError};
 pub use image::{GpuImage, ImageKernels};
 pub use solver::GridSolver;
@@ -25,4 +27,5 @@ pub const SHADERS: &[(&str, &str)] = &[
     ("pyramid.wgsl", include_str!("shaders/pyramid.wgsl")),
     ("pushpull.wgsl", include_str!("shaders/pushpull.wgsl")),
     ("warp.wgsl", include_str!("shaders/warp.wgsl")),
+    ("assemble.wgsl", include_str!("shaders/assemble.wgsl")),
 ];

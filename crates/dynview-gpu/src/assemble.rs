@@ -1,0 +1,203 @@
+//! The weights and the assembly of the depth and color systems on the GPU
+//! (`shaders/assemble.wgsl`), as dynview-core's `render::weights` and `render::solve`.
+
+use dynview_core::render::RenderParams;
+
+use crate::context::{GpuContext, GpuError};
+use crate::image::GpuImage;
+use crate::kernel::Kernel;
+
+/// A grid system on the GPU, as dynview-core's `GridSystem`: couplings to the right and down
+/// neighbours, `1 / diag`, and the right-hand side (`channels` per pixel).
+#[derive(Debug)]
+pub struct GpuSystem {
+    /// Coupling of pixel `i` with `i + 1`.
+    pub right: GpuImage,
+    /// Coupling of pixel `i` with `i + width`.
+    pub down: GpuImage,
+    /// `1 / diag`.
+    pub inv_diag: GpuImage,
+    /// Right-hand side.
+    pub rhs: GpuImage,
+}
+
+/// `assemble.wgsl`'s uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct AssembleParams {
+    width: u32,
+    height: u32,
+    views: u32,
+    _pad0: u32,
+    sigma: f32,
+    lambda_pc: f32,
+    lambda_p: f32,
+    lambda_g: f32,
+    gradient_unit: f32,
+    eps_gradient: f32,
+    eps_visibility: f32,
+    w_d_min: f32,
+    w_d_max: f32,
+    _pad: [u32; 3],
+}
+
+/// The assembly kernels, compiled once per device.
+#[derive(Debug)]
+pub struct AssembleKernels {
+    projection_weights: Kernel,
+    depth_weights: Kernel,
+    depth_system: Kernel,
+    color_system: Kernel,
+}
+
+fn check(image: &GpuImage, what: &str, width: usize, height: usize, channels: usize) -> Result<(), GpuError> {
+    if (image.width, image.height, image.channels) == (width, height, channels) {
+        Ok(())
+    } else {
+        Err(GpuError::Size(format!("{what} is {}x{}x{}, expected {width}x{height}x{channels}", image.width, image.height, image.channels)))
+    }
+}
+
+impl AssembleKernels {
+    /// Compiles the kernels on `ctx`'s device.
+    pub fn new(ctx: &GpuContext) -> Self {
+        let module = ctx.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("assemble.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("shaders/assemble.wgsl").into()),
+        });
+        let bindings = [true, true, true, true, false, false, false, false];
+        let kernel = |entry| Kernel::new(ctx, &module, entry, &bindings, 8);
+        Self {
+            projection_weights: kernel("projection_weights"),
+            depth_weights: kernel("depth_weights"),
+            depth_system: kernel("depth_system"),
+            color_system: kernel("color_system"),
+        }
+    }
+
+    fn uniform(params: &RenderParams, width: usize, height: usize, views: usize) -> AssembleParams {
+        AssembleParams {
+            width: width as u32,
+            height: height as u32,
+            views: views as u32,
+            _pad0: 0,
+            sigma: params.sigma,
+            lambda_pc: params.lambda_pc,
+            lambda_p: params.lambda_p,
+            lambda_g: params.lambda_g,
+            gradient_unit: params.gradient_unit,
+            eps_gradient: params.eps_gradient,
+            eps_visibility: params.eps_visibility,
+            w_d_min: params.w_d_min,
+            w_d_max: params.w_d_max,
+            _pad: [0; 3],
+        }
+    }
+
+    fn run(&self, ctx: &GpuContext, kernel: &Kernel, uniform: &AssembleParams, buffers: [&GpuImage; 8]) {
+        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("assemble") });
+        let buffers = buffers.map(|b| &b.buffer);
+        kernel.dispatch(ctx, &mut encoder, bytemuck::bytes_of(uniform), &buffers, uniform.width as usize, uniform.height as usize);
+        ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// `w_P^s` of every view (packed: view `s` at rows `s * height ..`), `-1` where the warp
+    /// of view `s` is invalid. `warp_colors` (RGB), `visibility` and `valid` (1 or 0) are
+    /// packed the same way; `color` is the current estimate.
+    pub fn projection_weights(
+        &self,
+        ctx: &GpuContext,
+        params: &RenderParams,
+        color: &GpuImage,
+        warp_colors: &GpuImage,
+        visibility: &GpuImage,
+        valid: &GpuImage,
+        views: usize,
+    ) -> Result<GpuImage, GpuError> {
+        let (w, h) = (color.width, color.height);
+        check(color, "color", w, h, 3)?;
+        check(warp_colors, "warp colors", w, h * views, 3)?;
+        check(visibility, "visibility", w, h * views, 1)?;
+        check(valid, "validity", w, h * views, 1)?;
+        let w_p = GpuImage::zeroed(ctx, w, h * views, 1)?;
+        // Unused writable bindings (each must be its own buffer).
+        let (u2, u3, u4) = (GpuImage::zeroed(ctx, 1, 1, 1)?, GpuImage::zeroed(ctx, 1, 1, 1)?, GpuImage::zeroed(ctx, 1, 1, 1)?);
+        self.run(
+            ctx,
+            &self.projection_weights,
+            &Self::uniform(params, w, h, views),
+            [color, warp_colors, visibility, valid, &w_p, &u2, &u3, &u4],
+        );
+        Ok(w_p)
+    }
+
+    /// The depth system from the current color, `w_p` (from [`Self::projection_weights`]),
+    /// the packed visibility, the sparse maps (`sparse_color_mask`: RGB and mask; `sparse_depth`,
+    /// infinite where no point) and the temporal terms (`temporal`: `lambda_T w_T` and the
+    /// previous depth per pixel).
+    #[allow(clippy::too_many_arguments)]
+    pub fn depth_system(
+        &self,
+        ctx: &GpuContext,
+        params: &RenderParams,
+        color: &GpuImage,
+        w_p: &GpuImage,
+        visibility: &GpuImage,
+        sparse_color_mask: &GpuImage,
+        sparse_depth: &GpuImage,
+        temporal: &GpuImage,
+        views: usize,
+    ) -> Result<GpuSystem, GpuError> {
+        let (w, h) = (color.width, color.height);
+        check(w_p, "w_p", w, h * views, 1)?;
+        check(visibility, "visibility", w, h * views, 1)?;
+        check(sparse_color_mask, "sparse color and mask", w, h, 4)?;
+        check(sparse_depth, "sparse depth", w, h, 1)?;
+        check(temporal, "temporal terms", w, h, 2)?;
+        let uniform = Self::uniform(params, w, h, views);
+        let w_d = GpuImage::zeroed(ctx, w, h, 1)?;
+        let attach = GpuImage::zeroed(ctx, w, h, 1)?;
+        let (u3, u4) = (GpuImage::zeroed(ctx, 1, 1, 1)?, GpuImage::zeroed(ctx, 1, 1, 1)?);
+        self.run(ctx, &self.depth_weights, &uniform, [color, w_p, visibility, sparse_color_mask, &w_d, &attach, &u3, &u4]);
+        let sys = GpuSystem {
+            right: GpuImage::zeroed(ctx, w, h, 1)?,
+            down: GpuImage::zeroed(ctx, w, h, 1)?,
+            inv_diag: GpuImage::zeroed(ctx, w, h, 1)?,
+            rhs: GpuImage::zeroed(ctx, w, h, 1)?,
+        };
+        self.run(
+            ctx,
+            &self.depth_system,
+            &uniform,
+            [&w_d, &attach, sparse_depth, temporal, &sys.right, &sys.down, &sys.inv_diag, &sys.rhs],
+        );
+        Ok(sys)
+    }
+
+    /// The color system from the packed warp colors, `w_p` and the temporal terms
+    /// (`temporal`: `lambda_T w_T` and the previous RGB per pixel).
+    pub fn color_system(
+        &self,
+        ctx: &GpuContext,
+        params: &RenderParams,
+        warp_colors: &GpuImage,
+        w_p: &GpuImage,
+        temporal: &GpuImage,
+        views: usize,
+    ) -> Result<GpuSystem, GpuError> {
+        let (w, h) = (temporal.width, temporal.height);
+        check(warp_colors, "warp colors", w, h * views, 3)?;
+        check(w_p, "w_p", w, h * views, 1)?;
+        check(temporal, "temporal terms", w, h, 4)?;
+        let unused = GpuImage::zeroed(ctx, 1, 1, 1)?;
+        let sys = GpuSystem {
+            right: GpuImage::zeroed(ctx, w, h, 1)?,
+            down: GpuImage::zeroed(ctx, w, h, 1)?,
+            inv_diag: GpuImage::zeroed(ctx, w, h, 1)?,
+            rhs: GpuImage::zeroed(ctx, w, h, 3)?,
+        };
+        let uniform = Self::uniform(params, w, h, views);
+        self.run(ctx, &self.color_system, &uniform, [warp_colors, w_p, &unused, temporal, &sys.right, &sys.down, &sys.inv_diag, &sys.rhs]);
+        Ok(sys)
+    }
+}
