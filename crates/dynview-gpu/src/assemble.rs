@@ -21,6 +21,19 @@ pub struct GpuSystem {
     pub rhs: GpuImage,
 }
 
+/// The warps of the chosen views, packed: view `s` occupies rows `s * height ..` of each image.
+#[derive(Clone, Copy, Debug)]
+pub struct PackedViews<'a> {
+    /// Warped colors `P^s` (RGB).
+    pub colors: &'a GpuImage,
+    /// `sigma_vis^s` (0 or 1).
+    pub visibility: &'a GpuImage,
+    /// 1 where the warp lands inside input `s`, else 0.
+    pub valid: &'a GpuImage,
+    /// Number of views.
+    pub count: usize,
+}
+
 /// `assemble.wgsl`'s uniform block.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -101,19 +114,16 @@ impl AssembleKernels {
         ctx.queue.submit([encoder.finish()]);
     }
 
-    /// `w_P^s` of every view (packed: view `s` at rows `s * height ..`), `-1` where the warp
-    /// of view `s` is invalid. `warp_colors` (RGB), `visibility` and `valid` (1 or 0) are
-    /// packed the same way; `color` is the current estimate.
+    /// `w_P^s` of every view (packed like `views`), `-1` where the warp of view `s` is
+    /// invalid; `color` is the current estimate.
     pub fn projection_weights(
         &self,
         ctx: &GpuContext,
         params: &RenderParams,
         color: &GpuImage,
-        warp_colors: &GpuImage,
-        visibility: &GpuImage,
-        valid: &GpuImage,
-        views: usize,
+        views: PackedViews,
     ) -> Result<GpuImage, GpuError> {
+        let PackedViews { colors: warp_colors, visibility, valid, count: views } = views;
         let (w, h) = (color.width, color.height);
         check(color, "color", w, h, 3)?;
         check(warp_colors, "warp colors", w, h * views, 3)?;

@@ -15,7 +15,7 @@ mod kernel;
 mod solver;
 mod warp;
 
-pub use assemble::{AssembleKernels, GpuSystem};
+pub use assemble::{AssembleKernels, GpuSystem, PackedViews};
 pub use context::{GpuContext, GpuError};
 pub use image::{GpuImage, ImageKernels};
 pub use solver::GridSolver;

@@ -250,7 +250,7 @@ use dynview_core::render::RenderParams;
 use dynview_core::render::solve::{ColorTerms, ColorView};
 use dynview_core::render::sparse::SplatMaps;
 use dynview_core::render::weights;
-use dynview_gpu::AssembleKernels;
+use dynview_gpu::{AssembleKernels, PackedViews};
 
 /// Largest difference relative to the magnitude (at least `floor`).
 fn max_relative_difference(gpu: &[f32], cpu: &[f32], floor: f32) -> f32 {
@@ -341,7 +341,8 @@ fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
     let visibility = up(&packed(&|wp| wp.visibility.clone()), 2 * h, 1);
     let valid = up(&packed(&|wp| (0..n).map(|i| if wp.valid(i) { 1.0 } else { 0.0 }).collect()), 2 * h, 1);
     let color_gpu = up(color.data.as_flattened(), h, 3);
-    let w_p_gpu = assemble.projection_weights(&ctx, &params, &color_gpu, &warp_colors, &visibility, &valid, 2).unwrap();
+    let packed_views = PackedViews { colors: &warp_colors, visibility: &visibility, valid: &valid, count: 2 };
+    let w_p_gpu = assemble.projection_weights(&ctx, &params, &color_gpu, packed_views).unwrap();
     let sparse_color_mask: Vec<f32> = (0..n)
         .flat_map(|i| {
             let c = sparse.color.data[i];
