@@ -392,3 +392,80 @@ fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
     // The scene exercises the terms: clamped and free w_D, sparse attachment, invalid warps.
     assert!(depth_terms.attach.iter().any(|&a| a > 0.5) && cpu_w_p.iter().any(|&v| v < 0.0));
 }
+
+use dynview_core::render::sparse::{project_cloud, warp_frame};
+use dynview_core::scene::PointCloud;
+use dynview_gpu::{GpuCloud, SplatKernels};
+
+/// Compares GPU splat maps with the CPU's: pixels whose mask differs (a rounding flip at a
+/// half-pixel boundary) must be rare; where both have a sample, depth and color must agree.
+fn assert_splats_agree(ctx: &GpuContext, gpu: &dynview_gpu::GpuSplat, cpu: &SplatMaps, what: &str) {
+    let mask = gpu.mask.download(ctx).unwrap();
+    let depth = gpu.depth.download(ctx).unwrap();
+    let color = gpu.color.download(ctx).unwrap();
+    let n = mask.len();
+    let flips = mask.iter().zip(&cpu.mask.data).filter(|(a, b)| a != b).count();
+    let covered = cpu.mask.data.iter().filter(|&&m| m > 0.0).count();
+    assert!(covered > n / 20, "{what}: the test must cover pixels ({covered})");
+    assert!(flips * 1000 <= covered, "{what}: coverage differs on {flips} of {covered} pixels");
+    let mut worst = (0.0f32, 0.0f32);
+    for i in 0..n {
+        if mask[i] > 0.0 && cpu.mask.data[i] > 0.0 {
+            worst.0 = worst.0.max((depth[i] - cpu.depth.data[i]).abs() / cpu.depth.data[i]);
+            for k in 0..3 {
+                worst.1 = worst.1.max((color[i * 3 + k] - cpu.color.data[i][k]).abs());
+            }
+        } else if mask[i] == 0.0 && cpu.mask.data[i] == 0.0 {
+            assert!(depth[i].is_infinite(), "{what}: empty pixel {i} must have infinite depth");
+        }
+    }
+    assert!(worst.0 <= 1e-5 && worst.1 <= 1e-6, "{what}: depth {} (relative) color {} max differences", worst.0, worst.1);
+}
+
+#[test]
+fn cloud_and_frame_splats_on_the_gpu_match_the_cpu() {
+    let ctx = context();
+    let kernels = SplatKernels::new(&ctx);
+    let mut r = noise(51);
+    // Points in front of and behind the camera, some off the image, and exact duplicates of
+    // other colors (the first one must win, as on the CPU).
+    let mut cloud = PointCloud::default();
+    for _ in 0..4000 {
+        cloud.positions_world.push([6.0 * r() - 3.0, 4.0 * r() - 2.0, 8.0 * r() - 4.0]);
+        cloud.colors.push([(255.0 * r()) as u8, (255.0 * r()) as u8, (255.0 * r()) as u8]);
+    }
+    for i in 0..200 {
+        let p = cloud.positions_world[i];
+        cloud.positions_world.push(p);
+        cloud.colors.push([1, 2, 3]);
+    }
+    let cam = camera(DVec3::new(0.5, 0.5, 6.0), 80, 48);
+    let cpu = project_cloud(&cloud, &cam);
+    let gpu = kernels.project_cloud(&ctx, &GpuCloud::upload(&ctx, &cloud), &cam).unwrap();
+    assert_splats_agree(&ctx, &gpu, &cpu, "cloud");
+    // An empty cloud gives empty maps.
+    let empty = kernels.project_cloud(&ctx, &GpuCloud::upload(&ctx, &PointCloud::default()), &cam).unwrap();
+    assert!(empty.mask.download(&ctx).unwrap().iter().all(|&m| m == 0.0));
+
+    // A rendered frame forward-warped into a moved camera.
+    let (w, h) = (64, 40);
+    let source = camera(DVec3::new(0.3, 0.2, 5.0), w as u32, h as u32);
+    let target = camera(DVec3::new(0.6, 0.1, 4.8), 70, 44);
+    let depth = Raster {
+        width: w,
+        height: h,
+        data: (0..w * h).map(|i| if (20..40).contains(&(i % w)) { 3.5 } else { 5.0 + 0.02 * (i / w) as f32 }).collect(),
+    };
+    let color = rgb_image(w, h, 57);
+    let cpu = warp_frame(&source, &depth, &color, &target);
+    let gpu = kernels
+        .warp_frame(
+            &ctx,
+            &source,
+            &GpuImage::upload(&ctx, &depth.data, w, h, 1).unwrap(),
+            &GpuImage::upload(&ctx, color.data.as_flattened(), w, h, 3).unwrap(),
+            &target,
+        )
+        .unwrap();
+    assert_splats_agree(&ctx, &gpu, &cpu, "frame");
+}

@@ -1,0 +1,199 @@
+//! Splatting with a z-buffer on the GPU (`shaders/splat_project.wgsl`,
+//! `shaders/splat_resolve.wgsl`): the sparse cloud into a camera (`D^`, `I^`, `m`) and a rendered
+//! frame into the next camera (the temporal terms' `D_{t-1}^{proj}`, `I_{t-1}^{proj}`), as
+//! dynview-core's `sparse::project_cloud` and `sparse::warp_frame`.
+
+use dynview_core::camera::Camera;
+use dynview_core::render::transfer::PixelTransfer;
+use dynview_core::scene::PointCloud;
+use wgpu::util::DeviceExt;
+
+use crate::context::{GpuContext, GpuError};
+use crate::image::GpuImage;
+use crate::kernel::Kernel;
+
+/// Splat maps on the GPU: depth (infinite where nothing landed), RGB color and mask.
+#[derive(Debug)]
+pub struct GpuSplat {
+    /// z-depth of the nearest element.
+    pub depth: GpuImage,
+    /// Its color.
+    pub color: GpuImage,
+    /// 1 where an element landed.
+    pub mask: GpuImage,
+}
+
+/// A point cloud on the GPU.
+#[derive(Debug)]
+pub struct GpuCloud {
+    positions: wgpu::Buffer,
+    colors: wgpu::Buffer,
+    count: usize,
+}
+
+impl GpuCloud {
+    /// Uploads `cloud` (positions as f32 triples, colors as packed RGBA8).
+    pub fn upload(ctx: &GpuContext, cloud: &PointCloud) -> Self {
+        // Buffers may not be empty: pad with one unused element.
+        let mut positions: Vec<f32> = cloud.positions_world.as_flattened().to_vec();
+        let mut colors: Vec<u32> = cloud.colors.iter().map(|c| u32::from_le_bytes([c[0], c[1], c[2], 255])).collect();
+        positions.resize(positions.len().max(3), 0.0);
+        colors.resize(colors.len().max(1), 0);
+        let init = |label, contents: &[u8]| {
+            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        Self {
+            positions: init("cloud positions", bytemuck::cast_slice(&positions)),
+            colors: init("cloud colors", bytemuck::cast_slice(&colors)),
+            count: cloud.len(),
+        }
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ProjectParams {
+    count: u32,
+    width: u32,
+    height: u32,
+    source_width: u32,
+    rows: [[f32; 4]; 3],
+    extra: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ResolveParams {
+    count: u32,
+    pixels: u32,
+    _pad: [u32; 2],
+}
+
+/// The splat kernels, compiled once per device.
+#[derive(Debug)]
+pub struct SplatKernels {
+    project_points: Kernel,
+    project_pixels: Kernel,
+    clear: Kernel,
+    nearest_depth: Kernel,
+    first_index: Kernel,
+    write: Kernel,
+}
+
+impl SplatKernels {
+    /// Compiles the kernels on `ctx`'s device.
+    pub fn new(ctx: &GpuContext) -> Self {
+        let module = |name: &str, source: &str| {
+            ctx.device
+                .create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(source.into()) })
+        };
+        let project = module("splat_project.wgsl", include_str!("shaders/splat_project.wgsl"));
+        let resolve = module("splat_resolve.wgsl", include_str!("shaders/splat_resolve.wgsl"));
+        let p = [true, true, false, false, false];
+        let r = [true, true, true, false, false, false, false, false];
+        Self {
+            project_points: Kernel::new(ctx, &project, "project_points", &p, 64),
+            project_pixels: Kernel::new(ctx, &project, "project_pixels", &p, 64),
+            clear: Kernel::new(ctx, &resolve, "clear", &r, 64),
+            nearest_depth: Kernel::new(ctx, &resolve, "nearest_depth", &r, 64),
+            first_index: Kernel::new(ctx, &resolve, "first_index", &r, 64),
+            write: Kernel::new(ctx, &resolve, "write", &r, 64),
+        }
+    }
+
+    /// Projects `cloud` into `camera` (dynview-core's `project_cloud`, without the consistency
+    /// filter).
+    pub fn project_cloud(&self, ctx: &GpuContext, cloud: &GpuCloud, camera: &Camera) -> Result<GpuSplat, GpuError> {
+        let r = camera.camera_from_world.rotation;
+        let t = camera.camera_from_world.translation;
+        let k = camera.intrinsics;
+        let rows = std::array::from_fn(|i| {
+            let row = r.row(i);
+            [row.x as f32, row.y as f32, row.z as f32, t[i] as f32]
+        });
+        let params = ProjectParams {
+            count: cloud.count as u32,
+            width: camera.width_px,
+            height: camera.height_px,
+            source_width: 1,
+            rows,
+            extra: [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32],
+        };
+        self.splat(ctx, &self.project_points, &params, &cloud.positions, &cloud.colors, camera)
+    }
+
+    /// Forward-warps a rendered frame (`source` camera, depth, RGB color) into `camera`
+    /// (dynview-core's `warp_frame`).
+    pub fn warp_frame(
+        &self,
+        ctx: &GpuContext,
+        source: &Camera,
+        depth: &GpuImage,
+        color: &GpuImage,
+        camera: &Camera,
+    ) -> Result<GpuSplat, GpuError> {
+        if (depth.width, depth.height, depth.channels) != (color.width, color.height, 1) || color.channels != 3 {
+            return Err(GpuError::Size(format!(
+                "frame depth {}x{}x{} and color {}x{}x{} disagree",
+                depth.width, depth.height, depth.channels, color.width, color.height, color.channels
+            )));
+        }
+        let (m, e) = PixelTransfer::new(source, camera).coefficients();
+        let params = ProjectParams {
+            count: (depth.width * depth.height) as u32,
+            width: camera.width_px,
+            height: camera.height_px,
+            source_width: depth.width as u32,
+            rows: [[m[0], m[1], m[2], 0.0], [m[3], m[4], m[5], 0.0], [m[6], m[7], m[8], 0.0]],
+            extra: [e[0], e[1], e[2], 0.0],
+        };
+        self.splat(ctx, &self.project_pixels, &params, &depth.buffer, &color.buffer, camera)
+    }
+
+    fn splat(
+        &self,
+        ctx: &GpuContext,
+        project: &Kernel,
+        params: &ProjectParams,
+        geometry: &wgpu::Buffer,
+        colors: &wgpu::Buffer,
+        camera: &Camera,
+    ) -> Result<GpuSplat, GpuError> {
+        let (w, h) = (camera.width_px as usize, camera.height_px as usize);
+        let count = (params.count as usize).max(1);
+        let out = GpuSplat {
+            depth: GpuImage::zeroed(ctx, w, h, 1)?,
+            color: GpuImage::zeroed(ctx, w, h, 3)?,
+            mask: GpuImage::zeroed(ctx, w, h, 1)?,
+        };
+        let element_target = GpuImage::zeroed(ctx, count, 1, 1)?;
+        let element_depth = GpuImage::zeroed(ctx, count, 1, 1)?;
+        let element_color = GpuImage::zeroed(ctx, count, 1, 3)?;
+        let zbuf = GpuImage::zeroed(ctx, w, h, 1)?;
+        let winner = GpuImage::zeroed(ctx, w, h, 1)?;
+        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("splat") });
+        let elements = [&element_target.buffer, &element_depth.buffer, &element_color.buffer];
+        project.dispatch(
+            ctx,
+            &mut encoder,
+            bytemuck::bytes_of(params),
+            &[geometry, colors, elements[0], elements[1], elements[2]],
+            params.count as usize,
+            1,
+        );
+        let resolve = ResolveParams { count: params.count, pixels: (w * h) as u32, _pad: [0; 2] };
+        let buffers =
+            [elements[0], elements[1], elements[2], &zbuf.buffer, &winner.buffer, &out.depth.buffer, &out.color.buffer, &out.mask.buffer];
+        let uniform = bytemuck::bytes_of(&resolve);
+        self.clear.dispatch(ctx, &mut encoder, uniform, &buffers, w * h, 1);
+        for kernel in [&self.nearest_depth, &self.first_index, &self.write] {
+            kernel.dispatch(ctx, &mut encoder, uniform, &buffers, params.count as usize, 1);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        Ok(out)
+    }
+}
