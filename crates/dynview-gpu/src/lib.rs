@@ -1,18 +1,24 @@
 //! dynview's renderer on the GPU, as wgpu compute passes (WGSL in `src/shaders/`), natively
 //! (Vulkan; lavapipe in tests) and in the browser (WebGPU).
 //!
-//! Status: the device context and, each matching its dynview-core counterpart, the red-black
-//! solver of the depth and color systems ([`GridSolver`]), the image kernels
-//! ([`ImageKernels`]: pyramid down/upsampling, push-pull fill), the backward warps with their
-//! visibility ([`WarpKernels`]), and the weights with the assembly of both systems
-//! ([`AssembleKernels`]), and z-buffered splats of the cloud and of the previous frame
-//! ([`SplatKernels`]). Still to come: the sparse consistency filter, `w_T`, the color initial
-//! guess and the frame loop; until then the renderer runs on the CPU.
+//! [`GpuRenderer`] runs the full method and its no-temporal ablation of METHOD.md Part 2 level
+//! by level on the GPU: z-buffered splats of the cloud and of the previous frame
+//! ([`SplatKernels`]), the sparse consistency filter, push-pull and pyramid resampling
+//! ([`ImageKernels`]), backward warps with visibility ([`WarpKernels`]), the weights and the
+//! assembly of both systems ([`AssembleKernels`]), the color initial guess and `w_T`
+//! ([`LevelKernels`]), and red-black sweeps ([`GridSolver`]). Each matches its dynview-core
+//! counterpart; a whole frame matches the CPU's (tests/gpu_parity.rs). The baselines stay on
+//! the CPU.
+//!
+//! Not yet: buffer reuse across frames (each render allocates), timestamp queries, the
+//! browser path.
 
 mod assemble;
 mod context;
 mod image;
 mod kernel;
+mod level;
+mod renderer;
 mod solver;
 mod splat;
 mod warp;
@@ -20,9 +26,11 @@ mod warp;
 pub use assemble::{AssembleKernels, GpuSystem, PackedViews};
 pub use context::{GpuContext, GpuError};
 pub use image::{GpuImage, ImageKernels};
+pub use level::{LevelKernels, MAX_VIEWS};
+pub use renderer::{GpuFrame, GpuInputs, GpuRenderer};
 pub use solver::GridSolver;
 pub use splat::{GpuCloud, GpuSplat, SplatKernels};
-pub use warp::{GpuWarp, WarpKernels};
+pub use warp::{GpuWarps, WarpKernels};
 
 /// Every WGSL shader of the crate, by file name (validated by naga in the tests).
 pub const SHADERS: &[(&str, &str)] = &[
@@ -33,4 +41,6 @@ pub const SHADERS: &[(&str, &str)] = &[
     ("assemble.wgsl", include_str!("shaders/assemble.wgsl")),
     ("splat_project.wgsl", include_str!("shaders/splat_project.wgsl")),
     ("splat_resolve.wgsl", include_str!("shaders/splat_resolve.wgsl")),
+    ("consistency.wgsl", include_str!("shaders/consistency.wgsl")),
+    ("frame.wgsl", include_str!("shaders/frame.wgsl")),
 ];

@@ -6,6 +6,7 @@ use dynview_core::render::solve::GridSystem;
 use wgpu::util::DeviceExt;
 
 use crate::context::{GpuContext, GpuError};
+use crate::image::GpuImage;
 
 /// The shader's uniform block.
 #[repr(C)]
@@ -83,6 +84,67 @@ impl GridSolver {
         Self { pipeline, layout }
     }
 
+    /// `sweeps` red-black sweeps of a system already on the GPU, on `u` (in place; `u`'s
+    /// channels share the system).
+    pub fn solve_on_gpu(&self, ctx: &GpuContext, sys: &crate::GpuSystem, u: &GpuImage, sweeps: usize, omega: f32) -> Result<(), GpuError> {
+        let (w, h) = (u.width, u.height);
+        for (name, image, channels) in
+            [("right", &sys.right, 1), ("down", &sys.down, 1), ("inv_diag", &sys.inv_diag, 1), ("rhs", &sys.rhs, u.channels)]
+        {
+            if (image.width, image.height, image.channels) != (w, h, channels) {
+                return Err(GpuError::Size(format!(
+                    "system {name} is {}x{}x{}, unknowns {w}x{h}x{}",
+                    image.width, image.height, image.channels, u.channels
+                )));
+            }
+        }
+        let buffers = [&sys.right.buffer, &sys.down.buffer, &sys.inv_diag.buffer, &sys.rhs.buffer, &u.buffer];
+        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("red_black") });
+        self.record(ctx, &mut encoder, buffers, w, h, u.channels as u32, sweeps, omega);
+        ctx.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// Records `sweeps` sweeps over the buffers (right, down, inv_diag, rhs, u).
+    #[allow(clippy::too_many_arguments)]
+    fn record(
+        &self,
+        ctx: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        buffers: [&wgpu::Buffer; 5],
+        width: usize,
+        height: usize,
+        channels: u32,
+        sweeps: usize,
+        omega: f32,
+    ) {
+        let device = &ctx.device;
+        let bind_groups: Vec<wgpu::BindGroup> = (0..2u32)
+            .map(|parity| {
+                let params = Params { width: width as u32, height: height as u32, parity, channels, omega, _pad: [0; 3] };
+                let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("red_black params"),
+                    contents: bytemuck::bytes_of(&params),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+                let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() }];
+                for (i, b) in buffers.iter().enumerate() {
+                    entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: b.as_entire_binding() });
+                }
+                device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("red_black"), layout: &self.layout, entries: &entries })
+            })
+            .collect();
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("red_black"), timestamp_writes: None });
+        pass.set_pipeline(&self.pipeline);
+        let groups = ((width as u32).div_ceil(WORKGROUP), (height as u32).div_ceil(WORKGROUP));
+        for _ in 0..sweeps {
+            for bind_group in &bind_groups {
+                pass.set_bind_group(0, bind_group, &[]);
+                pass.dispatch_workgroups(groups.0, groups.1, 1);
+            }
+        }
+    }
+
     /// `sweeps` red-black sweeps of the depth system `sys` on `u` (in place), as
     /// [`GridSystem::sweep`] does them.
     pub fn solve_depth(&self, ctx: &GpuContext, sys: &GridSystem<f32>, u: &mut [f32], sweeps: usize, omega: f32) -> Result<(), GpuError> {
@@ -131,34 +193,8 @@ impl GridSolver {
         let inv_diag = storage("inv_diag", &sys.inv_diag, read);
         let rhs = storage("rhs", rhs, read);
         let unknowns = storage("u", u, read | wgpu::BufferUsages::COPY_SRC);
-        let bind_groups: Vec<wgpu::BindGroup> = (0..2u32)
-            .map(|parity| {
-                let params = Params { width: sys.width as u32, height: sys.height as u32, parity, channels, omega, _pad: [0; 3] };
-                let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("red_black params"),
-                    contents: bytemuck::bytes_of(&params),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                });
-                let entries: Vec<wgpu::BindGroupEntry> = [&uniform, &right, &down, &inv_diag, &rhs, &unknowns]
-                    .iter()
-                    .enumerate()
-                    .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
-                    .collect();
-                device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("red_black"), layout: &self.layout, entries: &entries })
-            })
-            .collect();
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("red_black") });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("red_black"), timestamp_writes: None });
-            pass.set_pipeline(&self.pipeline);
-            let groups = ((sys.width as u32).div_ceil(WORKGROUP), (sys.height as u32).div_ceil(WORKGROUP));
-            for _ in 0..sweeps {
-                for bind_group in &bind_groups {
-                    pass.set_bind_group(0, bind_group, &[]);
-                    pass.dispatch_workgroups(groups.0, groups.1, 1);
-                }
-            }
-        }
+        self.record(ctx, &mut encoder, [&right, &down, &inv_diag, &rhs, &unknowns], sys.width, sys.height, channels, sweeps, omega);
         ctx.queue.submit([encoder.finish()]);
         read_buffer(ctx, &unknowns, u)
     }

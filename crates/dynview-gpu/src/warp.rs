@@ -1,24 +1,33 @@
 //! Backward warps of the input views into the novel view and their visibility
-//! (`shaders/warp.wgsl`), as dynview-core's `render::warp`.
+//! (`shaders/warp.wgsl`), as dynview-core's `render::warp`, packed for the assembly kernels.
 
 use dynview_core::camera::Camera;
 use dynview_core::render::transfer::PixelTransfer;
 
+use crate::assemble::PackedViews;
 use crate::context::{GpuContext, GpuError};
 use crate::image::GpuImage;
 use crate::kernel::Kernel;
 
-/// One input view warped into the novel view, on the GPU.
+/// The chosen input views warped into the novel view, packed: view `s` occupies rows
+/// `s * height ..` of each image.
 #[derive(Debug)]
-pub struct GpuWarp {
+pub struct GpuWarps {
     /// `I^proj_s`, RGB (black where invalid).
-    pub color: GpuImage,
-    /// Nearest input pixel per novel pixel (`u32::MAX` outside), as u32 bits.
-    pub target: wgpu::Buffer,
-    /// Depth in the input camera.
-    pub depth_in_input: GpuImage,
+    pub colors: GpuImage,
     /// `sigma_vis^s` (0 or 1).
     pub visibility: GpuImage,
+    /// 1 where the novel pixel lands inside input `s`.
+    pub valid: GpuImage,
+    /// Number of views.
+    pub count: usize,
+}
+
+impl GpuWarps {
+    /// The warps as the assembly kernels take them.
+    pub fn packed(&self) -> PackedViews<'_> {
+        PackedViews { colors: &self.colors, visibility: &self.visibility, valid: &self.valid, count: self.count }
+    }
 }
 
 /// `warp.wgsl`'s uniform block.
@@ -30,7 +39,8 @@ struct WarpParams {
     input_width: u32,
     input_height: u32,
     tolerance: f32,
-    _pad: [u32; 3],
+    offset: u32,
+    _pad: [u32; 2],
     m_rows: [[f32; 4]; 3],
     e: [f32; 4],
 }
@@ -50,7 +60,7 @@ impl WarpKernels {
             label: Some("warp.wgsl"),
             source: wgpu::ShaderSource::Wgsl(include_str!("shaders/warp.wgsl").into()),
         });
-        let bindings = [true, true, false, false, false, false, false];
+        let bindings = [true, true, false, false, false, false, false, false];
         Self {
             clear_zbuf: Kernel::new(ctx, &module, "clear_zbuf", &bindings, 64),
             warp: Kernel::new(ctx, &module, "warp", &bindings, 8),
@@ -58,17 +68,16 @@ impl WarpKernels {
         }
     }
 
-    /// Warps `input` (an RGB image seen by `input_camera`) into `novel` with z-depth `depth`,
+    /// Warps each input (an RGB image seen by its camera) into `novel` with z-depth `depth`,
     /// and tests visibility with relative depth `tolerance`.
-    pub fn warp_view(
+    pub fn warp_views(
         &self,
         ctx: &GpuContext,
         novel: &Camera,
         depth: &GpuImage,
-        input_camera: &Camera,
-        input: &GpuImage,
+        inputs: &[(Camera, &GpuImage)],
         tolerance: f32,
-    ) -> Result<GpuWarp, GpuError> {
+    ) -> Result<GpuWarps, GpuError> {
         let (w, h) = (depth.width, depth.height);
         if (w, h) != (novel.width_px as usize, novel.height_px as usize) || depth.channels != 1 {
             return Err(GpuError::Size(format!(
@@ -76,44 +85,56 @@ impl WarpKernels {
                 w, h, depth.channels, novel.width_px, novel.height_px
             )));
         }
-        if (input.width, input.height, input.channels) != (input_camera.width_px as usize, input_camera.height_px as usize, 3) {
-            return Err(GpuError::Size(format!(
-                "input frame {}x{}x{} for a {}x{} camera",
-                input.width, input.height, input.channels, input_camera.width_px, input_camera.height_px
-            )));
+        let count = inputs.len();
+        if count == 0 {
+            return Err(GpuError::Size("no input views to warp".into()));
         }
-        let (m, e) = PixelTransfer::new(novel, input_camera).coefficients();
-        let params = WarpParams {
-            width: w as u32,
-            height: h as u32,
-            input_width: input.width as u32,
-            input_height: input.height as u32,
-            tolerance,
-            _pad: [0; 3],
-            m_rows: [[m[0], m[1], m[2], 0.0], [m[3], m[4], m[5], 0.0], [m[6], m[7], m[8], 0.0]],
-            e: [e[0], e[1], e[2], 0.0],
+        let out = GpuWarps {
+            colors: GpuImage::zeroed(ctx, w, h * count, 3)?,
+            visibility: GpuImage::zeroed(ctx, w, h * count, 1)?,
+            valid: GpuImage::zeroed(ctx, w, h * count, 1)?,
+            count,
         };
-        let out = GpuWarp {
-            color: GpuImage::zeroed(ctx, w, h, 3)?,
-            target: GpuImage::zeroed(ctx, w, h, 1)?.buffer,
-            depth_in_input: GpuImage::zeroed(ctx, w, h, 1)?,
-            visibility: GpuImage::zeroed(ctx, w, h, 1)?,
-        };
-        let zbuf = GpuImage::zeroed(ctx, input.width, input.height, 1)?;
-        let buffers = [
-            &depth.buffer,
-            &input.buffer,
-            &out.color.buffer,
-            &out.target,
-            &out.depth_in_input.buffer,
-            &out.visibility.buffer,
-            &zbuf.buffer,
-        ];
-        let uniform = bytemuck::bytes_of(&params);
+        let target = GpuImage::zeroed(ctx, w, h, 1)?;
+        let depth_in_input = GpuImage::zeroed(ctx, w, h, 1)?;
         let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("warp") });
-        self.clear_zbuf.dispatch(ctx, &mut encoder, uniform, &buffers, input.width * input.height, 1);
-        self.warp.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
-        self.visible.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
+        let mut zbufs = Vec::with_capacity(count);
+        for (s, (input_camera, input)) in inputs.iter().enumerate() {
+            if (input.width, input.height, input.channels) != (input_camera.width_px as usize, input_camera.height_px as usize, 3) {
+                return Err(GpuError::Size(format!(
+                    "input frame {s} is {}x{}x{} for a {}x{} camera",
+                    input.width, input.height, input.channels, input_camera.width_px, input_camera.height_px
+                )));
+            }
+            let (m, e) = PixelTransfer::new(novel, input_camera).coefficients();
+            let params = WarpParams {
+                width: w as u32,
+                height: h as u32,
+                input_width: input.width as u32,
+                input_height: input.height as u32,
+                tolerance,
+                offset: (s * w * h) as u32,
+                _pad: [0; 2],
+                m_rows: [[m[0], m[1], m[2], 0.0], [m[3], m[4], m[5], 0.0], [m[6], m[7], m[8], 0.0]],
+                e: [e[0], e[1], e[2], 0.0],
+            };
+            zbufs.push(GpuImage::zeroed(ctx, input.width, input.height, 1)?);
+            let zbuf = &zbufs[s];
+            let buffers = [
+                &depth.buffer,
+                &input.buffer,
+                &out.colors.buffer,
+                &target.buffer,
+                &depth_in_input.buffer,
+                &out.visibility.buffer,
+                &zbuf.buffer,
+                &out.valid.buffer,
+            ];
+            let uniform = bytemuck::bytes_of(&params);
+            self.clear_zbuf.dispatch(ctx, &mut encoder, uniform, &buffers, input.width * input.height, 1);
+            self.warp.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
+            self.visible.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
+        }
         ctx.queue.submit([encoder.finish()]);
         Ok(out)
     }

@@ -228,13 +228,24 @@ fn warps_and_visibility_on_the_gpu_match_the_cpu() {
     };
     let mut cpu = warp_view(&novel, &depth, &input_camera, &input);
     compute_visibility(&mut cpu, 160 * 90, 0.01);
+    // The same view twice: the packed second copy must equal the first.
+    let mut cpu2 = warp_view(&novel, &depth, &novel, &rgb_image(w, h, 22));
+    compute_visibility(&mut cpu2, w * h, 0.01);
     let depth_gpu = GpuImage::upload(&ctx, &depth.data, w, h, 1).unwrap();
     let input_gpu = GpuImage::upload(&ctx, input.data.as_flattened(), 160, 90, 3).unwrap();
-    let gpu = kernels.warp_view(&ctx, &novel, &depth_gpu, &input_camera, &input_gpu, 0.01).unwrap();
-    let color = gpu.color.download(&ctx).unwrap();
-    let visibility = gpu.visibility.download(&ctx).unwrap();
+    let second = GpuImage::upload(&ctx, rgb_image(w, h, 22).data.as_flattened(), w, h, 3).unwrap();
+    let gpu = kernels.warp_views(&ctx, &novel, &depth_gpu, &[(input_camera, &input_gpu), (novel, &second)], 0.01).unwrap();
+    let colors = gpu.colors.download(&ctx).unwrap();
+    let visibilities = gpu.visibility.download(&ctx).unwrap();
+    let valid = gpu.valid.download(&ctx).unwrap();
+    let n = w * h;
+    let (color, visibility) = (&colors[..3 * n], &visibilities[..n]);
+    assert!((0..n).all(|i| (valid[i] > 0.0) == cpu.valid(i) && (valid[n + i] > 0.0) == cpu2.valid(i)), "validity differs");
+    let diff2 = max_difference(&colors[3 * n..], cpu2.color.as_flattened());
+    assert!(diff2 <= 1e-3, "second view color: max difference {diff2}");
+    assert_eq!(&visibilities[n..], &cpu2.visibility[..]);
     // Colors: equal up to rounding where the sample position is the same.
-    let diff = max_difference(&color, cpu.color.as_flattened());
+    let diff = max_difference(color, cpu.color.as_flattened());
     assert!(diff <= 1e-3, "warped color: max difference {diff}");
     // Visibility is a discrete test; a last-bit difference in a depth may flip a pixel at a
     // tie. Allow at most 0.2% of pixels.

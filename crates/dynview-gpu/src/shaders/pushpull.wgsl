@@ -36,7 +36,8 @@ fn premultiply(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let i = id.y * dims.width + id.x;
     for (var c = 0u; c < dims.channels; c = c + 1u) {
-        out_values[i * dims.channels + c] = values[i * dims.channels + c] * weights[i];
+        // 0 where unknown, whatever the value there (an infinite depth must not become NaN).
+        out_values[i * dims.channels + c] = select(0.0, values[i * dims.channels + c] * weights[i], weights[i] > 0.0);
     }
     out_weights[i] = weights[i];
 }

@@ -3,7 +3,8 @@
 // image (atomic min), following dynview-core's render::warp term by term.
 //
 // Entry points, in order: clear_zbuf (over input pixels), warp (over novel pixels),
-// visibility (over novel pixels).
+// visible (over novel pixels). Color, visibility and validity are written at `offset` into
+// buffers that pack the views (view s at s * width * height).
 
 struct Params {
     width: u32,
@@ -12,7 +13,7 @@ struct Params {
     input_height: u32,
     // Relative depth tolerance of the visibility test.
     tolerance: f32,
-    _pad0: u32,
+    offset: u32,
     _pad1: u32,
     _pad2: u32,
     // The pixel transfer novel -> input: h = depth * M [x, y, 1] + e (rows of M in xyz).
@@ -30,8 +31,8 @@ const INFINITE_DEPTH_BITS: u32 = 0x7f800000u;
 @group(0) @binding(1) var<storage, read> depth: array<f32>;
 // The input frame, RGB floats.
 @group(0) @binding(2) var<storage, read> input: array<f32>;
-// Outputs per novel pixel: warped color (RGB floats), nearest input pixel, depth in the input
-// camera, visibility.
+// Outputs per novel pixel: warped color (RGB floats, packed), nearest input pixel, depth in the
+// input camera, visibility (packed).
 @group(0) @binding(3) var<storage, read_write> color: array<f32>;
 @group(0) @binding(4) var<storage, read_write> target_pixel: array<u32>;
 @group(0) @binding(5) var<storage, read_write> depth_in_input: array<f32>;
@@ -39,6 +40,8 @@ const INFINITE_DEPTH_BITS: u32 = 0x7f800000u;
 // Per input pixel: the nearest depth landing there, as f32 bits (positive floats order as
 // their bits).
 @group(0) @binding(7) var<storage, read_write> zbuf: array<atomic<u32>>;
+// 1 where the novel pixel lands inside the input image, else 0 (packed).
+@group(0) @binding(8) var<storage, read_write> valid: array<f32>;
 
 @compute @workgroup_size(64)
 fn clear_zbuf(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -59,9 +62,10 @@ fn warp(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let i = y * params.width + x;
-    color[i * 3u] = 0.0;
-    color[i * 3u + 1u] = 0.0;
-    color[i * 3u + 2u] = 0.0;
+    let o = params.offset + i;
+    color[o * 3u] = 0.0;
+    color[o * 3u + 1u] = 0.0;
+    color[o * 3u + 2u] = 0.0;
     target_pixel[i] = OUTSIDE;
     depth_in_input[i] = 0.0;
     let d = depth[i];
@@ -106,7 +110,7 @@ fn warp(@builtin(global_invocation_id) id: vec3<u32>) {
         let e = pixel(i00 + dy + dx, k);
         let top = a + (b - a) * tx;
         let bottom = c + (e - c) * tx;
-        color[i * 3u + k] = top + (bottom - top) * ty;
+        color[o * 3u + k] = top + (bottom - top) * ty;
     }
     let ui = min(u32(u + 0.5), params.input_width - 1u);
     let vi = min(u32(v + 0.5), params.input_height - 1u);
@@ -127,5 +131,6 @@ fn visible(@builtin(global_invocation_id) id: vec3<u32>) {
     if (t != OUTSIDE && depth_in_input[i] <= bitcast<f32>(atomicLoad(&zbuf[t])) * (1.0 + params.tolerance)) {
         vis = 1.0;
     }
-    visibility[i] = vis;
+    visibility[params.offset + i] = vis;
+    valid[params.offset + i] = select(0.0, 1.0, t != OUTSIDE);
 }

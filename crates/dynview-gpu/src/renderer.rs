@@ -1,0 +1,193 @@
+//! The frame loop on the GPU: METHOD.md Part 2 level by level, as dynview-core's `FrameJob`
+//! for the full method and its no-temporal ablation, every stage a compute pass.
+
+use dynview_core::camera::Camera;
+use dynview_core::render::pyramid::{camera_at, level_sizes};
+use dynview_core::render::{FALLBACK_COLOR, FALLBACK_DEPTH, Method, RenderParams, TimeStepInputs};
+use dynview_core::view_ranking::{rank_views, view_score};
+
+use crate::assemble::AssembleKernels;
+use crate::context::{GpuContext, GpuError};
+use crate::image::{GpuImage, ImageKernels};
+use crate::level::LevelKernels;
+use crate::solver::GridSolver;
+use crate::splat::{GpuCloud, GpuSplat, SplatKernels};
+use crate::warp::WarpKernels;
+
+/// A time step's inputs on the GPU: the cloud and every view's pyramid.
+#[derive(Debug)]
+pub struct GpuInputs {
+    cloud: GpuCloud,
+    /// Per view: its full-resolution camera and its frame per level (finest first).
+    views: Vec<(Camera, Vec<GpuImage>)>,
+}
+
+impl GpuInputs {
+    /// Uploads `inputs` (pyramids as built by dynview-core).
+    pub fn upload(ctx: &GpuContext, inputs: &TimeStepInputs) -> Result<Self, GpuError> {
+        let views = inputs
+            .views
+            .iter()
+            .map(|v| {
+                let levels = v.levels.iter().map(|l| GpuImage::upload(ctx, l.data.as_flattened(), l.width, l.height, 3)).collect::<Result<
+                    Vec<_>,
+                    _,
+                >>(
+                )?;
+                Ok((v.camera, levels))
+            })
+            .collect::<Result<Vec<_>, GpuError>>()?;
+        Ok(Self { cloud: GpuCloud::upload(ctx, &inputs.cloud), views })
+    }
+}
+
+/// A rendered frame on the GPU, kept for the next frame's temporal terms.
+#[derive(Debug)]
+pub struct GpuFrame {
+    /// Its camera (full resolution).
+    pub camera: Camera,
+    /// Depth (1 channel) and color (RGB) per level, finest first.
+    pub levels: Vec<(GpuImage, GpuImage)>,
+}
+
+impl GpuFrame {
+    /// The finest color.
+    pub fn color(&self) -> &GpuImage {
+        &self.levels[0].1
+    }
+
+    /// The finest depth.
+    pub fn depth(&self) -> &GpuImage {
+        &self.levels[0].0
+    }
+}
+
+/// Every kernel of the renderer, compiled once per device.
+#[derive(Debug)]
+pub struct GpuRenderer {
+    solver: GridSolver,
+    images: ImageKernels,
+    warps: WarpKernels,
+    assemble: AssembleKernels,
+    splat: SplatKernels,
+    level: LevelKernels,
+}
+
+impl GpuRenderer {
+    /// Compiles the kernels on `ctx`'s device.
+    pub fn new(ctx: &GpuContext) -> Self {
+        Self {
+            solver: GridSolver::new(ctx),
+            images: ImageKernels::new(ctx),
+            warps: WarpKernels::new(ctx),
+            assemble: AssembleKernels::new(ctx),
+            splat: SplatKernels::new(ctx),
+            level: LevelKernels::new(ctx),
+        }
+    }
+
+    /// Renders `camera` at the time step of `inputs` with the full method (temporal terms from
+    /// `previous` when given) or the no-temporal ablation (`params.method`). The baselines
+    /// stay on the CPU.
+    pub fn render(
+        &self,
+        ctx: &GpuContext,
+        params: &RenderParams,
+        camera: &Camera,
+        inputs: &GpuInputs,
+        previous: Option<&GpuFrame>,
+    ) -> Result<GpuFrame, GpuError> {
+        params.validate().map_err(|e| GpuError::Size(e.to_string()))?;
+        if !params.method.is_variational() {
+            return Err(GpuError::Size(format!("method {:?} runs on the CPU only", params.method)));
+        }
+        if inputs.views.is_empty() {
+            return Err(GpuError::Size("no input views".into()));
+        }
+        let previous = if params.method == Method::Full { previous } else { None };
+        let poses: Vec<_> = inputs.views.iter().map(|(c, _)| c.camera_from_world).collect();
+        let chosen = rank_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views);
+        let scores: Vec<f64> = chosen.iter().map(|&s| view_score(&camera.camera_from_world, &poses[s], f64::from(params.sigma))).collect();
+        let best = scores.iter().copied().fold(f64::MIN_POSITIVE, f64::max);
+        let init_weights: Vec<f32> = scores.iter().map(|s| (s / best).max(1e-6) as f32).collect();
+        let sizes = level_sizes(camera.width_px as usize, camera.height_px as usize, params.levels);
+        let mut state: Option<(GpuImage, GpuImage)> = None;
+        let mut solutions = Vec::with_capacity(params.levels);
+        for level in (0..params.levels).rev() {
+            let (w, h) = sizes[level];
+            let cam = camera_at(camera, w, h);
+            let sparse = self.splat.project_cloud(ctx, &inputs.cloud, &cam)?;
+            let counters = self.level.consistency(ctx, &sparse, params.sparse_consistency)?;
+            let prev: Option<GpuSplat> = match previous
+                .filter(|_| level < params.temporal_levels)
+                .and_then(|p| p.levels.get(level).map(|l| (p.camera, l)))
+            {
+                Some((prev_camera, (d, c))) => Some(self.splat.warp_frame(ctx, &camera_at(&prev_camera, c.width, c.height), d, c, &cam)?),
+                None => None,
+            };
+            let view_images: Vec<(Camera, &GpuImage)> = chosen
+                .iter()
+                .map(|&s| {
+                    let (view_camera, levels) = &inputs.views[s];
+                    let image = &levels[level.min(levels.len() - 1)];
+                    (camera_at(view_camera, image.width, image.height), image)
+                })
+                .collect();
+            // Initial guess: push-pull filled sparse depth at the coarsest level, the upsampled
+            // depth below; color by the rank-weighted blend of the visible warps.
+            let (depth, fallback_color) = match state.take() {
+                None => {
+                    let mut fallback = [0.0f32; 3];
+                    fallback[0] = FALLBACK_DEPTH;
+                    let depth = self.images.push_pull(ctx, &sparse.depth, &sparse.mask, fallback)?;
+                    let color = self.images.push_pull(ctx, &sparse.color, &sparse.mask, FALLBACK_COLOR)?;
+                    (depth, color)
+                }
+                Some((depth, color)) => (self.images.upsample(ctx, &depth, w, h)?, self.images.upsample(ctx, &color, w, h)?),
+            };
+            let mut warps = self.warps.warp_views(ctx, &cam, &depth, &view_images, params.visibility_tolerance)?;
+            let color = self.level.blend(ctx, &warps, &fallback_color, &init_weights)?;
+            // Temporal terms from the fresh estimate of this level.
+            let (temporal_depth, temporal_color) = match &prev {
+                Some(p) => {
+                    let w_t = self.level.temporal_weights(ctx, p, &warps, params.sigma)?;
+                    self.level.temporal_terms(ctx, &w_t, p, &counters, params.lambda_t, params.temporal_coverage_scaling)?
+                }
+                None => (GpuImage::zeroed(ctx, w, h, 2)?, GpuImage::zeroed(ctx, w, h, 4)?),
+            };
+            let sparse_color_mask = self.level.pack_sparse(ctx, &sparse)?;
+            for _ in 0..params.outer_iterations_at(level) {
+                let w_p = self.assemble.projection_weights(ctx, params, &color, warps.packed())?;
+                let sys = self.assemble.depth_system(
+                    ctx,
+                    params,
+                    &color,
+                    &w_p,
+                    &warps.visibility,
+                    &sparse_color_mask,
+                    &sparse.depth,
+                    &temporal_depth,
+                    warps.count,
+                )?;
+                self.solver.solve_on_gpu(ctx, &sys, &depth, params.depth_sweeps, params.relaxation)?;
+                warps = self.warps.warp_views(ctx, &cam, &depth, &view_images, params.visibility_tolerance)?;
+                let w_p = self.assemble.projection_weights(ctx, params, &color, warps.packed())?;
+                let sys = self.assemble.color_system(ctx, params, &warps.colors, &w_p, &temporal_color, warps.count)?;
+                self.solver.solve_on_gpu(ctx, &sys, &color, params.color_sweeps, params.relaxation)?;
+            }
+            solutions.push((self.copy(ctx, &depth)?, self.copy(ctx, &color)?));
+            state = Some((depth, color));
+        }
+        solutions.reverse();
+        Ok(GpuFrame { camera: *camera, levels: solutions })
+    }
+
+    /// A copy of `image` (the level's solution, kept while the next level overwrites its own).
+    fn copy(&self, ctx: &GpuContext, image: &GpuImage) -> Result<GpuImage, GpuError> {
+        let out = GpuImage::zeroed(ctx, image.width, image.height, image.channels)?;
+        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("copy") });
+        encoder.copy_buffer_to_buffer(&image.buffer, 0, &out.buffer, 0, (image.width * image.height * image.channels * 4) as u64);
+        ctx.queue.submit([encoder.finish()]);
+        Ok(out)
+    }
+}

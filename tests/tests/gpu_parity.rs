@@ -1,0 +1,67 @@
+//! The GPU renderer against the CPU renderer on a real (synthetic, ray-traced) event, on
+//! whatever adapter wgpu finds (lavapipe in CI): the same frames, without and with the temporal
+//! terms, must agree within the stated tolerance.
+
+use dynview_core::RgbRaster;
+use dynview_core::camera_path::parse_path;
+use dynview_core::metrics::psnr;
+use dynview_core::render::{Method, RenderHooks, RenderParams, render_frame};
+use dynview_core::scene::ScenePackage;
+use dynview_gpu::{GpuContext, GpuInputs, GpuRenderer};
+use dynview_tests::small_event;
+
+/// PSNR the GPU frame must reach against the CPU frame.
+const MIN_PSNR_DB: f64 = 45.0;
+/// Largest mean absolute difference per channel (of 1).
+const MAX_MEAN_ABS_DIFFERENCE: f64 = 1.0 / 255.0;
+
+fn mean_abs_difference(a: &RgbRaster, b: &RgbRaster) -> f64 {
+    let sum: f64 = a.data.iter().zip(&b.data).map(|(x, y)| (0..3).map(|k| f64::from((x[k] - y[k]).abs())).sum::<f64>()).sum();
+    sum / (3 * a.data.len()) as f64
+}
+
+fn download_rgb(ctx: &GpuContext, frame: &dynview_gpu::GpuFrame) -> RgbRaster {
+    let image = frame.color();
+    let data = image.download(ctx).unwrap();
+    RgbRaster { width: image.width, height: image.height, data: data.chunks(3).map(|c| [c[0], c[1], c[2]]).collect() }
+}
+
+#[test]
+fn gpu_frames_match_cpu_frames_with_and_without_the_temporal_terms() {
+    let ctx = GpuContext::new_blocking().unwrap_or_else(|e| panic!("{e}"));
+    eprintln!("adapter: {} ({:?})", ctx.adapter_info.name, ctx.adapter_info.backend);
+    let renderer = GpuRenderer::new(&ctx);
+    let package = ScenePackage::open(small_event().join("scene")).unwrap();
+    let path = parse_path(&std::fs::read(small_event().join("camera_path.json")).unwrap(), "camera_path.json", None).unwrap();
+    for method in [Method::NoTemporal, Method::Full] {
+        let params = RenderParams { method, ..RenderParams::default() };
+        let mut cpu_previous = None;
+        let mut gpu_previous = None;
+        for (i, frame) in path.iter().take(2).enumerate() {
+            let t = frame.time.time_step(package.time_step_count());
+            let inputs = package.time_step_inputs(t, params.levels).unwrap();
+            let cpu = render_frame(&params, &frame.camera, &inputs, cpu_previous.as_ref(), &mut RenderHooks::default()).unwrap();
+            let gpu_inputs = GpuInputs::upload(&ctx, &inputs).unwrap();
+            let gpu = renderer.render(&ctx, &params, &frame.camera, &gpu_inputs, gpu_previous.as_ref()).unwrap();
+            let gpu_color = download_rgb(&ctx, &gpu);
+            let db = psnr(&gpu_color, &cpu.color);
+            let mad = mean_abs_difference(&gpu_color, &cpu.color);
+            eprintln!(
+                "{method:?} frame {i} (temporal {}): GPU vs CPU {db:.1} dB, mean abs difference {:.3}/255",
+                cpu.temporal_used,
+                mad * 255.0
+            );
+            assert!(db >= MIN_PSNR_DB, "{method:?} frame {i}: GPU vs CPU {db:.1} dB");
+            assert!(mad <= MAX_MEAN_ABS_DIFFERENCE, "{method:?} frame {i}: mean abs difference {:.3}/255", mad * 255.0);
+            assert_eq!(cpu.temporal_used, method == Method::Full && i > 0);
+            if method == Method::Full && i > 0 {
+                // The GPU used the previous frame too: without it, its frame differs.
+                let alone = download_rgb(&ctx, &renderer.render(&ctx, &params, &frame.camera, &gpu_inputs, None).unwrap());
+                let db_alone = psnr(&alone, &gpu_color);
+                assert!(db_alone < 60.0, "the temporal terms changed nothing on the GPU ({db_alone:.1} dB)");
+            }
+            cpu_previous = Some(cpu.into_previous(frame.camera));
+            gpu_previous = Some(gpu);
+        }
+    }
+}
