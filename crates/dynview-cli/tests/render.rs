@@ -137,3 +137,51 @@ fn render_rejects_bad_paths_and_parameters_clearly() {
     assert!(!ok);
     assert!(log.contains("unknown method"), "{log}");
 }
+
+#[test]
+fn render_on_the_gpu_matches_the_cpu_render() {
+    let tmp = tempfile::tempdir().unwrap();
+    let event = tmp.path().join("event");
+    let (ok, log) = dynview(&[
+        "synth",
+        "--out",
+        event.to_str().unwrap(),
+        "--cameras",
+        "4",
+        "--frames",
+        "3",
+        "--width",
+        "96",
+        "--height",
+        "54",
+        "--no-video",
+    ]);
+    assert!(ok, "{log}");
+    let scene = event.join("scene");
+    let path = event.join("camera_path.json");
+    let render = |out: &str, extra: &[&str]| {
+        let mut args = vec!["render", "--scene", scene.to_str().unwrap(), "--path", path.to_str().unwrap(), "--out", out];
+        args.extend_from_slice(extra);
+        dynview(&args)
+    };
+    let (cpu_dir, gpu_dir) = (tmp.path().join("cpu"), tmp.path().join("gpu"));
+    let (ok, log) = render(cpu_dir.to_str().unwrap(), &[]);
+    assert!(ok, "{log}");
+    let (ok, log) = render(gpu_dir.to_str().unwrap(), &["--gpu"]);
+    assert!(ok, "{log}");
+    assert!(log.contains("on the GPU"), "{log}");
+    for i in 0..3 {
+        let a = image::open(cpu_dir.join(format!("{i:05}.png"))).unwrap().to_rgb8();
+        let b = image::open(gpu_dir.join(format!("{i:05}.png"))).unwrap().to_rgb8();
+        // The parity tolerance of the GPU renderer: PSNR >= 45 dB, mean absolute difference
+        // <= 1/255 (here on 8-bit outputs).
+        let n = a.as_raw().len() as f64;
+        let mad = a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| f64::from(x.abs_diff(*y))).sum::<f64>() / n;
+        let mse = a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| f64::from(x.abs_diff(*y)).powi(2)).sum::<f64>() / n;
+        let db = if mse == 0.0 { f64::INFINITY } else { 10.0 * (255.0f64.powi(2) / mse).log10() };
+        assert!(db >= 45.0 && mad <= 1.0, "frame {i}: GPU vs CPU {db:.1} dB, mean abs difference {mad:.3}/255");
+    }
+    // Baselines stay on the CPU, and say so.
+    let (ok, log) = render(tmp.path().join("x").to_str().unwrap(), &["--gpu", "--method", "blend"]);
+    assert!(!ok && log.contains("runs on the CPU"), "{log}");
+}

@@ -5,11 +5,14 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
+use dynview_core::camera::Camera;
 use dynview_core::camera_path::parse_path;
 use dynview_core::depth_io::{DepthScale, SCALE_FILE, depth_png_bytes};
 use dynview_core::fsutil::write_atomic;
+use dynview_core::raster::{RgbRaster, ScalarRaster};
 use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer, TimeStepInputs};
 use dynview_core::scene::ScenePackage;
+use dynview_gpu::{GpuContext, GpuFrame, GpuInputs, GpuRenderer};
 
 use crate::progress::StageBars;
 
@@ -40,6 +43,62 @@ pub struct Args {
     /// Output height (overrides the path's; needs --width too).
     #[arg(long, requires = "width")]
     height: Option<u32>,
+    /// Render on the GPU (wgpu: Vulkan, Metal or DX12; lavapipe when no GPU). Full method and
+    /// no-temporal only.
+    #[arg(long)]
+    gpu: bool,
+}
+
+/// The renderer a run uses: the CPU's streaming renderer, or the GPU's with its previous frame.
+enum Backend {
+    Cpu(StreamingRenderer),
+    Gpu { ctx: Box<GpuContext>, renderer: Box<GpuRenderer>, previous: Option<GpuFrame>, inputs: Option<(u32, GpuInputs)> },
+}
+
+impl Backend {
+    fn jump(&mut self) {
+        match self {
+            Self::Cpu(r) => r.jump(),
+            Self::Gpu { previous, .. } => *previous = None,
+        }
+    }
+
+    /// Renders one frame; returns color, depth and the renderer's milliseconds.
+    fn render(
+        &mut self,
+        params: &RenderParams,
+        camera: &Camera,
+        t: u32,
+        inputs: &TimeStepInputs,
+        clock: &dyn Fn() -> f64,
+    ) -> anyhow::Result<(RgbRaster, ScalarRaster, f64)> {
+        match self {
+            Self::Cpu(renderer) => {
+                let mut hooks = RenderHooks { clock: Some(clock), ..RenderHooks::default() };
+                let output = renderer.render(params, camera, inputs, &mut hooks)?;
+                let ms = output.timings.total_ms;
+                Ok((output.color, output.depth, ms))
+            }
+            Self::Gpu { ctx, renderer, previous, inputs: uploaded } => {
+                if uploaded.as_ref().is_none_or(|(ut, _)| *ut != t) {
+                    *uploaded = Some((t, GpuInputs::upload(ctx, inputs)?));
+                }
+                let gpu_inputs = &uploaded.as_ref().context("inputs not uploaded")?.1;
+                let start = clock();
+                let frame = renderer.render(ctx, params, camera, gpu_inputs, previous.as_ref())?;
+                let (w, h) = (frame.color().width, frame.color().height);
+                let color = frame.color().download(ctx)?;
+                let depth = frame.depth().download(ctx)?;
+                let ms = clock() - start;
+                *previous = Some(frame);
+                Ok((
+                    RgbRaster { width: w, height: h, data: color.chunks(3).map(|c| [c[0], c[1], c[2]]).collect() },
+                    ScalarRaster { width: w, height: h, data: depth },
+                    ms,
+                ))
+            }
+        }
+    }
 }
 
 /// Reads the parameters file and applies the command-line overrides.
@@ -91,7 +150,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let clock_origin = Instant::now();
     let clock = move || clock_origin.elapsed().as_secs_f64() * 1000.0;
     let bars = StageBars::new();
-    let mut renderer = StreamingRenderer::new();
+    let mut renderer = if args.gpu {
+        if !params.method.is_variational() {
+            bail!("--gpu renders the full method and no-temporal; the {} baseline runs on the CPU", params.method.label());
+        }
+        let ctx = GpuContext::new_blocking()?;
+        println!("GPU: {} ({:?})", ctx.adapter_info.name, ctx.adapter_info.backend);
+        let renderer = GpuRenderer::new(&ctx);
+        Backend::Gpu { ctx: Box::new(ctx), renderer: Box::new(renderer), previous: None, inputs: None }
+    } else {
+        Backend::Cpu(StreamingRenderer::new())
+    };
     let mut cached: Option<(u32, TimeStepInputs)> = None;
     let mut last_step: Option<u32> = None;
     let mut total_ms = 0.0;
@@ -107,22 +176,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         last_step = Some(t);
         let inputs = &cached.as_ref().map(|(_, inputs)| inputs).context("time step not loaded")?;
-        let mut hooks = RenderHooks { clock: Some(&clock), ..RenderHooks::default() };
-        let output = renderer.render(&params, &frame.camera, inputs, &mut hooks).with_context(|| format!("rendering frame {i}"))?;
-        total_ms += output.timings.total_ms;
+        let (color, depth, ms) =
+            renderer.render(&params, &frame.camera, t, inputs, &clock).with_context(|| format!("rendering frame {i}"))?;
+        total_ms += ms;
         let color_path = args.out.join(format!("{i:05}.png"));
         let mut png = Vec::new();
-        output.color.to_rgb8().write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+        color.to_rgb8().write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
         write_atomic(&color_path, &png).with_context(|| format!("writing {}", color_path.display()))?;
         let depth_path = depth_dir.join(format!("{i:05}.png"));
-        write_atomic(&depth_path, &depth_png_bytes(&output.depth, scale)?).with_context(|| format!("writing {}", depth_path.display()))?;
+        write_atomic(&depth_path, &depth_png_bytes(&depth, scale)?).with_context(|| format!("writing {}", depth_path.display()))?;
         bars.update("render", i as u64 + 1, frames.len() as u64);
     }
     bars.finish();
     println!(
-        "rendered {} frames with {} into {} ({:.0} ms per frame in the renderer)",
+        "rendered {} frames with {} on the {} into {} ({:.0} ms per frame in the renderer)",
         frames.len(),
         params.method.label(),
+        if args.gpu { "GPU" } else { "CPU" },
         args.out.display(),
         total_ms / frames.len().max(1) as f64
     );
