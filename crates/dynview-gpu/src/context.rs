@@ -54,6 +54,11 @@ impl GpuContext {
         Ok(Self { device, queue, adapter_info })
     }
 
+    /// Blocks until the GPU has finished all submitted work (native; a no-op on WebGPU).
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::ReadBack(e.to_string()))
+    }
+
     /// [`GpuContext::new`], blocking (native only).
     #[cfg(not(target_family = "wasm"))]
     pub fn new_blocking() -> Result<Self, GpuError> {

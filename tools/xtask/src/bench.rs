@@ -1,5 +1,6 @@
 //! `cargo xtask bench`: milliseconds per frame of the full method at several resolutions, per
-//! pyramid level and per stage, on this machine with all cores (release build).
+//! pyramid level and per stage, on this machine with all cores (release build), and on the GPU
+//! that wgpu finds (lavapipe without one: correctness, not speed).
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -51,8 +52,19 @@ pub fn run_release(args: &[String]) -> anyhow::Result<()> {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut report = String::new();
     let _ = writeln!(report, "Full method, {} views, {} levels, {threads} threads, median of {RUNS} runs:\n", params.views, params.levels);
-    let _ = writeln!(report, "| output | ms/frame | frames/s | paper (6.8 s) / ours |");
-    let _ = writeln!(report, "| --- | ---: | ---: | ---: |");
+    let gpu = match dynview_gpu::GpuContext::new_blocking() {
+        Ok(ctx) => {
+            let renderer = dynview_gpu::GpuRenderer::new(&ctx);
+            let _ = writeln!(report, "GPU: {} ({:?}, {}).\n", ctx.adapter_info.name, ctx.adapter_info.backend, ctx.adapter_info.driver);
+            Some((ctx, renderer))
+        }
+        Err(e) => {
+            let _ = writeln!(report, "GPU: none ({e}).\n");
+            None
+        }
+    };
+    let _ = writeln!(report, "| output | CPU ms/frame | frames/s | paper (6.8 s) / ours | GPU ms/frame | CPU / GPU |");
+    let _ = writeln!(report, "| --- | ---: | ---: | ---: | ---: | ---: |");
     let mut details = String::new();
     for (w, h) in SIZES {
         let (inputs, camera) = bench_event(w, h)?;
@@ -70,7 +82,15 @@ pub fn run_release(args: &[String]) -> anyhow::Result<()> {
         }
         runs.sort_by(|a, b| a.0.total_cmp(&b.0));
         let (ms, timings) = &runs[runs.len() / 2];
-        let _ = writeln!(report, "| {w}x{h} | {ms:.0} | {:.2} | {:.1}x |", 1000.0 / ms, 6800.0 / ms);
+        let gpu_ms = match &gpu {
+            Some((ctx, renderer)) => Some(gpu_frame_ms(ctx, renderer, &params, &camera, &inputs)?),
+            None => None,
+        };
+        let (gpu_cell, ratio_cell) = match gpu_ms {
+            Some(g) => (format!("{g:.1}"), format!("{:.2}", ms / g)),
+            None => ("-".into(), "-".into()),
+        };
+        let _ = writeln!(report, "| {w}x{h} | {ms:.0} | {:.2} | {:.1}x | {gpu_cell} | {ratio_cell} |", 1000.0 / ms, 6800.0 / ms);
         let _ = writeln!(details, "\n{w}x{h}: per level and stage (ms)\n");
         let _ =
             writeln!(details, "| level | size | sparse | push-pull | warp | visibility | weights | depth solve | color solve | total |");
@@ -78,13 +98,38 @@ pub fn run_release(args: &[String]) -> anyhow::Result<()> {
         for l in &timings.levels {
             let _ = writeln!(details, "{}", level_row(l));
         }
-        println!("{w}x{h}: {ms:.0} ms");
+        println!("{w}x{h}: CPU {ms:.0} ms, GPU {}", gpu_ms.map_or("-".to_string(), |g| format!("{g:.1} ms")));
     }
     println!("\n{report}{details}");
     let out = workspace_root().join("target/bench/report.md");
     write_report(&out, &format!("{report}{details}"))?;
     println!("(also written to {})", out.display());
     Ok(())
+}
+
+/// Median milliseconds of one GPU frame (inputs already uploaded; the clock stops when the GPU
+/// has finished).
+fn gpu_frame_ms(
+    ctx: &dynview_gpu::GpuContext,
+    renderer: &dynview_gpu::GpuRenderer,
+    params: &RenderParams,
+    camera: &Camera,
+    inputs: &TimeStepInputs,
+) -> anyhow::Result<f64> {
+    let uploaded = dynview_gpu::GpuInputs::upload(ctx, inputs)?;
+    ctx.wait()?;
+    let mut runs = Vec::new();
+    for run in 0..=RUNS {
+        let start = Instant::now();
+        let frame = renderer.render(ctx, params, camera, &uploaded, None)?;
+        ctx.wait()?;
+        drop(frame);
+        if run > 0 {
+            runs.push(start.elapsed().as_secs_f64() * 1000.0);
+        }
+    }
+    runs.sort_by(f64::total_cmp);
+    Ok(runs[runs.len() / 2])
 }
 
 fn level_row(l: &LevelTimings) -> String {
