@@ -65,3 +65,22 @@ fn gpu_frames_match_cpu_frames_with_and_without_the_temporal_terms() {
         }
     }
 }
+
+#[test]
+fn gpu_buffers_are_allocated_once_per_resolution_and_reused() {
+    let ctx = GpuContext::new_blocking().unwrap_or_else(|e| panic!("{e}"));
+    let renderer = GpuRenderer::new(&ctx);
+    let package = ScenePackage::open(small_event().join("scene")).unwrap();
+    let path = parse_path(&std::fs::read(small_event().join("camera_path.json")).unwrap(), "camera_path.json", None).unwrap();
+    let params = RenderParams::default();
+    let inputs = GpuInputs::upload(&ctx, &package.time_step_inputs(0, params.levels).unwrap()).unwrap();
+    let mut pooled = Vec::new();
+    for _ in 0..3 {
+        drop(renderer.render(&ctx, &params, &path[0].camera, &inputs, None).unwrap());
+        pooled.push(ctx.pooled());
+    }
+    // Every buffer of the second and third frames came from the pool: it does not grow.
+    assert!(pooled[0].0 > 10, "{pooled:?}");
+    assert_eq!(pooled[1], pooled[0], "the second frame allocated new buffers");
+    assert_eq!(pooled[2], pooled[0], "the third frame allocated new buffers");
+}

@@ -17,6 +17,13 @@ pub enum GpuError {
     Size(String),
 }
 
+/// Storage buffers no longer in use, by size in bytes: images of the sizes a frame needs are
+/// allocated once and reused by every later frame of the same resolution.
+pub(crate) type BufferPool = std::sync::Arc<std::sync::Mutex<std::collections::HashMap<u64, Vec<wgpu::Buffer>>>>;
+
+/// Most idle buffers kept per size.
+pub(crate) const POOL_BUFFERS_PER_SIZE: usize = 64;
+
 /// A device and its queue, with what the adapter is.
 #[derive(Debug)]
 pub struct GpuContext {
@@ -26,6 +33,7 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     /// The adapter's name, backend and driver.
     pub adapter_info: wgpu::AdapterInfo,
+    pub(crate) pool: BufferPool,
 }
 
 impl GpuContext {
@@ -51,7 +59,13 @@ impl GpuContext {
             })
             .await
             .map_err(|e| GpuError::NoDevice(e.to_string()))?;
-        Ok(Self { device, queue, adapter_info })
+        Ok(Self { device, queue, adapter_info, pool: BufferPool::default() })
+    }
+
+    /// Idle pooled buffers and their bytes (images dropped since, kept for reuse).
+    pub fn pooled(&self) -> (usize, u64) {
+        let pool = self.pool.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        pool.iter().fold((0, 0), |(n, bytes), (size, buffers)| (n + buffers.len(), bytes + size * buffers.len() as u64))
     }
 
     /// Blocks until the GPU has finished all submitted work (native; a no-op on WebGPU).

@@ -4,10 +4,11 @@
 
 use wgpu::util::DeviceExt;
 
-use crate::context::{GpuContext, GpuError};
+use crate::context::{BufferPool, GpuContext, GpuError, POOL_BUFFERS_PER_SIZE};
 use crate::kernel::Kernel;
 
-/// An image in a storage buffer.
+/// An image in a storage buffer. Its buffer comes from, and goes back to when dropped, the
+/// context's pool.
 #[derive(Debug)]
 pub struct GpuImage {
     /// The pixels, `channels` floats each, row-major.
@@ -16,8 +17,19 @@ pub struct GpuImage {
     pub width: usize,
     /// Height in pixels.
     pub height: usize,
-    /// Floats per pixel (1 or 3).
+    /// Floats per pixel (1 to 4).
     pub channels: usize,
+    pool: BufferPool,
+}
+
+impl Drop for GpuImage {
+    fn drop(&mut self) {
+        let mut pool = self.pool.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let idle = pool.entry(self.buffer.size()).or_default();
+        if idle.len() < POOL_BUFFERS_PER_SIZE {
+            idle.push(self.buffer.clone());
+        }
+    }
 }
 
 const IMAGE_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_SRC).union(wgpu::BufferUsages::COPY_DST);
@@ -43,20 +55,44 @@ impl GpuImage {
         if data.len() != width * height * channels {
             return Err(GpuError::Size(format!("{} floats for an image of {width}x{height}x{channels}", data.len())));
         }
-        let buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("image"),
-            contents: bytemuck::cast_slice(data),
-            usage: IMAGE_USAGE,
-        });
-        Ok(Self { buffer, width, height, channels })
+        let size = Self::check(ctx, width, height, channels)?;
+        let buffer = match Self::take(ctx, size) {
+            Some(buffer) => {
+                ctx.queue.write_buffer(&buffer, 0, bytemuck::cast_slice(data));
+                buffer
+            }
+            None => ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("image"),
+                contents: bytemuck::cast_slice(data),
+                usage: IMAGE_USAGE,
+            }),
+        };
+        Ok(Self { buffer, width, height, channels, pool: ctx.pool.clone() })
     }
 
-    /// An uninitialised (zeroed) image.
+    /// An idle pooled buffer of `size` bytes.
+    fn take(ctx: &GpuContext, size: u64) -> Option<wgpu::Buffer> {
+        ctx.pool.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get_mut(&size).and_then(Vec::pop)
+    }
+
+    /// An image of zeros (a reused buffer is cleared on the GPU first).
     pub fn zeroed(ctx: &GpuContext, width: usize, height: usize, channels: usize) -> Result<Self, GpuError> {
         let size = Self::check(ctx, width, height, channels)?;
-        let buffer =
-            ctx.device.create_buffer(&wgpu::BufferDescriptor { label: Some("image"), size, usage: IMAGE_USAGE, mapped_at_creation: false });
-        Ok(Self { buffer, width, height, channels })
+        let buffer = match Self::take(ctx, size) {
+            Some(buffer) => {
+                let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("clear") });
+                encoder.clear_buffer(&buffer, 0, None);
+                ctx.queue.submit([encoder.finish()]);
+                buffer
+            }
+            None => ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("image"),
+                size,
+                usage: IMAGE_USAGE,
+                mapped_at_creation: false,
+            }),
+        };
+        Ok(Self { buffer, width, height, channels, pool: ctx.pool.clone() })
     }
 
     /// Reads the pixels back (blocks natively until the GPU is done).

@@ -10,8 +10,9 @@
 //! counterpart; a whole frame matches the CPU's (tests/gpu_parity.rs). The baselines stay on
 //! the CPU.
 //!
-//! Not yet: buffer reuse across frames (each render allocates), timestamp queries, the
-//! browser path.
+//! Images live in storage buffers taken from a pool on the context: each size is allocated
+//! once and reused by every later frame at that resolution. Not yet: timestamp queries per
+//! stage, and the browser (WebGPU) path in the viewer.
 
 mod assemble;
 mod context;
