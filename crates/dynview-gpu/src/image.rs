@@ -95,7 +95,13 @@ impl GpuImage {
         Ok(Self { buffer, width, height, channels, pool: ctx.pool.clone() })
     }
 
-    /// Reads the pixels back (blocks natively until the GPU is done).
+    /// Reads the pixels back without blocking the thread (the browser's way).
+    pub async fn download_async(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
+        crate::readback::read_floats(ctx, &self.buffer, self.width * self.height * self.channels).await
+    }
+
+    /// Reads the pixels back, blocking until the GPU is done (native only).
+    #[cfg(not(target_family = "wasm"))]
     pub fn download(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
         let mut out = vec![0.0f32; self.width * self.height * self.channels];
         crate::solver::read_buffer(ctx, &self.buffer, &mut out)?;

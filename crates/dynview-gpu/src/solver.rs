@@ -1,7 +1,9 @@
 //! The red-black over-relaxed Gauss-Seidel solver of dynview-core's grid systems on the GPU
 //! (`shaders/red_black.wgsl`): one dispatch per colour, all sweeps in one command buffer.
 
+#[cfg(not(target_family = "wasm"))]
 use dynview_core::raster::Rgb;
+#[cfg(not(target_family = "wasm"))]
 use dynview_core::render::solve::GridSystem;
 use wgpu::util::DeviceExt;
 
@@ -146,18 +148,21 @@ impl GridSolver {
     }
 
     /// `sweeps` red-black sweeps of the depth system `sys` on `u` (in place), as
-    /// [`GridSystem::sweep`] does them.
+    /// [`GridSystem::sweep`] does them. Native only: it reads the result back, blocking.
+    #[cfg(not(target_family = "wasm"))]
     pub fn solve_depth(&self, ctx: &GpuContext, sys: &GridSystem<f32>, u: &mut [f32], sweeps: usize, omega: f32) -> Result<(), GpuError> {
         self.solve(ctx, sys, &sys.rhs, u, 1, sweeps, omega)
     }
 
     /// `sweeps` red-black sweeps of the color system `sys` on `u` (in place; the three
-    /// channels share the system).
+    /// channels share the system). Native only: it reads the result back, blocking.
+    #[cfg(not(target_family = "wasm"))]
     pub fn solve_color(&self, ctx: &GpuContext, sys: &GridSystem<Rgb>, u: &mut [Rgb], sweeps: usize, omega: f32) -> Result<(), GpuError> {
         let rhs: &[f32] = bytemuck::cast_slice(&sys.rhs);
         self.solve(ctx, sys, rhs, bytemuck::cast_slice_mut(u), 3, sweeps, omega)
     }
 
+    #[cfg(not(target_family = "wasm"))]
     #[allow(clippy::too_many_arguments)]
     fn solve<T>(
         &self,
@@ -200,31 +205,11 @@ impl GridSolver {
     }
 }
 
-/// Reads `buffer` (which must have `COPY_SRC`) into `out` through a staging buffer; blocks
-/// natively until the GPU is done.
+/// Reads `buffer` (which must have `COPY_SRC`) into `out`; blocks until the GPU is done
+/// (native only).
+#[cfg(not(target_family = "wasm"))]
 pub(crate) fn read_buffer(ctx: &GpuContext, buffer: &wgpu::Buffer, out: &mut [f32]) -> Result<(), GpuError> {
-    let size = std::mem::size_of_val(out) as u64;
-    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("read-back"),
-        size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read-back") });
-    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
-    ctx.queue.submit([encoder.finish()]);
-    let staging = &staging;
-    let slice = staging.slice(..);
-    let (tx, rx) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |result| {
-        let _ = tx.send(result);
-    });
-    ctx.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::ReadBack(e.to_string()))?;
-    rx.recv().map_err(|e| GpuError::ReadBack(e.to_string()))?.map_err(|e| GpuError::ReadBack(e.to_string()))?;
-    {
-        let view = slice.get_mapped_range().map_err(|e| GpuError::ReadBack(e.to_string()))?;
-        out.copy_from_slice(bytemuck::cast_slice(&view));
-    }
-    staging.unmap();
+    let floats = pollster::block_on(crate::readback::read_floats(ctx, buffer, out.len()))?;
+    out.copy_from_slice(&floats);
     Ok(())
 }

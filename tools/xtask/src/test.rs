@@ -42,6 +42,10 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
     wasm.args(["build", "-p", "dynview-core", "--no-default-features", "--target", "wasm32-unknown-unknown"]);
     timings.push(("wasm32 build of dynview-core", run_step("wasm32 build of the core", wasm)?));
 
+    let mut wasm_gpu = cargo();
+    wasm_gpu.args(["clippy", "-p", "dynview-gpu", "--lib", "--target", "wasm32-unknown-unknown", "--", "-D", "warnings"]);
+    timings.push(("wasm32 clippy of dynview-gpu", run_step("the GPU renderer builds for the browser (wasm32, WebGPU)", wasm_gpu)?));
+
     let fixture = fixture()?;
 
     let mut clippy_wasm = cargo();
