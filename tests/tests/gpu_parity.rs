@@ -21,9 +21,7 @@ fn mean_abs_difference(a: &RgbRaster, b: &RgbRaster) -> f64 {
 }
 
 fn download_rgb(ctx: &GpuContext, frame: &dynview_gpu::GpuFrame) -> RgbRaster {
-    let image = frame.color();
-    let data = image.download(ctx).unwrap();
-    RgbRaster { width: image.width, height: image.height, data: data.chunks(3).map(|c| [c[0], c[1], c[2]]).collect() }
+    frame.color().download_rgb(ctx).unwrap()
 }
 
 #[test]

@@ -100,6 +100,20 @@ impl GpuImage {
         crate::readback::read_floats(ctx, &self.buffer, self.width * self.height * self.channels).await
     }
 
+    /// Reads an RGB image back as a raster, blocking until the GPU is done (native only).
+    #[cfg(not(target_family = "wasm"))]
+    pub fn download_rgb(&self, ctx: &GpuContext) -> Result<dynview_core::raster::RgbRaster, GpuError> {
+        if self.channels != 3 {
+            return Err(GpuError::Size(format!("an RGB read-back of an image with {} channels", self.channels)));
+        }
+        let data = self.download(ctx)?;
+        Ok(dynview_core::raster::Raster {
+            width: self.width,
+            height: self.height,
+            data: data.chunks(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        })
+    }
+
     /// Reads the pixels back, blocking until the GPU is done (native only).
     #[cfg(not(target_family = "wasm"))]
     pub fn download(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {

@@ -86,16 +86,12 @@ impl Backend {
                 let gpu_inputs = &uploaded.as_ref().context("inputs not uploaded")?.1;
                 let start = clock();
                 let frame = renderer.render(ctx, params, camera, gpu_inputs, previous.as_ref())?;
-                let (w, h) = (frame.color().width, frame.color().height);
-                let color = frame.color().download(ctx)?;
+                let color = frame.color().download_rgb(ctx)?;
                 let depth = frame.depth().download(ctx)?;
                 let ms = clock() - start;
+                let depth = ScalarRaster { width: color.width, height: color.height, data: depth };
                 *previous = Some(frame);
-                Ok((
-                    RgbRaster { width: w, height: h, data: color.chunks(3).map(|c| [c[0], c[1], c[2]]).collect() },
-                    ScalarRaster { width: w, height: h, data: depth },
-                    ms,
-                ))
+                Ok((color, depth, ms))
             }
         }
     }

@@ -87,8 +87,8 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
         LevelPreview { level, color: &self.color, depth: &self.depth }
     }
 
-    /// Solves the next level. After the last one, returns the frame; stepping again then is
-    /// an error-free no-op that returns [`RenderError::Cancelled`].
+    /// Solves the next level. After the last one, returns the frame; stepping a finished job
+    /// does no work and returns [`RenderError::Cancelled`].
     pub fn step(&mut self, hooks: &mut RenderHooks) -> Result<Progress, RenderError> {
         let Some(level) = self.next_level else {
             return Err(RenderError::Cancelled);
