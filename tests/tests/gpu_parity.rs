@@ -4,10 +4,12 @@
 
 use dynview_core::RgbRaster;
 use dynview_core::camera_path::parse_path;
+use dynview_core::display::{DisplayMode, picture, to_rgba8};
 use dynview_core::metrics::psnr;
+use dynview_core::raster::Raster;
 use dynview_core::render::{Method, RenderHooks, RenderParams, render_frame};
 use dynview_core::scene::ScenePackage;
-use dynview_gpu::{GpuContext, GpuInputs, GpuRenderer};
+use dynview_gpu::{FrameDisplay, GpuContext, GpuInputs, GpuRenderer, wgpu};
 use dynview_tests::small_event;
 
 /// PSNR the GPU frame must reach against the CPU frame.
@@ -81,4 +83,49 @@ fn gpu_buffers_are_allocated_once_per_resolution_and_reused() {
     assert!(pooled[0].0 > 10, "{pooled:?}");
     assert_eq!(pooled[1], pooled[0], "the second frame allocated new buffers");
     assert_eq!(pooled[2], pooled[0], "the third frame allocated new buffers");
+}
+
+/// Largest difference of a displayed byte from dynview-core's picture, per display mode: color
+/// and weights are exact up to rounding; the depth map's range comes from a 1024-bin histogram
+/// on the GPU instead of a sort, which moves colors by a few levels.
+fn display_tolerance(mode: DisplayMode) -> (u8, f64) {
+    match mode {
+        DisplayMode::Color | DisplayMode::Weights => (1, 0.0),
+        DisplayMode::Depth => (2, 0.1),
+    }
+}
+
+#[test]
+fn the_gpu_display_shows_what_the_cpu_picture_shows() {
+    let ctx = GpuContext::new_blocking().unwrap_or_else(|e| panic!("{e}"));
+    let renderer = GpuRenderer::new(&ctx);
+    let package = ScenePackage::open(small_event().join("scene")).unwrap();
+    let path = parse_path(&std::fs::read(small_event().join("camera_path.json")).unwrap(), "camera_path.json", None).unwrap();
+    let params = RenderParams::default();
+    let inputs = GpuInputs::upload(&ctx, &package.time_step_inputs(0, params.levels).unwrap()).unwrap();
+    let frame = renderer.render(&ctx, &params, &path[0].camera, &inputs, None).unwrap();
+    let color = download_rgb(&ctx, &frame);
+    let depth = frame.depth().download(&ctx).unwrap();
+    let depth = Raster::from_vec(color.width, color.height, depth).unwrap();
+    let packed = frame.view_weights.as_ref().expect("the frame keeps its view weights").download(&ctx).unwrap();
+    let n = color.width * color.height;
+    let weights: Vec<f32> = (0..n).map(|i| (0..frame.views_used).map(|s| packed[s * n + i]).sum()).collect();
+    let weights = Raster::from_vec(color.width, color.height, weights).unwrap();
+    for format in [wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureFormat::Bgra8UnormSrgb] {
+        let display = FrameDisplay::new(&ctx, format);
+        for mode in [DisplayMode::Color, DisplayMode::Depth, DisplayMode::Weights] {
+            let (w, h, shown) = pollster::block_on(display.picture(&ctx, &frame, mode)).unwrap();
+            assert_eq!((w as usize, h as usize), (color.width, color.height));
+            let expected = to_rgba8(&picture(mode, &color, &depth, Some(&weights), frame.views_used));
+            let differences: Vec<u8> = shown.iter().zip(&expected).map(|(a, b)| a.abs_diff(*b)).collect();
+            let worst = differences.iter().copied().max().unwrap_or(0);
+            let beyond_one = 100.0 * differences.iter().filter(|&&d| d > 1).count() as f64 / differences.len() as f64;
+            eprintln!("{format:?} {mode:?}: largest difference {worst}/255, {beyond_one:.3}% of bytes off by more than 1");
+            let (max_difference, max_percent_beyond_one) = display_tolerance(mode);
+            assert!(worst <= max_difference, "{format:?} {mode:?}: a byte differs by {worst}");
+            assert!(beyond_one <= max_percent_beyond_one, "{format:?} {mode:?}: {beyond_one:.3}% of bytes off by more than 1");
+            let distinct: std::collections::HashSet<&[u8]> = shown.chunks(4).collect();
+            assert!(distinct.len() > 16, "{format:?} {mode:?}: a flat picture");
+        }
+    }
 }

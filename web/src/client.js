@@ -8,19 +8,22 @@ export const RENDERERS = {
 };
 
 /**
- * Picks the renderer at start: the GPU when the worker has it and the browser has WebGPU,
- * else the CPU.
+ * Picks the renderer at start: the one the URL forces (`?renderer=cpu|gpu`) when the worker
+ * has it, else the GPU when the worker has it and the browser has WebGPU, else the CPU.
  * @param {string[]} backends what the worker can run
  * @param {boolean} hasWebGpu whether `navigator.gpu` exists
+ * @param {string | null} [forced] the renderer the URL asks for
  */
-export function chooseRenderer(backends, hasWebGpu) {
+export function chooseRenderer(backends, hasWebGpu, forced = null) {
+  if (forced && backends.includes(forced)) return forced;
   return backends.includes("gpu") && hasWebGpu ? "gpu" : "cpu";
 }
 
 /** Talks to `worker.js`. Frames and errors arrive through the callbacks. */
 export class RendererClient {
   /**
-   * @param {{onFrame: Function, onProgress: Function, onError: Function, onIdle: Function}} handlers
+   * @param {{onFrame: Function, onProgress: Function, onError: Function, onIdle: Function,
+   *   onGpuLost: Function}} handlers
    */
   constructor(handlers) {
     this.handlers = handlers;
@@ -51,6 +54,9 @@ export class RendererClient {
       case "idle":
         this.handlers.onIdle?.();
         break;
+      case "gpu-lost":
+        this.handlers.onGpuLost?.(msg.message);
+        break;
       case "reply": {
         const waiter = this.replies.get(msg.id);
         this.replies.delete(msg.id);
@@ -72,7 +78,12 @@ export class RendererClient {
     }
   }
 
-  /** Opens a scene by URL or files; resolves with `{info, backends}`. */
+  /** Hands the GPU path its canvas (an OffscreenCanvas); once, before opening. */
+  setCanvas(canvas) {
+    this.worker.postMessage({ type: "canvas", canvas }, [canvas]);
+  }
+
+  /** Opens a scene by URL or files; resolves with `{info, backends, gpu}`. */
   open(message, transfer = []) {
     return new Promise((resolve, reject) => {
       this.openWaiter = { resolve, reject };
@@ -80,12 +91,13 @@ export class RendererClient {
     });
   }
 
-  openUrl(url) {
-    return this.open({ type: "open", url });
+  /** `gpu`: whether to set up the GPU path too. */
+  openUrl(url, gpu = false) {
+    return this.open({ type: "open", url, gpu });
   }
 
-  openFiles(files, paths) {
-    return this.open({ type: "open-files", files, paths });
+  openFiles(files, paths, gpu = false) {
+    return this.open({ type: "open-files", files, paths, gpu });
   }
 
   /** Calls a Viewer query in the worker; resolves with its value. */

@@ -1,5 +1,7 @@
 // The viewer page: wires the controls, the timeline and the keyframe tools to the renderer
-// worker, and shows its frames. All rendering happens in the worker (see client.js).
+// worker, and shows its frames. All rendering happens in the worker (see client.js): CPU
+// frames arrive as pictures drawn into #view; GPU frames are drawn by the worker into
+// #view-gpu (an OffscreenCanvas), which then covers #view.
 
 import { RendererClient, RENDERERS, chooseRenderer } from "./client.js";
 import { ViewControls } from "./controls.js";
@@ -11,6 +13,9 @@ const $ = (id) => document.getElementById(id);
 const canvas = $("view");
 const ctx = canvas.getContext("2d");
 const scratch = document.createElement("canvas");
+const gpuCanvas = $("view-gpu");
+/** `?renderer=cpu|gpu` forces a renderer (when it is available). */
+const forcedRenderer = new URLSearchParams(location.search).get("renderer");
 
 /** Iteration presets of the quality control (fields of dynview-core's RenderParams). */
 const QUALITY = {
@@ -29,6 +34,8 @@ const state = {
   timeStep: 0,
   playing: false,
   renderer: "cpu",
+  gpu: null, // {name} of the adapter, or {error}
+  gpuNote: "", // why the GPU path is not in use, shown in the overlay
   latestId: 0,
   shownId: 0,
   rendering: false,
@@ -46,7 +53,10 @@ let hashTimer = 0;
 let firstFrame;
 const firstFrameShown = new Promise((resolve) => (firstFrame = resolve));
 
-const client = new RendererClient({ onFrame, onProgress, onError: showError, onIdle: () => (state.rendering = false) });
+const client = new RendererClient({ onFrame, onProgress, onError: showError, onIdle: () => (state.rendering = false), onGpuLost });
+/** Whether the GPU path can be offered: WebGPU, a canvas the worker can draw into, not forced off. */
+const gpuWanted = "gpu" in navigator && "transferControlToOffscreen" in gpuCanvas && forcedRenderer !== "cpu";
+if (gpuWanted) client.setCanvas(gpuCanvas.transferControlToOffscreen());
 const controls = new ViewControls(canvas, {
   onChange: (view) => {
     state.view = view;
@@ -73,6 +83,7 @@ function requestFrame({ moving = false, streaming = false } = {}) {
   if (!state.info) return;
   const { width, height } = renderSize();
   const request = {
+    renderer: state.renderer,
     view: state.view,
     time_step: state.timeStep,
     width,
@@ -93,26 +104,57 @@ function onFrame(msg) {
   state.shownId = msg.id;
   hide("loading");
   hide("message");
-  scratch.width = msg.width;
-  scratch.height = msg.height;
-  scratch.getContext("2d").putImageData(msg.image, 0, 0);
-  ctx.imageSmoothingEnabled = true;
-  ctx.imageSmoothingQuality = "high";
-  ctx.drawImage(scratch, 0, 0, canvas.width, canvas.height);
+  if (!msg.image) {
+    gpuCanvas.hidden = false; // the GPU has drawn it already
+  } else {
+    gpuCanvas.hidden = true;
+    scratch.width = msg.width;
+    scratch.height = msg.height;
+    scratch.getContext("2d").putImageData(msg.image, 0, 0);
+    ctx.imageSmoothingEnabled = true;
+    ctx.imageSmoothingQuality = "high";
+    ctx.drawImage(scratch, 0, 0, canvas.width, canvas.height);
+  }
   if (state.recorder) state.recorder.track.requestFrame?.();
   const { width, height } = renderSize();
+  const label = msg.gpu ? `${RENDERERS.gpu} ${state.gpu.name}${state.gpu.presents ? "" : ", read back"}` : RENDERERS.cpu;
   const lines = [
-    `${RENDERERS[state.renderer]}  ${msg.width}x${msg.height}${msg.done ? "" : `  level ${msg.level}`}`,
+    `${label}  ${msg.width}x${msg.height}${msg.done ? "" : msg.gpu ? "  preview" : `  level ${msg.level}`}`,
     `${msg.done ? "frame" : "so far"} ${msg.elapsed_ms.toFixed(0)} ms  target ${width}x${height}`,
     `t ${state.timeStep + 1}/${state.info.time_step_count}${msg.done && msg.temporal_used ? "  temporal" : ""}`,
   ];
+  if (state.gpuNote) lines.push(state.gpuNote);
   $("overlay").textContent = lines.join("\n");
   if (!msg.done) return;
   state.framesDone += 1;
-  state.lastDone = { id: msg.id, image: msg.image, width: msg.width, height: msg.height, elapsed_ms: msg.elapsed_ms, time_step: state.timeStep, last: msg.last };
+  state.lastDone = {
+    id: msg.id,
+    gpu: Boolean(msg.gpu),
+    image: msg.image,
+    width: msg.width,
+    height: msg.height,
+    elapsed_ms: msg.elapsed_ms,
+    time_step: state.timeStep,
+    last: msg.last,
+  };
   if (msg.id === state.latestId) state.rendering = false;
   firstFrame();
   advancePlayback();
+}
+
+/** The GPU path failed (device lost, GPU error): the CPU path takes over, and says so. */
+function onGpuLost(message) {
+  state.gpuNote = `GPU lost (${message}): rendering on the CPU`;
+  state.gpu = { error: message };
+  const option = [...$("renderer").options].find((o) => o.value === "gpu");
+  if (option) {
+    option.disabled = true;
+    option.textContent = `${RENDERERS.gpu}: lost`;
+  }
+  state.renderer = "cpu";
+  $("renderer").value = "cpu";
+  gpuCanvas.hidden = true;
+  requestFrame();
 }
 
 function onProgress(msg) {
@@ -222,7 +264,7 @@ async function importPath(file) {
 function exportVideo() {
   if (track.length === 0) return showError("Record keyframes first: the video plays the keyframe path.");
   if (typeof MediaRecorder === "undefined") return showError("This browser cannot record video (no MediaRecorder).");
-  const stream = canvas.captureStream(0);
+  const stream = (gpuCanvas.hidden ? canvas : gpuCanvas).captureStream(0);
   const mime = ["video/webm;codecs=vp9", "video/webm;codecs=vp8", "video/webm"].find((m) => MediaRecorder.isTypeSupported(m));
   const recorder = new MediaRecorder(stream, mime ? { mimeType: mime } : undefined);
   const chunks = [];
@@ -287,8 +329,9 @@ async function open(opening, label) {
   loading.querySelector(".loading-text").textContent = `Opening ${label}…`;
   loading.querySelector(".progress-fill").style.width = "0%";
   try {
-    const { info, backends } = await opening;
+    const { info, backends, gpu } = await opening;
     state.info = info;
+    state.gpu = gpu;
     setupScene(info, backends);
   } catch (e) {
     state.info = null;
@@ -316,12 +359,15 @@ function setupScene(info, backends) {
   const select = $("renderer");
   select.replaceChildren(
     ...Object.entries(RENDERERS).map(([key, label]) => {
-      const option = new Option(backends.includes(key) ? label : `${label}: not in this build`, key);
-      option.disabled = !backends.includes(key);
+      const has = backends.includes(key);
+      const option = new Option(has ? (key === "gpu" ? `${label}: ${state.gpu.name}` : label) : `${label}: unavailable`, key);
+      option.disabled = !has;
+      if (!has && key === "gpu") option.title = state.gpu?.error || "";
       return option;
     }),
   );
-  state.renderer = chooseRenderer(backends, "gpu" in navigator);
+  state.renderer = chooseRenderer(backends, "gpu" in navigator, forcedRenderer);
+  state.gpuNote = forcedRenderer === "gpu" && state.renderer !== "gpu" ? `GPU unavailable (${state.gpu?.error}): rendering on the CPU` : "";
   select.value = state.renderer;
   const fromHash = decodeHash(location.hash);
   state.view = fromHash ? fromHash.view : info.start_view;
@@ -351,6 +397,8 @@ function wire() {
   };
   $("renderer").onchange = () => {
     state.renderer = $("renderer").value;
+    state.gpuNote = "";
+    client.call("jump").catch(() => {}); // the other path's previous frame is not this one's
     requestFrame();
   };
   $("key-add").onclick = () => (track.add(state.view, state.timeStep), updateKeyCount());
@@ -368,7 +416,7 @@ function wire() {
   $("help-button").onclick = () => $("help").showModal();
   $("folder-input").onchange = (e) => {
     const entries = filesFromInput(e.target);
-    open(client.openFiles(entries.map((x) => x.file), entries.map((x) => x.path)), "from the chosen folder");
+    open(client.openFiles(entries.map((x) => x.file), entries.map((x) => x.path), gpuWanted), "from the chosen folder");
   };
   const viewport = $("viewport");
   viewport.addEventListener("dragover", (e) => (e.preventDefault(), viewport.classList.add("dragging")));
@@ -377,7 +425,7 @@ function wire() {
     e.preventDefault();
     viewport.classList.remove("dragging");
     const entries = await filesFromDrop(e.dataTransfer);
-    open(client.openFiles(entries.map((x) => x.file), entries.map((x) => x.path)), "from the dropped folder");
+    open(client.openFiles(entries.map((x) => x.file), entries.map((x) => x.path), gpuWanted), "from the dropped folder");
   });
   window.addEventListener("keydown", (e) => {
     if (e.target.closest?.("input, select, textarea") || e.ctrlKey || e.metaKey || e.altKey || !state.info) return;
@@ -395,7 +443,7 @@ function wire() {
 
 wire();
 const sceneUrl = new URLSearchParams(location.search).get("scene");
-if (sceneUrl) open(client.openUrl(new URL(sceneUrl, location.href).href), `at ${sceneUrl}`);
+if (sceneUrl) open(client.openUrl(new URL(sceneUrl, location.href).href, gpuWanted), `at ${sceneUrl}`);
 else $("landing").hidden = false;
 
 /** Hooks for end-to-end tests and for curious users in the console. */
@@ -403,6 +451,14 @@ window.dynview = {
   state,
   firstFrameShown,
   cameraPathJson,
-  /** The last finished frame's pixels as `{width, height, rgba: number[]}`. */
-  lastImage: () => state.lastDone && { width: state.lastDone.width, height: state.lastDone.height, rgba: Array.from(state.lastDone.image.data) },
+  /** The last finished frame's pixels as `{width, height, rgba: number[]}` (GPU frames are
+   * read back from the GPU for this, at their own resolution). */
+  lastImage: async () => {
+    const done = state.lastDone;
+    if (!done) return null;
+    const image = done.image || (await client.call("gpuPicture", $("display").value));
+    return { width: image.width, height: image.height, rgba: Array.from(image.data) };
+  },
+  /** Destroys the GPU device, as a driver reset would (tests the fallback). */
+  loseGpu: () => client.call("loseGpu"),
 };

@@ -1,20 +1,28 @@
-// The CPU renderer's worker: owns the wasm Viewer, loads time steps, renders one pyramid
-// level at a time and yields between levels so that a newer request (the user moved on)
-// replaces the one in progress. The page never waits on the solver.
+// The renderer worker: owns the wasm Viewer, loads time steps, and renders frames on either
+// path. CPU: one pyramid level at a time, yielding between levels so that a newer request (the
+// user moved on) replaces the one in progress. GPU (WebGPU): the whole frame is submitted at
+// once and drawn by the GPU straight into the page's canvas (an OffscreenCanvas handed over
+// with "canvas"); the worker waits for the GPU without blocking and then takes the newest
+// request. The page never waits on either.
 //
-// Messages in:  {type: "open", url} | {type: "open-files", files, paths}
-//               | {type: "render", request}      request: {id, view, time_step, width, height,
-//                                                 streaming, max_level, mode}
+// Messages in:  {type: "canvas", canvas}         the OffscreenCanvas the GPU path draws into
+//               | {type: "open", url, gpu} | {type: "open-files", files, paths, gpu}
+//                                                 gpu: whether to set up the GPU path
+//               | {type: "render", request}      request: {id, renderer, view, time_step,
+//                                                 width, height, streaming, max_level, mode}
 //               | {type: "call", id, method, args}   (small synchronous queries)
 //               | {type: "prefetch", time_step}
-// Messages out: {type: "opened", info, backends} | {type: "error", id, message}
+// Messages out: {type: "opened", info, backends, gpu: {name} | {error}}
+//               | {type: "error", id, message} | {type: "gpu-lost", message}
 //               | {type: "progress", time_step, stats, done, total}
 //               | {type: "frame", id, level, done, image, elapsed_ms, temporal_used, last}
+//               | {type: "frame", id, gpu: true, level, done, width, height, elapsed_ms, ...}
 //               | {type: "reply", id, value} | {type: "idle"}
 
 import init, { Viewer } from "../pkg/dynview_web.js";
 
 let viewer = null;
+let canvas = null; // the OffscreenCanvas of the GPU path
 let pending = null; // the newest render request not yet started
 let current = null; // the request whose job is in the viewer
 let running = false;
@@ -26,7 +34,7 @@ const yieldToEvents = () => new Promise((resolve) => setTimeout(resolve, 0));
 
 function sameFrame(a, b) {
   return (
-    a && b && a.time_step === b.time_step && a.width === b.width && a.height === b.height &&
+    a && b && a.renderer === b.renderer && a.time_step === b.time_step && a.width === b.width && a.height === b.height &&
     a.streaming === b.streaming && JSON.stringify(a.view) === JSON.stringify(b.view)
   );
 }
@@ -53,6 +61,22 @@ function postPicture(request, report) {
 async function ensureLoaded(t) {
   if (viewer.isLoaded(t)) return;
   await viewer.loadStep(t, (stats, done, total) => post({ type: "progress", time_step: t, stats, done, total }));
+}
+
+// Renders `request` on the GPU: submits it, waits (without blocking) until the GPU is done.
+// A failure of the device is reported as "gpu-lost": the page falls back to the CPU path.
+async function runGpu(request) {
+  await ensureLoaded(request.time_step);
+  if (pending) return;
+  let report;
+  try {
+    report = await viewer.renderGpu(request);
+  } catch (e) {
+    const lost = viewer.gpuLost();
+    post({ type: "gpu-lost", message: lost || message(e) });
+    return;
+  }
+  post({ type: "frame", id: request.id, gpu: true, ...report, last: null }, report.image ? [report.image.data.buffer] : []);
 }
 
 // Renders `request` until it is done or reaches its `max_level` (a preview while the camera
@@ -91,7 +115,7 @@ async function pump() {
       const request = pending;
       pending = null;
       try {
-        await run(request);
+        await (request.renderer === "gpu" ? runGpu(request) : run(request));
       } catch (e) {
         current = null;
         post({ type: "error", id: request.id, message: message(e) });
@@ -114,16 +138,73 @@ const calls = {
   loadStats: () => viewer.loadStats(),
   jump: () => viewer.jump(),
   setCacheBudget: (bytes) => viewer.setCacheBudget(bytes),
+  gpuPicture: (mode) => viewer.gpuPicture(mode),
+  loseGpu: () => viewer.loseGpu(),
 };
+
+// Whether this browser can present WebGPU canvases, tried on a throwaway device and canvas:
+// headless Chromium on SwiftShader cannot (its first present loses the device), and a lost
+// device cannot be revived. Resolves with `{presents, info}` (`info`: the adapter's).
+let presentProbe = null;
+function probePresentation() {
+  presentProbe ??= (async () => {
+    const adapter = await navigator.gpu.requestAdapter();
+    if (!adapter) return { presents: false, info: null };
+    const device = await adapter.requestDevice();
+    let lost = false;
+    device.lost.then(() => (lost = true));
+    try {
+      const context = new OffscreenCanvas(4, 4).getContext("webgpu");
+      context.configure({ device, format: navigator.gpu.getPreferredCanvasFormat() });
+      for (let i = 0; i < 2 && !lost; i++) {
+        const encoder = device.createCommandEncoder();
+        const view = context.getCurrentTexture().createView();
+        encoder.beginRenderPass({ colorAttachments: [{ view, loadOp: "clear", storeOp: "store" }] }).end();
+        device.queue.submit([encoder.finish()]);
+        await Promise.race([device.queue.onSubmittedWorkDone(), device.lost]);
+        await new Promise((resolve) => setTimeout(resolve, 50));
+      }
+    } catch {
+      lost = true;
+    }
+    device.destroy();
+    return { presents: !lost, info: adapter.info };
+  })();
+  return presentProbe;
+}
+
+// Sets up the GPU path for the opened viewer: `{name, presents}` of the adapter (`presents`:
+// frames are drawn into the page's canvas; else read back), or `{error}` saying why there is none.
+async function enableGpu() {
+  if (!navigator.gpu) return { error: "this browser has no WebGPU (navigator.gpu)" };
+  try {
+    const { presents, info } = await probePresentation();
+    const target = presents ? canvas : null;
+    if (target) {
+      const first = viewer.info().cameras[0];
+      target.width = first.width;
+      target.height = first.height;
+    }
+    const described = await viewer.enableGpu(target);
+    // Browsers often leave the adapter's description empty; vendor and architecture remain.
+    const named = [info?.vendor, info?.architecture].filter(Boolean).join(" ");
+    return { name: [named, described].filter(Boolean).join(" ") || "adapter", presents: Boolean(target) };
+  } catch (e) {
+    return { error: message(e) };
+  }
+}
 
 self.onmessage = async (event) => {
   const msg = event.data;
   try {
     await ready;
-    if (msg.type === "open" || msg.type === "open-files") {
+    if (msg.type === "canvas") {
+      canvas = msg.canvas;
+    } else if (msg.type === "open" || msg.type === "open-files") {
       viewer = null;
       viewer = msg.type === "open" ? await Viewer.openUrl(msg.url) : await Viewer.openFiles(msg.files, msg.paths);
-      post({ type: "opened", info: viewer.info(), backends: ["cpu"] });
+      const gpu = msg.gpu ? await enableGpu() : { error: "not requested" };
+      post({ type: "opened", info: viewer.info(), backends: gpu.name ? ["cpu", "gpu"] : ["cpu"], gpu });
     } else if (!viewer) {
       throw new Error("no scene is open");
     } else if (msg.type === "render") {
@@ -133,7 +214,7 @@ self.onmessage = async (event) => {
     } else if (msg.type === "prefetch") {
       if (!running) ensureLoaded(msg.time_step).catch(() => {});
     } else if (msg.type === "call") {
-      const value = calls[msg.method](...(msg.args || []));
+      const value = await calls[msg.method](...(msg.args || []));
       const transfer = value instanceof ImageData ? [value.data.buffer] : [];
       post({ type: "reply", id: msg.id, value }, transfer);
     }

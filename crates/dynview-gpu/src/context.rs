@@ -33,6 +33,10 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     /// The adapter's name, backend and driver.
     pub adapter_info: wgpu::AdapterInfo,
+    /// The instance (for surfaces: a canvas to draw into).
+    pub instance: wgpu::Instance,
+    /// The adapter.
+    pub adapter: wgpu::Adapter,
     pub(crate) pool: BufferPool,
 }
 
@@ -59,7 +63,7 @@ impl GpuContext {
             })
             .await
             .map_err(|e| GpuError::NoDevice(e.to_string()))?;
-        Ok(Self { device, queue, adapter_info, pool: BufferPool::default() })
+        Ok(Self { device, queue, adapter_info, instance, adapter, pool: BufferPool::default() })
     }
 
     /// Idle pooled buffers and their bytes (images dropped since, kept for reuse).
@@ -71,6 +75,17 @@ impl GpuContext {
     /// Blocks until the GPU has finished all submitted work (native; a no-op on WebGPU).
     pub fn wait(&self) -> Result<(), GpuError> {
         self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::ReadBack(e.to_string()))
+    }
+
+    /// Resolves when the GPU has finished the work submitted so far (natively after waiting
+    /// for it; in the browser from the event loop, without blocking).
+    pub async fn finished(&self) -> Result<(), GpuError> {
+        let signal = crate::readback::Signal::default();
+        let callback = signal.clone();
+        self.queue.on_submitted_work_done(move || callback.fire(Ok(())));
+        #[cfg(not(target_family = "wasm"))]
+        self.wait()?;
+        signal.await.map_err(|e| GpuError::ReadBack(e.to_string()))
     }
 
     /// [`GpuContext::new`], blocking (native only).

@@ -16,6 +16,7 @@
 
 mod assemble;
 mod context;
+mod display;
 mod image;
 mod kernel;
 mod level;
@@ -27,13 +28,17 @@ mod warp;
 
 pub use assemble::{AssembleKernels, GpuSystem, PackedViews};
 pub use context::{GpuContext, GpuError};
+pub use display::FrameDisplay;
 pub use image::{GpuImage, ImageKernels};
 pub use level::{LevelKernels, MAX_VIEWS};
-pub use readback::read_floats;
+pub use readback::{read_bytes, read_floats};
 pub use renderer::{GpuFrame, GpuInputs, GpuRenderer};
 pub use solver::GridSolver;
 pub use splat::{GpuCloud, GpuSplat, SplatKernels};
 pub use warp::{GpuWarps, WarpKernels};
+
+/// wgpu, as this crate uses it (for targets to draw into).
+pub use wgpu;
 
 /// Every WGSL shader of the crate, by file name (validated by naga in the tests).
 pub const SHADERS: &[(&str, &str)] = &[
@@ -46,4 +51,6 @@ pub const SHADERS: &[(&str, &str)] = &[
     ("splat_resolve.wgsl", include_str!("shaders/splat_resolve.wgsl")),
     ("consistency.wgsl", include_str!("shaders/consistency.wgsl")),
     ("frame.wgsl", include_str!("shaders/frame.wgsl")),
+    ("depth_range.wgsl", include_str!("shaders/depth_range.wgsl")),
+    ("display.wgsl", include_str!("shaders/display.wgsl")),
 ];

@@ -10,15 +10,28 @@ use std::task::{Context, Poll, Waker};
 use crate::context::{GpuContext, GpuError};
 
 #[derive(Default)]
-struct MapState {
+struct SignalState {
     result: Option<Result<(), wgpu::BufferAsyncError>>,
     waker: Option<Waker>,
 }
 
-/// Resolves when the `map_async` callback has run.
-struct Mapped(Arc<Mutex<MapState>>);
+/// A future that resolves when a wgpu callback (`map_async`, `on_submitted_work_done`) fires
+/// it; a clone goes into the callback.
+#[derive(Clone, Default)]
+pub(crate) struct Signal(Arc<Mutex<SignalState>>);
 
-impl Future for Mapped {
+impl Signal {
+    /// Resolves the future with `result`.
+    pub(crate) fn fire(&self, result: Result<(), wgpu::BufferAsyncError>) {
+        let mut state = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        state.result = Some(result);
+        if let Some(waker) = state.waker.take() {
+            waker.wake();
+        }
+    }
+}
+
+impl Future for Signal {
     type Output = Result<(), wgpu::BufferAsyncError>;
 
     fn poll(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Self::Output> {
@@ -35,7 +48,12 @@ impl Future for Mapped {
 
 /// The first `len` floats of `buffer` (which must have `COPY_SRC`), through a staging buffer.
 pub async fn read_floats(ctx: &GpuContext, buffer: &wgpu::Buffer, len: usize) -> Result<Vec<f32>, GpuError> {
-    let size = (len * 4) as u64;
+    let bytes = read_bytes(ctx, buffer, (len * 4) as u64).await?;
+    Ok(bytemuck::pod_collect_to_vec(&bytes))
+}
+
+/// The first `size` bytes of `buffer` (which must have `COPY_SRC`), through a staging buffer.
+pub async fn read_bytes(ctx: &GpuContext, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
     let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("read-back"),
         size,
@@ -46,22 +64,13 @@ pub async fn read_floats(ctx: &GpuContext, buffer: &wgpu::Buffer, len: usize) ->
     encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
     ctx.queue.submit([encoder.finish()]);
     let slice = staging.slice(..);
-    let state = Arc::new(Mutex::new(MapState::default()));
-    let callback_state = state.clone();
-    slice.map_async(wgpu::MapMode::Read, move |result| {
-        let mut s = callback_state.lock().unwrap_or_else(PoisonError::into_inner);
-        s.result = Some(result);
-        if let Some(waker) = s.waker.take() {
-            waker.wake();
-        }
-    });
+    let signal = Signal::default();
+    let callback = signal.clone();
+    slice.map_async(wgpu::MapMode::Read, move |result| callback.fire(result));
     #[cfg(not(target_family = "wasm"))]
     ctx.wait()?;
-    Mapped(state).await.map_err(|e| GpuError::ReadBack(e.to_string()))?;
-    let out = {
-        let view = slice.get_mapped_range().map_err(|e| GpuError::ReadBack(e.to_string()))?;
-        bytemuck::cast_slice::<u8, f32>(&view).to_vec()
-    };
+    signal.await.map_err(|e| GpuError::ReadBack(e.to_string()))?;
+    let out = slice.get_mapped_range().map_err(|e| GpuError::ReadBack(e.to_string()))?.to_vec();
     staging.unmap();
     Ok(out)
 }

@@ -48,6 +48,11 @@ pub struct GpuFrame {
     pub camera: Camera,
     /// Depth (1 channel) and color (RGB) per level, finest first.
     pub levels: Vec<(GpuImage, GpuImage)>,
+    /// `w_P` of each view used at the finest level (their images stacked, view after view),
+    /// for the view-weights display.
+    pub view_weights: Option<GpuImage>,
+    /// How many views were used.
+    pub views_used: usize,
 }
 
 impl GpuFrame {
@@ -113,6 +118,7 @@ impl GpuRenderer {
         let sizes = level_sizes(camera.width_px as usize, camera.height_px as usize, params.levels);
         let mut state: Option<(GpuImage, GpuImage)> = None;
         let mut solutions = Vec::with_capacity(params.levels);
+        let mut view_weights = None;
         for level in (0..params.levels).rev() {
             let (w, h) = sizes[level];
             let cam = camera_at(camera, w, h);
@@ -174,12 +180,15 @@ impl GpuRenderer {
                 let w_p = self.assemble.projection_weights(ctx, params, &color, warps.packed())?;
                 let sys = self.assemble.color_system(ctx, params, &warps.colors, &w_p, &temporal_color, warps.count)?;
                 self.solver.solve_on_gpu(ctx, &sys, &color, params.color_sweeps, params.relaxation)?;
+                if level == 0 {
+                    view_weights = Some(w_p);
+                }
             }
             solutions.push((self.copy(ctx, &depth)?, self.copy(ctx, &color)?));
             state = Some((depth, color));
         }
         solutions.reverse();
-        Ok(GpuFrame { camera: *camera, levels: solutions })
+        Ok(GpuFrame { camera: *camera, levels: solutions, view_weights, views_used: chosen.len() })
     }
 
     /// A copy of `image` (the level's solution, kept while the next level overwrites its own).

@@ -2,7 +2,8 @@
 //! freezes). It opens a scene package over HTTP (range requests for the clouds) or from dropped
 //! files, loads time steps on demand into a cache with a memory budget, and renders views with
 //! [`dynview_core`]'s renderer one pyramid level at a time, so the worker can show coarse levels
-//! first and drop stale work. It does no math of its own.
+//! first and drop stale work; or with [`dynview_gpu`] on the browser's WebGPU, drawing straight
+//! into an `OffscreenCanvas` (`enableGpu`, `renderGpu`). It does no math of its own.
 //!
 //! JS usage (a module worker):
 //! ```js
@@ -14,6 +15,7 @@
 //! const image = viewer.renderNow({ view: info.start_view, time_step: 0, width: 480, height: 270 }, "color");
 //! ```
 
+mod gpu;
 mod scene;
 mod source;
 mod view;

@@ -1,6 +1,7 @@
 //! The `Viewer` class the page (its worker) drives: open a scene, load time steps, render a
 //! view a pyramid level at a time, read pictures, export camera paths.
 
+use std::cell::RefCell;
 use std::rc::Rc;
 
 use dynview_core::camera::Camera;
@@ -12,6 +13,7 @@ use js_sys::{Function, Promise};
 use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
 
+use crate::gpu::{GpuRequest, GpuView};
 use crate::scene::{LoadStats, RemoteScene};
 use crate::source::{ReadError, Source};
 use crate::view::{PathView, SceneInfo, View};
@@ -30,6 +32,18 @@ impl From<ReadError> for JsError {
     fn from(e: ReadError) -> Self {
         error(e)
     }
+}
+
+/// A JS-owned ImageData of RGBA bytes (a copy, not a view of wasm memory: it can be
+/// transferred to the page).
+fn image_data(rgba: &[u8], width: u32, height: u32) -> Result<web_sys::ImageData, JsValue> {
+    let pixels = js_sys::Uint8ClampedArray::from(rgba);
+    web_sys::ImageData::new_with_js_u8_clamped_array_and_sh(&pixels, width, height)
+}
+
+fn parse_mode(mode: &str) -> Result<DisplayMode, JsError> {
+    serde_json::from_value(serde_json::Value::String(mode.to_owned()))
+        .map_err(|_| error(format!("display mode {mode:?}: use color, depth or weights")))
 }
 
 fn to_js<T: Serialize>(value: &T) -> Result<JsValue, JsError> {
@@ -83,6 +97,13 @@ struct Request {
     /// Streaming (playback): use the previous finished frame for the temporal terms.
     #[serde(default)]
     streaming: bool,
+    /// GPU path: a preview while the view moves, at `1 / 2^max_level` of the size (the CPU
+    /// path stops after that level instead, which the worker decides).
+    #[serde(default)]
+    max_level: Option<usize>,
+    /// GPU path: what the canvas shows (`color` when left out).
+    #[serde(default)]
+    mode: Option<DisplayMode>,
 }
 
 /// The viewer: an opened scene, render parameters, the frame in progress and the last finished
@@ -93,6 +114,8 @@ pub struct Viewer {
     params: RenderParams,
     active: Option<Active>,
     finished: Option<Finished>,
+    /// The GPU path, once [`Viewer::enable_gpu`] has set it up.
+    gpu: Rc<RefCell<Option<Rc<GpuView>>>>,
 }
 
 #[wasm_bindgen]
@@ -116,7 +139,7 @@ impl Viewer {
     }
 
     fn new(scene: RemoteScene) -> Self {
-        Self { scene: Rc::new(scene), params: RenderParams::default(), active: None, finished: None }
+        Self { scene: Rc::new(scene), params: RenderParams::default(), active: None, finished: None, gpu: Rc::default() }
     }
 
     /// The scene: name, fps, time steps, cameras, bounds, start view.
@@ -151,6 +174,9 @@ impl Viewer {
             // Cached pyramids were built for the old depth; the previous frame too.
             self.scene.clear_cache();
             self.finished = None;
+            if let Some(gpu) = self.gpu.borrow().as_ref() {
+                gpu.clear();
+            }
         }
         self.params = params;
         Ok(())
@@ -229,6 +255,9 @@ impl Viewer {
     /// Forgets the last finished frame: the next streaming render has no temporal terms.
     pub fn jump(&mut self) {
         self.finished = None;
+        if let Some(gpu) = self.gpu.borrow().as_ref() {
+            gpu.jump();
+        }
     }
 
     /// Solves the next pyramid level of the render in progress. Returns `{level, done, width,
@@ -294,8 +323,7 @@ impl Viewer {
     /// The picture of the render in progress (its last finished level) or else of the last
     /// finished frame, as `mode` = `color`, `depth` or `weights`, at that level's resolution.
     pub fn picture(&self, mode: &str) -> Result<web_sys::ImageData, JsError> {
-        let mode: DisplayMode = serde_json::from_value(serde_json::Value::String(mode.to_owned()))
-            .map_err(|_| error(format!("display mode {mode:?}: use color, depth or weights")))?;
+        let mode = parse_mode(mode)?;
         let (color, depth, weights, views): (&RgbRaster, &ScalarRaster, Option<&ScalarRaster>, usize) =
             match (self.active.as_ref().and_then(|a| a.level.map(|l| (a, l))), self.finished.as_ref()) {
                 (Some((active, level)), _) => {
@@ -306,11 +334,101 @@ impl Viewer {
                 (None, None) => return Err(error("nothing rendered yet")),
             };
         let picture = display::picture(mode, color, depth, weights, views);
-        let rgba = display::to_rgba8(&picture);
-        // A copy owned by JS (not a view of wasm memory), so the worker can transfer it.
-        let pixels = js_sys::Uint8ClampedArray::from(rgba.as_slice());
-        web_sys::ImageData::new_with_js_u8_clamped_array_and_sh(&pixels, picture.width as u32, picture.height as u32)
+        image_data(&display::to_rgba8(&picture), picture.width as u32, picture.height as u32)
             .map_err(|e| error(format!("ImageData: {e:?}")))
+    }
+
+    /// Sets up the GPU path: a WebGPU device from the browser, drawing into `canvas`, or, given
+    /// none (a browser that cannot present WebGPU canvases), reading each frame's picture back.
+    /// Resolves with the adapter's name; rejects (and the CPU path stays) when there is no
+    /// adapter.
+    #[wasm_bindgen(js_name = enableGpu)]
+    pub fn enable_gpu(&self, canvas: Option<web_sys::OffscreenCanvas>) -> Promise {
+        let slot = self.gpu.clone();
+        wasm_bindgen_futures::future_to_promise(async move {
+            let view = GpuView::new(canvas).await.map_err(|e| JsValue::from(error(e)))?;
+            let description = view.describe();
+            *slot.borrow_mut() = Some(Rc::new(view));
+            Ok(description.into())
+        })
+    }
+
+    /// Renders `{view, time_step, width, height, streaming, max_level, mode}` on the GPU and
+    /// draws it into the canvas; the step must be loaded. The work is submitted before this
+    /// returns; the promise resolves with `{level, done, width, height, elapsed_ms,
+    /// temporal_used}` when the GPU has finished (with `image`, the picture as ImageData, when
+    /// there is no canvas), and rejects when the device is lost.
+    #[wasm_bindgen(js_name = renderGpu)]
+    pub fn render_gpu(&mut self, request: JsValue) -> Result<Promise, JsError> {
+        let gpu = self.gpu.borrow().clone().ok_or_else(|| error("the GPU path is not set up: call enableGpu() first"))?;
+        let request: Request = serde_wasm_bindgen::from_value(request).map_err(|e| error(format!("render request: {e}")))?;
+        let camera = request.view.camera(request.width, request.height).map_err(error)?;
+        let inputs = self
+            .scene
+            .cached(request.time_step)
+            .ok_or_else(|| error(format!("time step {} is not loaded: call loadStep({}) first", request.time_step, request.time_step)))?;
+        let started_ms = performance_now();
+        let preview_level = request.max_level.filter(|&l| l > 0);
+        let rendered = gpu
+            .render(
+                &self.params,
+                &GpuRequest {
+                    camera,
+                    time_step: request.time_step,
+                    inputs: &inputs,
+                    streaming: request.streaming,
+                    preview_level,
+                    mode: request.mode.unwrap_or(DisplayMode::Color),
+                },
+            )
+            .map_err(error)?;
+        let mode = request.mode.unwrap_or(DisplayMode::Color);
+        Ok(wasm_bindgen_futures::future_to_promise(async move {
+            let picture = if gpu.presents() { None } else { Some(gpu.picture(mode).await.map_err(|e| JsValue::from(error(e)))?) };
+            gpu.ctx.finished().await.map_err(|e| JsValue::from(error(e)))?;
+            if let Some(reason) = gpu.lost() {
+                return Err(error(reason).into());
+            }
+            let report = StepReport {
+                level: preview_level.unwrap_or(0),
+                done: preview_level.is_none(),
+                width: rendered.width,
+                height: rendered.height,
+                elapsed_ms: performance_now() - started_ms,
+                temporal_used: rendered.temporal_used,
+            };
+            let report = to_js(&report).map_err(JsValue::from)?;
+            if let Some((width, height, rgba)) = picture {
+                js_sys::Reflect::set(&report, &"image".into(), &image_data(&rgba, width, height)?.into())?;
+            }
+            Ok(report)
+        }))
+    }
+
+    /// The picture on the GPU's canvas as `mode`, at the frame's own resolution (an
+    /// asynchronous read-back, for tests and exports; the frame loop never reads back).
+    #[wasm_bindgen(js_name = gpuPicture)]
+    pub fn gpu_picture(&self, mode: &str) -> Result<Promise, JsError> {
+        let mode = parse_mode(mode)?;
+        let gpu = self.gpu.borrow().clone().ok_or_else(|| error("the GPU path is not set up"))?;
+        Ok(wasm_bindgen_futures::future_to_promise(async move {
+            let (width, height, rgba) = gpu.picture(mode).await.map_err(|e| JsValue::from(error(e)))?;
+            image_data(&rgba, width, height).map(JsValue::from)
+        }))
+    }
+
+    /// Why the GPU path stopped working (device lost, GPU error), or `undefined`.
+    #[wasm_bindgen(js_name = gpuLost)]
+    pub fn gpu_lost(&self) -> Option<String> {
+        self.gpu.borrow().as_ref().and_then(|g| g.lost())
+    }
+
+    /// Destroys the GPU device, as a driver reset would (for testing the fallback to the CPU).
+    #[wasm_bindgen(js_name = loseGpu)]
+    pub fn lose_gpu(&self) {
+        if let Some(gpu) = self.gpu.borrow().as_ref() {
+            gpu.destroy();
+        }
     }
 
     /// Timings of the last finished frame: `{time_step, wall_ms, temporal_used, timings}` with

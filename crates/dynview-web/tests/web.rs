@@ -1,6 +1,7 @@
 //! The wasm API in a real browser (headless Chromium via wasm-bindgen-test-runner): opening a
 //! package from files, loading a step, rendering equal to the native renderer, streaming,
-//! progressive steps, camera path export and import, and errors for a corrupted package.
+//! progressive steps, camera path export and import, errors for a corrupted package, and the
+//! GPU path on the browser's WebGPU.
 //!
 //! The fixture bundle (a small synthetic package, its held-out camera path and the native
 //! renders of that path by `dynview render`) is made by `cargo xtask test`, which sets
@@ -11,7 +12,7 @@ use dynview_core::metrics::psnr;
 use dynview_core::raster::RgbRaster;
 use dynview_web::Viewer;
 use js_sys::{Array, Uint8Array};
-use wasm_bindgen::JsValue;
+use wasm_bindgen::{JsCast, JsValue};
 use wasm_bindgen_test::*;
 
 wasm_bindgen_test_configure!(run_in_browser);
@@ -199,4 +200,57 @@ async fn camera_paths_export_in_the_format_dynview_render_reads() {
         assert!((ca - cb).length() < 1e-9, "{ca} vs {cb}");
         assert_eq!(a.time.time_step(4), b.time.time_step(4));
     }
+}
+
+/// Resolves after `ms` milliseconds (lets browser callbacks such as device loss run).
+async fn sleep_ms(ms: i32) {
+    let promise = js_sys::Promise::new(&mut |resolve, _| {
+        let set_timeout: js_sys::Function = js_sys::Reflect::get(&js_sys::global(), &"setTimeout".into()).unwrap().unchecked_into();
+        set_timeout.call2(&JsValue::NULL, &resolve, &ms.into()).unwrap();
+    });
+    wait(promise).await.unwrap();
+}
+
+/// The GPU path on the browser's WebGPU (SwiftShader in CI): the same frames as the native
+/// CPU renderer, within the same tolerance as the wasm CPU path, then a lost device is a clear
+/// error. Headless Chromium cannot present WebGPU canvases, so the pictures are read back.
+#[wasm_bindgen_test]
+async fn the_gpu_path_renders_the_native_frames_in_the_browser_and_reports_a_lost_device() {
+    let mut viewer = open_scene(|_, b| b).await.unwrap();
+    let name = wait(viewer.enable_gpu(None)).await.expect("a WebGPU adapter (Chromium with --enable-unsafe-webgpu)");
+    web_sys::console::log_1(&format!("WebGPU adapter: {name:?}").into());
+    for i in 0..2u32 {
+        let request = path_request(&viewer, i, true);
+        let t = get(&request, "time_step").as_f64().unwrap() as u32;
+        wait(viewer.load_step(t, None)).await.unwrap();
+        let report = wait(viewer.render_gpu(request).unwrap()).await.unwrap();
+        assert_eq!(get(&report, "done").as_bool(), Some(true));
+        assert_eq!(get(&report, "temporal_used").as_bool(), Some(i > 0), "frame {i}");
+        let image: web_sys::ImageData = get(&report, "image").dyn_into().unwrap();
+        let gpu = image_raster(&image);
+        let native = png_raster(&read(&format!("native/{i:05}.png")));
+        assert_eq!((gpu.width, gpu.height), (native.width, native.height));
+        let db = psnr(&gpu, &native);
+        let off = gpu.data.iter().zip(&native.data).filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 2.5 / 255.0)).count();
+        let share = off as f64 / gpu.data.len() as f64;
+        web_sys::console::log_1(
+            &format!("frame {i}: browser GPU vs native CPU {db:.1} dB, {:.3}% of pixels off by more than 2/255", 100.0 * share).into(),
+        );
+        assert!(db > MIN_PSNR_VS_NATIVE_DB, "frame {i}: browser GPU vs native CPU {db:.1} dB");
+        assert!(share < MAX_SHARE_OFF_BY_MORE_THAN_2, "frame {i}: {:.3}% of pixels differ by more than 2/255", 100.0 * share);
+        let again: web_sys::ImageData = wait(viewer.gpu_picture("color").unwrap()).await.unwrap().dyn_into().unwrap();
+        assert_eq!(again.data().0, image.data().0, "gpuPicture differs from the frame's picture");
+    }
+    assert_eq!(viewer.gpu_lost(), None);
+    viewer.lose_gpu();
+    sleep_ms(100).await;
+    let reason = viewer.gpu_lost().expect("the loss is reported");
+    assert!(reason.contains("lost"), "{reason}");
+    let request = path_request(&viewer, 0, false);
+    let refused = match viewer.render_gpu(request) {
+        Err(e) => JsValue::from(e),
+        Ok(promise) => wait(promise).await.expect_err("a render on a lost device must fail"),
+    };
+    let message = get(&refused, "message").as_string().unwrap_or_default();
+    assert!(message.contains("lost"), "{message}");
 }

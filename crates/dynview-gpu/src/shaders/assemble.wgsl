@@ -134,7 +134,7 @@ fn depth_weights(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 
 fn finite_or_zero(v: f32) -> f32 {
-    if (abs(v) <= 3.4028235e38) {
+    if (abs(v) <= 0x1.fffffep+127f) {
         return v;
     }
     return 0.0;

@@ -12,6 +12,10 @@ struct Params {
     _pad: u32,
 };
 
+// +infinity at run time: WGSL forbids an infinite constant (Tint rejects a constant-folded
+// bitcast), so the bits come from a variable.
+var<private> infinity_bits: u32 = 0x7f800000u;
+
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read_write> depth: array<f32>;
 @group(0) @binding(2) var<storage, read_write> mask: array<f32>;
@@ -111,7 +115,7 @@ fn apply(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.y * params.width + id.x;
     if (flags[i] != 0u || flags[n + i] != 0u) {
         mask[i] = 0.0;
-        depth[i] = bitcast<f32>(0x7f800000u);
+        depth[i] = bitcast<f32>(infinity_bits);
     }
     if (mask[i] > 0.0) {
         atomicAdd(&counters[1], 1u);

@@ -80,7 +80,7 @@ fn project_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     element_target[e] = OUTSIDE;
     let d = source_geometry[e];
-    if (!(d > 0.0 && d <= 3.4028235e38)) {
+    if (!(d > 0.0 && d <= 0x1.fffffep+127f)) {
         return;
     }
     let x = f32(e % params.source_width);

@@ -69,7 +69,7 @@ fn warp(@builtin(global_invocation_id) id: vec3<u32>) {
     target_pixel[i] = OUTSIDE;
     depth_in_input[i] = 0.0;
     let d = depth[i];
-    if (!(d > 0.0 && d <= 3.4028235e38)) {
+    if (!(d > 0.0 && d <= 0x1.fffffep+127f)) {
         return;
     }
     let fx = f32(x);
