@@ -66,17 +66,31 @@ fn gpu_frames_match_cpu_frames_with_and_without_the_temporal_terms() {
     }
 }
 
-#[test]
-fn gpu_buffers_are_allocated_once_per_resolution_and_reused() {
+/// A device, the renderer, the small event's first path camera and time step 0 uploaded.
+struct Setup {
+    ctx: GpuContext,
+    renderer: GpuRenderer,
+    camera: dynview_core::Camera,
+    params: RenderParams,
+    inputs: GpuInputs,
+}
+
+fn setup() -> Setup {
     let ctx = GpuContext::new_blocking().unwrap_or_else(|e| panic!("{e}"));
     let renderer = GpuRenderer::new(&ctx);
     let package = ScenePackage::open(small_event().join("scene")).unwrap();
     let path = parse_path(&std::fs::read(small_event().join("camera_path.json")).unwrap(), "camera_path.json", None).unwrap();
     let params = RenderParams::default();
     let inputs = GpuInputs::upload(&ctx, &package.time_step_inputs(0, params.levels).unwrap()).unwrap();
+    Setup { ctx, renderer, camera: path[0].camera, params, inputs }
+}
+
+#[test]
+fn gpu_buffers_are_allocated_once_per_resolution_and_reused() {
+    let Setup { ctx, renderer, camera, params, inputs } = setup();
     let mut pooled = Vec::new();
     for _ in 0..3 {
-        drop(renderer.render(&ctx, &params, &path[0].camera, &inputs, None).unwrap());
+        drop(renderer.render(&ctx, &params, &camera, &inputs, None).unwrap());
         pooled.push(ctx.pooled());
     }
     // Every buffer of the second and third frames came from the pool: it does not grow.
@@ -97,13 +111,8 @@ fn display_tolerance(mode: DisplayMode) -> (u8, f64) {
 
 #[test]
 fn the_gpu_display_shows_what_the_cpu_picture_shows() {
-    let ctx = GpuContext::new_blocking().unwrap_or_else(|e| panic!("{e}"));
-    let renderer = GpuRenderer::new(&ctx);
-    let package = ScenePackage::open(small_event().join("scene")).unwrap();
-    let path = parse_path(&std::fs::read(small_event().join("camera_path.json")).unwrap(), "camera_path.json", None).unwrap();
-    let params = RenderParams::default();
-    let inputs = GpuInputs::upload(&ctx, &package.time_step_inputs(0, params.levels).unwrap()).unwrap();
-    let frame = renderer.render(&ctx, &params, &path[0].camera, &inputs, None).unwrap();
+    let Setup { ctx, renderer, camera, params, inputs } = setup();
+    let frame = renderer.render(&ctx, &params, &camera, &inputs, None).unwrap();
     let color = download_rgb(&ctx, &frame);
     let depth = frame.depth().download(&ctx).unwrap();
     let depth = Raster::from_vec(color.width, color.height, depth).unwrap();
@@ -128,4 +137,30 @@ fn the_gpu_display_shows_what_the_cpu_picture_shows() {
             assert!(distinct.len() > 16, "{format:?} {mode:?}: a flat picture");
         }
     }
+}
+
+#[test]
+fn timestamp_queries_time_every_stage_of_every_level_without_changing_the_frame() {
+    let Setup { ctx, renderer, camera, params, inputs } = setup();
+    let plain = download_rgb(&ctx, &renderer.render(&ctx, &params, &camera, &inputs, None).unwrap());
+    assert!(ctx.start_profile(), "the adapter ({}) has no timestamp queries", ctx.adapter_info.name);
+    let profiled = download_rgb(&ctx, &renderer.render(&ctx, &params, &camera, &inputs, None).unwrap());
+    let stages = ctx.finish_profile().unwrap();
+    assert_eq!(plain.data, profiled.data, "profiling changed the frame");
+    for level in 0..params.levels {
+        for stage in ["splat", "push-pull", "warp", "weights", "depth system", "depth solve", "color system", "color solve"] {
+            let found = stages.iter().find(|s| s.level == level && s.stage == stage);
+            let found = found.unwrap_or_else(|| panic!("no time for {stage} at level {level}: {stages:?}"));
+            assert!(found.ms.is_finite() && found.ms >= 0.0 && found.passes > 0, "{found:?}");
+        }
+    }
+    // All red-black sweeps of a solve are one pass: one per outer iteration.
+    let depth_solve = stages.iter().find(|s| s.level == 0 && s.stage == "depth solve").unwrap();
+    assert_eq!(depth_solve.passes, params.outer_iterations_at(0));
+    let total: f64 = stages.iter().map(|s| s.ms).sum();
+    assert!(total > 0.0, "{stages:?}");
+    eprintln!("GPU time of a profiled frame: {total:.1} ms in {} passes", stages.iter().map(|s| s.passes).sum::<usize>());
+    // Profiling is over: the next frame writes no timestamps.
+    drop(renderer.render(&ctx, &params, &camera, &inputs, None).unwrap());
+    assert!(ctx.finish_profile().unwrap().is_empty());
 }

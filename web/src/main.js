@@ -54,8 +54,8 @@ let firstFrame;
 const firstFrameShown = new Promise((resolve) => (firstFrame = resolve));
 
 const client = new RendererClient({ onFrame, onProgress, onError: showError, onIdle: () => (state.rendering = false), onGpuLost });
-/** Whether the GPU path can be offered: WebGPU, a canvas the worker can draw into, not forced off. */
-const gpuWanted = "gpu" in navigator && "transferControlToOffscreen" in gpuCanvas && forcedRenderer !== "cpu";
+/** Whether to set up the GPU path (also when the URL starts on the CPU: the menu can switch). */
+const gpuWanted = "gpu" in navigator && "transferControlToOffscreen" in gpuCanvas;
 if (gpuWanted) client.setCanvas(gpuCanvas.transferControlToOffscreen());
 const controls = new ViewControls(canvas, {
   onChange: (view) => {

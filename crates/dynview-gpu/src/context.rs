@@ -38,6 +38,8 @@ pub struct GpuContext {
     /// The adapter.
     pub adapter: wgpu::Adapter,
     pub(crate) pool: BufferPool,
+    /// Timestamps per compute pass while a profile is being taken.
+    profiler: std::sync::Mutex<Option<crate::profile::Profiler>>,
 }
 
 impl GpuContext {
@@ -59,11 +61,43 @@ impl GpuContext {
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("dynview"),
                 required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
+                // For `cargo xtask bench`'s time per stage, where the adapter has them.
+                required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
                 ..Default::default()
             })
             .await
             .map_err(|e| GpuError::NoDevice(e.to_string()))?;
-        Ok(Self { device, queue, adapter_info, instance, adapter, pool: BufferPool::default() })
+        Ok(Self { device, queue, adapter_info, instance, adapter, pool: BufferPool::default(), profiler: Default::default() })
+    }
+
+    /// Starts timing every compute pass (timestamp queries) until [`Self::finish_profile`];
+    /// false when the device has no timestamp queries.
+    pub fn start_profile(&self) -> bool {
+        if !self.device.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+            return false;
+        }
+        *self.profiler.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(crate::profile::Profiler::new());
+        true
+    }
+
+    /// Stops timing and returns GPU milliseconds per level and stage since
+    /// [`Self::start_profile`] (empty when it was not started). Blocks until the GPU is done.
+    #[cfg(not(target_family = "wasm"))]
+    pub fn finish_profile(&self) -> Result<Vec<crate::profile::StageTime>, GpuError> {
+        let profiler = self.profiler.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
+        profiler.map_or(Ok(Vec::new()), |p| p.finish(self))
+    }
+
+    /// Labels the compute passes that follow (while profiling).
+    pub(crate) fn set_stage(&self, level: usize, stage: &'static str) {
+        if let Some(p) = self.profiler.lock().unwrap_or_else(std::sync::PoisonError::into_inner).as_mut() {
+            p.set_stage(level, stage);
+        }
+    }
+
+    /// The query set and first index for the next compute pass's timestamps (while profiling).
+    pub(crate) fn pass_timestamps(&self) -> Option<(wgpu::QuerySet, u32)> {
+        self.profiler.lock().unwrap_or_else(std::sync::PoisonError::into_inner).as_mut().map(|p| p.next_pass(&self.device))
     }
 
     /// Idle pooled buffers and their bytes (images dropped since, kept for reuse).

@@ -11,8 +11,9 @@
 //! the CPU.
 //!
 //! Images live in storage buffers taken from a pool on the context: each size is allocated
-//! once and reused by every later frame at that resolution. Not yet: timestamp queries per
-//! stage, and the browser (WebGPU) path in the viewer.
+//! once and reused by every later frame at that resolution. [`FrameDisplay`] draws a frame into
+//! a canvas (or any texture) straight from those buffers. [`GpuContext::start_profile`] times
+//! every compute pass with timestamp queries, summed per level and stage ([`StageTime`]).
 
 mod assemble;
 mod context;
@@ -20,6 +21,7 @@ mod display;
 mod image;
 mod kernel;
 mod level;
+mod profile;
 mod readback;
 mod renderer;
 mod solver;
@@ -31,6 +33,7 @@ pub use context::{GpuContext, GpuError};
 pub use display::FrameDisplay;
 pub use image::{GpuImage, ImageKernels};
 pub use level::{LevelKernels, MAX_VIEWS};
+pub use profile::StageTime;
 pub use readback::{read_bytes, read_floats};
 pub use renderer::{GpuFrame, GpuInputs, GpuRenderer};
 pub use solver::GridSolver;

@@ -122,8 +122,10 @@ impl GpuRenderer {
         for level in (0..params.levels).rev() {
             let (w, h) = sizes[level];
             let cam = camera_at(camera, w, h);
+            ctx.set_stage(level, "splat");
             let sparse = self.splat.project_cloud(ctx, &inputs.cloud, &cam)?;
             let counters = self.level.consistency(ctx, &sparse, params.sparse_consistency)?;
+            ctx.set_stage(level, "temporal");
             let prev: Option<GpuSplat> = match previous
                 .filter(|_| level < params.temporal_levels)
                 .and_then(|p| p.levels.get(level).map(|l| (p.camera, l)))
@@ -141,6 +143,7 @@ impl GpuRenderer {
                 .collect();
             // Initial guess: push-pull filled sparse depth at the coarsest level, the upsampled
             // depth below; color by the rank-weighted blend of the visible warps.
+            ctx.set_stage(level, "push-pull");
             let (depth, fallback_color) = match state.take() {
                 None => {
                     let mut fallback = [0.0f32; 3];
@@ -151,8 +154,11 @@ impl GpuRenderer {
                 }
                 Some((depth, color)) => (self.images.upsample(ctx, &depth, w, h)?, self.images.upsample(ctx, &color, w, h)?),
             };
+            ctx.set_stage(level, "warp");
             let mut warps = self.warps.warp_views(ctx, &cam, &depth, &view_images, params.visibility_tolerance)?;
+            ctx.set_stage(level, "weights");
             let color = self.level.blend(ctx, &warps, &fallback_color, &init_weights)?;
+            ctx.set_stage(level, "temporal");
             // Temporal terms from the fresh estimate of this level.
             let (temporal_depth, temporal_color) = match &prev {
                 Some(p) => {
@@ -161,9 +167,12 @@ impl GpuRenderer {
                 }
                 None => (GpuImage::zeroed(ctx, w, h, 2)?, GpuImage::zeroed(ctx, w, h, 4)?),
             };
+            ctx.set_stage(level, "splat");
             let sparse_color_mask = self.level.pack_sparse(ctx, &sparse)?;
             for _ in 0..params.outer_iterations_at(level) {
+                ctx.set_stage(level, "weights");
                 let w_p = self.assemble.projection_weights(ctx, params, &color, warps.packed())?;
+                ctx.set_stage(level, "depth system");
                 let sys = self.assemble.depth_system(
                     ctx,
                     params,
@@ -175,10 +184,15 @@ impl GpuRenderer {
                     &temporal_depth,
                     warps.count,
                 )?;
+                ctx.set_stage(level, "depth solve");
                 self.solver.solve_on_gpu(ctx, &sys, &depth, params.depth_sweeps, params.relaxation)?;
+                ctx.set_stage(level, "warp");
                 warps = self.warps.warp_views(ctx, &cam, &depth, &view_images, params.visibility_tolerance)?;
+                ctx.set_stage(level, "weights");
                 let w_p = self.assemble.projection_weights(ctx, params, &color, warps.packed())?;
+                ctx.set_stage(level, "color system");
                 let sys = self.assemble.color_system(ctx, params, &warps.colors, &w_p, &temporal_color, warps.count)?;
+                ctx.set_stage(level, "color solve");
                 self.solver.solve_on_gpu(ctx, &sys, &color, params.color_sweeps, params.relaxation)?;
                 if level == 0 {
                     view_weights = Some(w_p);

@@ -86,6 +86,10 @@ pub fn run_release(args: &[String]) -> anyhow::Result<()> {
             Some((ctx, renderer)) => Some(gpu_frame_ms(ctx, renderer, &params, &camera, &inputs)?),
             None => None,
         };
+        let gpu_stages = match &gpu {
+            Some((ctx, renderer)) => gpu_stage_table(ctx, renderer, &params, &camera, &inputs)?,
+            None => None,
+        };
         let (gpu_cell, ratio_cell) = match gpu_ms {
             Some(g) => (format!("{g:.1}"), format!("{:.2}", ms / g)),
             None => ("-".into(), "-".into()),
@@ -97,6 +101,13 @@ pub fn run_release(args: &[String]) -> anyhow::Result<()> {
         let _ = writeln!(details, "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
         for l in &timings.levels {
             let _ = writeln!(details, "{}", level_row(l));
+        }
+        if let Some(table) = gpu_stages {
+            let _ = writeln!(
+                details,
+                "\n{w}x{h} on the GPU, a streaming frame: per level and stage (ms of GPU time from timestamp queries; \
+                 the rest of the wall time is the host encoding dispatches)\n\n{table}"
+            );
         }
         println!("{w}x{h}: CPU {ms:.0} ms, GPU {}", gpu_ms.map_or("-".to_string(), |g| format!("{g:.1} ms")));
     }
@@ -130,6 +141,41 @@ fn gpu_frame_ms(
     }
     runs.sort_by(f64::total_cmp);
     Ok(runs[runs.len() / 2])
+}
+
+/// Stages of the GPU renderer, in the order of the table.
+const GPU_STAGES: [&str; 9] =
+    ["splat", "temporal", "push-pull", "warp", "weights", "depth system", "depth solve", "color system", "color solve"];
+
+/// GPU time per level and stage of one profiled frame as a markdown table, or `None` when the
+/// adapter has no timestamp queries.
+fn gpu_stage_table(
+    ctx: &dynview_gpu::GpuContext,
+    renderer: &dynview_gpu::GpuRenderer,
+    params: &RenderParams,
+    camera: &Camera,
+    inputs: &TimeStepInputs,
+) -> anyhow::Result<Option<String>> {
+    let uploaded = dynview_gpu::GpuInputs::upload(ctx, inputs)?;
+    // A streaming frame: the previous one feeds the temporal terms.
+    let previous = renderer.render(ctx, params, camera, &uploaded, None)?;
+    ctx.wait()?;
+    if !ctx.start_profile() {
+        return Ok(None);
+    }
+    drop(renderer.render(ctx, params, camera, &uploaded, Some(&previous))?);
+    let stages = ctx.finish_profile()?;
+    let mut table =
+        format!("| level | {} | sum | passes |\n| ---: |{} ---: | ---: |\n", GPU_STAGES.join(" | "), " ---: |".repeat(GPU_STAGES.len()));
+    for level in (0..params.levels).rev() {
+        // (`0.0 +`: an empty f64 sum is -0.0.)
+        let at = |stage: &str| 0.0 + stages.iter().filter(|s| s.level == level && s.stage == stage).map(|s| s.ms).sum::<f64>();
+        let cells: Vec<String> = GPU_STAGES.iter().map(|s| format!("{:.2}", at(s))).collect();
+        let sum: f64 = stages.iter().filter(|s| s.level == level).map(|s| s.ms).sum();
+        let passes: usize = stages.iter().filter(|s| s.level == level).map(|s| s.passes).sum();
+        let _ = writeln!(table, "| {level} | {} | {sum:.2} | {passes} |", cells.join(" | "));
+    }
+    Ok(Some(table))
 }
 
 fn level_row(l: &LevelTimings) -> String {

@@ -1,86 +1,43 @@
 // End-to-end tests of the viewer page in headless Chromium (playwright-core driving Debian's
-// /usr/bin/chromium), against the page and scenes served by `cargo xtask test`:
-//   DYNVIEW_BASE_URL   the server (web/ at /, scenes at /scenes/e2e/ and /scenes/corrupt/)
-//   DYNVIEW_BIN        the dynview CLI, for native reference renders
-//   DYNVIEW_E2E_SCENE  the e2e scene package folder (for the native render)
-//   DYNVIEW_E2E_OUT    where screenshots go (target/e2e/)
-// The CPU path is tested: WebGPU is not enabled.
+// /usr/bin/chromium), against the page and scenes served by `cargo xtask test` (see
+// helpers.mjs for the environment). The CPU path is tested here: WebGPU is not enabled, so the
+// page must choose the CPU; gpu.test.mjs tests the GPU path.
 
 import { test, before, after } from "node:test";
 import assert from "node:assert/strict";
-import { execFileSync } from "node:child_process";
 import fs from "node:fs";
 import path from "node:path";
-import { chromium } from "playwright-core";
-import { PNG } from "pngjs";
-
-const BASE = process.env.DYNVIEW_BASE_URL || "http://127.0.0.1:8080/";
-const OUT = process.env.DYNVIEW_E2E_OUT || "../target/e2e";
-const SCENE_URL = process.env.DYNVIEW_SCENE_URL || `${BASE}?scene=scenes/e2e/`;
-/** The page's render of a frame must match the native render of the exported camera path. */
-const MIN_PSNR_VS_NATIVE_DB = 40;
+import {
+  BASE,
+  OUT,
+  SCENE_URL,
+  MIN_PSNR_VS_NATIVE_DB,
+  launch,
+  openPage as openIn,
+  firstFrame,
+  nextDoneFrame,
+  framesDone,
+  meanAbsDiff,
+  psnr,
+  stddev,
+  nativeRenderOfPage,
+} from "./helpers.mjs";
 
 let browser;
-before(async () => {
-  fs.mkdirSync(OUT, { recursive: true });
-  browser = await chromium.launch({
-    executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
-    args: ["--no-sandbox", "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run"],
-  });
-});
+before(async () => (browser = await launch()));
 after(async () => browser?.close());
 
-async function openPage(url = SCENE_URL) {
-  const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
-  const errors = [];
-  page.on("pageerror", (e) => errors.push(e.message));
-  page.on("console", (m) => m.type() === "error" && errors.push(m.text()));
-  await page.goto(url);
-  return { page, errors };
-}
-
-const firstFrame = (page) => page.waitForFunction(() => window.dynview && window.dynview.state.framesDone > 0, null, { timeout: 60_000 });
-
-/** Waits for a finished frame newer than `count` finished frames and returns its pixels. */
-async function nextDoneFrame(page, count) {
-  await page.waitForFunction((n) => window.dynview.state.framesDone > n && !window.dynview.state.rendering, count, { timeout: 60_000 });
-  return page.evaluate(() => window.dynview.lastImage());
-}
-
-const framesDone = (page) => page.evaluate(() => window.dynview.state.framesDone);
-
-function meanAbsDiff(a, b) {
-  assert.equal(a.rgba.length, b.rgba.length);
-  let sum = 0;
-  for (let i = 0; i < a.rgba.length; i += 4) for (let c = 0; c < 3; c++) sum += Math.abs(a.rgba[i + c] - b.rgba[i + c]);
-  return sum / ((a.rgba.length / 4) * 3);
-}
-
-function psnr(a, b) {
-  let se = 0;
-  let n = 0;
-  for (let i = 0; i < a.rgba.length; i += 4) {
-    for (let c = 0; c < 3; c++) {
-      const d = (a.rgba[i + c] - b.rgba[i + c]) / 255;
-      se += d * d;
-      n += 1;
-    }
-  }
-  return se === 0 ? Infinity : 10 * Math.log10(n / se);
-}
-
-function stddev(image) {
-  const values = [];
-  for (let i = 0; i < image.rgba.length; i += 4) values.push((image.rgba[i] + image.rgba[i + 1] + image.rgba[i + 2]) / 3);
-  const mean = values.reduce((s, v) => s + v, 0) / values.length;
-  return Math.sqrt(values.reduce((s, v) => s + (v - mean) ** 2, 0) / values.length);
-}
+const openPage = (url) => openIn(browser, url);
 
 test("opens the scene, shows a non-blank first frame equal to the native render", async () => {
   const { page, errors } = await openPage();
   const started = Date.now();
   await firstFrame(page);
   console.log(`first frame after ${Date.now() - started} ms`);
+  // Without WebGPU the CPU renders, and the menu says the GPU is unavailable.
+  assert.equal(await page.$eval("#renderer", (el) => el.value), "cpu");
+  assert.match(await page.textContent("#overlay"), /^CPU/);
+  assert.ok(await page.$eval('#renderer option[value="gpu"]', (el) => el.disabled));
   await page.screenshot({ path: path.join(OUT, "01-first-frame.png") });
   // Full resolution, so the render can be compared pixel for pixel.
   let n = await framesDone(page);
@@ -88,20 +45,24 @@ test("opens the scene, shows a non-blank first frame equal to the native render"
   const image = await nextDoneFrame(page, n);
   assert.ok(stddev(image) > 10, `the frame looks blank (std dev ${stddev(image)})`);
 
-  const json = await page.evaluate(() => window.dynview.cameraPathJson());
-  const dir = fs.mkdtempSync(path.join(OUT, "native-"));
-  fs.writeFileSync(path.join(dir, "camera_path.json"), json);
-  execFileSync(process.env.DYNVIEW_BIN, ["render", "--scene", process.env.DYNVIEW_E2E_SCENE, "--path", path.join(dir, "camera_path.json"), "--out", path.join(dir, "out")]);
-  const png = PNG.sync.read(fs.readFileSync(path.join(dir, "out", "00000.png")));
-  const native = { width: png.width, height: png.height, rgba: Array.from(png.data) };
+  const native = await nativeRenderOfPage(page);
   assert.equal(native.width, image.width);
   assert.equal(native.height, image.height);
   const db = psnr(image, native);
   console.log(`page vs native render: ${db.toFixed(1)} dB`);
   assert.ok(db > MIN_PSNR_VS_NATIVE_DB, `page render differs from the native render: ${db.toFixed(1)} dB`);
-  fs.rmSync(dir, { recursive: true, force: true });
   await page.screenshot({ path: path.join(OUT, "02-full-resolution.png") });
   assert.deepEqual(errors, []);
+  await page.close();
+});
+
+test("asking for the GPU without WebGPU renders on the CPU and says why", async () => {
+  const { page } = await openPage(`${SCENE_URL}&renderer=gpu`);
+  await firstFrame(page);
+  assert.equal(await page.$eval("#renderer", (el) => el.value), "cpu");
+  const overlay = await page.textContent("#overlay");
+  assert.match(overlay, /^CPU/);
+  assert.match(overlay, /GPU unavailable \(.+\): rendering on the CPU/);
   await page.close();
 });
 

@@ -1,0 +1,90 @@
+//! GPU time per stage from timestamp queries: while profiling is on, every compute pass writes a
+//! timestamp at its start and end, labelled with the renderer's current level and stage; the
+//! sums per label are read back at the end of the frame.
+
+use std::collections::BTreeMap;
+
+use crate::context::{GpuContext, GpuError};
+
+/// Queries per query set (wgpu allows at most 4096 per set; a frame takes a few sets).
+const QUERIES_PER_SET: u32 = 4096;
+
+/// GPU milliseconds of one stage of one pyramid level, summed over its compute passes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StageTime {
+    /// Pyramid level (0 = finest).
+    pub level: usize,
+    /// Stage name (`splat`, `push-pull`, `warp`, `temporal`, `weights`, `depth system`,
+    /// `depth solve`, `color system`, `color solve`).
+    pub stage: &'static str,
+    /// GPU time, milliseconds.
+    pub ms: f64,
+    /// Compute passes it took.
+    pub passes: usize,
+}
+
+/// The query sets of a profiled frame and the label of each pass.
+#[derive(Debug)]
+pub(crate) struct Profiler {
+    sets: Vec<wgpu::QuerySet>,
+    /// (level, stage) of each pass, in order; pass `i` wrote queries `2i` and `2i + 1`.
+    labels: Vec<(usize, &'static str)>,
+    current: (usize, &'static str),
+}
+
+impl Profiler {
+    pub(crate) fn new() -> Self {
+        Self { sets: Vec::new(), labels: Vec::new(), current: (0, "other") }
+    }
+
+    pub(crate) fn set_stage(&mut self, level: usize, stage: &'static str) {
+        self.current = (level, stage);
+    }
+
+    /// The query set and first index for the next pass (two queries: start and end).
+    pub(crate) fn next_pass(&mut self, device: &wgpu::Device) -> (wgpu::QuerySet, u32) {
+        let index = self.labels.len() as u32 * 2;
+        let set = (index / QUERIES_PER_SET) as usize;
+        if set == self.sets.len() {
+            self.sets.push(device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("stage timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: QUERIES_PER_SET,
+            }));
+        }
+        self.labels.push(self.current);
+        (self.sets[set].clone(), index % QUERIES_PER_SET)
+    }
+
+    /// Resolves the queries and sums them per label (blocks until the GPU is done; native).
+    #[cfg(not(target_family = "wasm"))]
+    pub(crate) fn finish(self, ctx: &GpuContext) -> Result<Vec<StageTime>, GpuError> {
+        let period_ns = f64::from(ctx.queue.get_timestamp_period());
+        let mut ticks: Vec<u64> = Vec::with_capacity(self.labels.len() * 2);
+        let mut remaining = self.labels.len() as u32 * 2;
+        for set in &self.sets {
+            let count = remaining.min(QUERIES_PER_SET);
+            remaining -= count;
+            let size = u64::from(count) * 8;
+            let resolved = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("resolved timestamps"),
+                size,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("resolve timestamps") });
+            encoder.resolve_query_set(set, 0..count, &resolved, 0);
+            ctx.queue.submit([encoder.finish()]);
+            let bytes = pollster::block_on(crate::readback::read_bytes(ctx, &resolved, size))?;
+            ticks.extend(bytes.chunks_exact(8).map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default())));
+        }
+        let mut sums: BTreeMap<(usize, &'static str), (f64, usize)> = BTreeMap::new();
+        for (pass, label) in self.labels.iter().enumerate() {
+            let (start, end) = (ticks[2 * pass], ticks[2 * pass + 1]);
+            let entry = sums.entry(*label).or_default();
+            entry.0 += end.saturating_sub(start) as f64 * period_ns / 1e6;
+            entry.1 += 1;
+        }
+        Ok(sums.into_iter().map(|((level, stage), (ms, passes))| StageTime { level, stage, ms, passes }).collect())
+    }
+}
