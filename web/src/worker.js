@@ -12,7 +12,7 @@
 //                                                 width, height, streaming, max_level, mode}
 //               | {type: "call", id, method, args}   (small synchronous queries)
 //               | {type: "prefetch", time_step}
-// Messages out: {type: "opened", info, backends, gpu: {name} | {error}}
+// Messages out: {type: "opened", info, backends, gpu: {name, presents} | {error}}
 //               | {type: "error", id, message} | {type: "gpu-lost", message}
 //               | {type: "progress", time_step, stats, done, total}
 //               | {type: "frame", id, level, done, image, elapsed_ms, temporal_used, last}
@@ -64,7 +64,8 @@ async function ensureLoaded(t) {
 }
 
 // Renders `request` on the GPU: submits it, waits (without blocking) until the GPU is done.
-// A failure of the device is reported as "gpu-lost": the page falls back to the CPU path.
+// A lost device or a GPU error is reported as "gpu-lost" (the page falls back to the CPU path);
+// other errors (a bad request) as any error.
 async function runGpu(request) {
   await ensureLoaded(request.time_step);
   if (pending) return;
@@ -73,7 +74,8 @@ async function runGpu(request) {
     report = await viewer.renderGpu(request);
   } catch (e) {
     const lost = viewer.gpuLost();
-    post({ type: "gpu-lost", message: lost || message(e) });
+    if (!lost) throw e;
+    post({ type: "gpu-lost", message: lost });
     return;
   }
   post({ type: "frame", id: request.id, gpu: true, ...report, last: null }, report.image ? [report.image.data.buffer] : []);
