@@ -73,7 +73,8 @@ async function runGpu(request) {
   try {
     report = await viewer.renderGpu(request);
   } catch (e) {
-    const lost = viewer.gpuLost();
+    // The browser reports a lost device asynchronously: give it a moment.
+    const lost = viewer.gpuLost() || (await new Promise((resolve) => setTimeout(resolve, 100)), viewer.gpuLost());
     if (!lost) throw e;
     post({ type: "gpu-lost", message: lost });
     return;
