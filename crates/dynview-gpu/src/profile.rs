@@ -2,8 +2,10 @@
 //! timestamp at its start and end, labelled with the renderer's current level and stage; the
 //! sums per label are read back at the end of the frame.
 
+#[cfg(not(target_family = "wasm"))]
 use std::collections::BTreeMap;
 
+#[cfg(not(target_family = "wasm"))]
 use crate::context::{GpuContext, GpuError};
 
 /// Queries per query set (wgpu allows at most 4096 per set; a frame takes a few sets).
