@@ -1,6 +1,7 @@
 //! `dynview render` as a user runs it.
 
 use std::fs;
+use std::path::Path;
 use std::process::Command;
 
 fn dynview(args: &[&str]) -> (bool, String) {
@@ -8,27 +9,41 @@ fn dynview(args: &[&str]) -> (bool, String) {
     (out.status.success(), format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr)))
 }
 
+/// `dynview synth` of a small event without videos into `event`; panics with the log on failure.
+fn synth(event: &Path, cameras: u32, frames: u32, width: u32, height: u32) {
+    let numbers = [cameras, frames, width, height].map(|n| n.to_string());
+    let (ok, log) = dynview(&[
+        "synth",
+        "--out",
+        event.to_str().unwrap(),
+        "--cameras",
+        &numbers[0],
+        "--frames",
+        &numbers[1],
+        "--width",
+        &numbers[2],
+        "--height",
+        &numbers[3],
+        "--no-video",
+    ]);
+    assert!(ok, "{log}");
+}
+
+/// `dynview render --scene event/scene --path path --out out` with `extra` arguments.
+fn render(event: &Path, path: &Path, out: &Path, extra: &[&str]) -> (bool, String) {
+    let scene = event.join("scene");
+    let mut args = vec!["render", "--scene", scene.to_str().unwrap(), "--path", path.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    dynview(&args)
+}
+
 #[test]
 fn render_writes_color_depth_and_scale_for_every_path_frame() {
     let tmp = tempfile::tempdir().unwrap();
     let event = tmp.path().join("event");
-    let e = event.to_str().unwrap();
-    let (ok, log) = dynview(&["synth", "--out", e, "--cameras", "4", "--frames", "3", "--width", "96", "--height", "54", "--no-video"]);
-    assert!(ok, "{log}");
+    synth(&event, 4, 3, 96, 54);
     let out = tmp.path().join("render");
-    let (ok, log) = dynview(&[
-        "render",
-        "--scene",
-        event.join("scene").to_str().unwrap(),
-        "--path",
-        event.join("camera_path.json").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--width",
-        "64",
-        "--height",
-        "36",
-    ]);
+    let (ok, log) = render(&event, &event.join("camera_path.json"), &out, &["--width", "64", "--height", "36"]);
     assert!(ok, "{log}");
     for i in 0..3 {
         let color = image::open(out.join(format!("{i:05}.png"))).unwrap();
@@ -42,31 +57,15 @@ fn render_writes_color_depth_and_scale_for_every_path_frame() {
     // Baselines by flag, and parameters from a file.
     let params = tmp.path().join("params.json");
     fs::write(&params, r#"{"lambda_t": 0.02, "levels": 3}"#).unwrap();
-    let (ok, log) = dynview(&[
-        "render",
-        "--scene",
-        event.join("scene").to_str().unwrap(),
-        "--path",
-        event.join("camera_path.json").to_str().unwrap(),
-        "--out",
-        tmp.path().join("blend").to_str().unwrap(),
-        "--method",
-        "blend",
-    ]);
+    let (ok, log) = render(&event, &event.join("camera_path.json"), &tmp.path().join("blend"), &["--method", "blend"]);
     assert!(ok, "{log}");
     assert!(log.contains("blend"), "{log}");
-    let (ok, log) = dynview(&[
-        "render",
-        "--scene",
-        event.join("scene").to_str().unwrap(),
-        "--path",
-        event.join("camera_path_static.json").to_str().unwrap(),
-        "--out",
-        tmp.path().join("p").to_str().unwrap(),
-        "--params",
-        params.to_str().unwrap(),
-        "--no-temporal",
-    ]);
+    let (ok, log) = render(
+        &event,
+        &event.join("camera_path_static.json"),
+        &tmp.path().join("p"),
+        &["--params", params.to_str().unwrap(), "--no-temporal"],
+    );
     assert!(ok, "{log}");
     assert!(log.contains("no-temporal"), "{log}");
 }
@@ -75,65 +74,23 @@ fn render_writes_color_depth_and_scale_for_every_path_frame() {
 fn render_rejects_bad_paths_and_parameters_clearly() {
     let tmp = tempfile::tempdir().unwrap();
     let event = tmp.path().join("event");
-    let (ok, log) = dynview(&[
-        "synth",
-        "--out",
-        event.to_str().unwrap(),
-        "--cameras",
-        "2",
-        "--frames",
-        "1",
-        "--width",
-        "32",
-        "--height",
-        "18",
-        "--no-video",
-    ]);
-    assert!(ok, "{log}");
-    let scene = event.join("scene");
+    synth(&event, 2, 1, 32, 18);
+    let out = tmp.path().join("o");
     let bad_path = tmp.path().join("path.json");
     fs::write(
         &bad_path,
         r#"{"render_height": 10, "render_width": 20, "camera_path": [{"camera_to_world": [1,0,0], "fov": 50, "aspect": 1}]}"#,
     )
     .unwrap();
-    let (ok, log) = dynview(&[
-        "render",
-        "--scene",
-        scene.to_str().unwrap(),
-        "--path",
-        bad_path.to_str().unwrap(),
-        "--out",
-        tmp.path().join("o").to_str().unwrap(),
-    ]);
+    let (ok, log) = render(&event, &bad_path, &out, &[]);
     assert!(!ok);
     assert!(log.contains("camera_path[0].camera_to_world"), "{log}");
     let params = tmp.path().join("params.json");
     fs::write(&params, r#"{"lamda_t": 0.1}"#).unwrap();
-    let (ok, log) = dynview(&[
-        "render",
-        "--scene",
-        scene.to_str().unwrap(),
-        "--path",
-        event.join("camera_path.json").to_str().unwrap(),
-        "--out",
-        tmp.path().join("o").to_str().unwrap(),
-        "--params",
-        params.to_str().unwrap(),
-    ]);
+    let (ok, log) = render(&event, &event.join("camera_path.json"), &out, &["--params", params.to_str().unwrap()]);
     assert!(!ok);
     assert!(log.contains("lamda_t"), "{log}");
-    let (ok, log) = dynview(&[
-        "render",
-        "--scene",
-        scene.to_str().unwrap(),
-        "--path",
-        event.join("camera_path.json").to_str().unwrap(),
-        "--out",
-        tmp.path().join("o").to_str().unwrap(),
-        "--method",
-        "magic",
-    ]);
+    let (ok, log) = render(&event, &event.join("camera_path.json"), &out, &["--method", "magic"]);
     assert!(!ok);
     assert!(log.contains("unknown method"), "{log}");
 }
@@ -142,32 +99,12 @@ fn render_rejects_bad_paths_and_parameters_clearly() {
 fn render_on_the_gpu_matches_the_cpu_render() {
     let tmp = tempfile::tempdir().unwrap();
     let event = tmp.path().join("event");
-    let (ok, log) = dynview(&[
-        "synth",
-        "--out",
-        event.to_str().unwrap(),
-        "--cameras",
-        "4",
-        "--frames",
-        "3",
-        "--width",
-        "96",
-        "--height",
-        "54",
-        "--no-video",
-    ]);
-    assert!(ok, "{log}");
-    let scene = event.join("scene");
+    synth(&event, 4, 3, 96, 54);
     let path = event.join("camera_path.json");
-    let render = |out: &str, extra: &[&str]| {
-        let mut args = vec!["render", "--scene", scene.to_str().unwrap(), "--path", path.to_str().unwrap(), "--out", out];
-        args.extend_from_slice(extra);
-        dynview(&args)
-    };
     let (cpu_dir, gpu_dir) = (tmp.path().join("cpu"), tmp.path().join("gpu"));
-    let (ok, log) = render(cpu_dir.to_str().unwrap(), &[]);
+    let (ok, log) = render(&event, &path, &cpu_dir, &[]);
     assert!(ok, "{log}");
-    let (ok, log) = render(gpu_dir.to_str().unwrap(), &["--gpu"]);
+    let (ok, log) = render(&event, &path, &gpu_dir, &["--gpu"]);
     assert!(ok, "{log}");
     assert!(log.contains("on the GPU"), "{log}");
     for i in 0..3 {
@@ -182,6 +119,6 @@ fn render_on_the_gpu_matches_the_cpu_render() {
         assert!(db >= 45.0 && mad <= 1.0, "frame {i}: GPU vs CPU {db:.1} dB, mean abs difference {mad:.3}/255");
     }
     // Baselines stay on the CPU, and say so.
-    let (ok, log) = render(tmp.path().join("x").to_str().unwrap(), &["--gpu", "--method", "blend"]);
+    let (ok, log) = render(&event, &path, &tmp.path().join("x"), &["--gpu", "--method", "blend"]);
     assert!(!ok && log.contains("runs on the CPU"), "{log}");
 }

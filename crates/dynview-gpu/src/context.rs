@@ -95,9 +95,17 @@ impl GpuContext {
         }
     }
 
-    /// The query set and first index for the next compute pass's timestamps (while profiling).
-    pub(crate) fn pass_timestamps(&self) -> Option<(wgpu::QuerySet, u32)> {
-        self.profiler.lock().unwrap_or_else(std::sync::PoisonError::into_inner).as_mut().map(|p| p.next_pass(&self.device))
+    /// Begins a compute pass on `encoder`; while profiling, it writes its start and end
+    /// timestamps under the current stage.
+    pub(crate) fn begin_compute_pass<'e>(&self, encoder: &'e mut wgpu::CommandEncoder, label: Option<&str>) -> wgpu::ComputePass<'e> {
+        let timestamps =
+            self.profiler.lock().unwrap_or_else(std::sync::PoisonError::into_inner).as_mut().map(|p| p.next_pass(&self.device));
+        let timestamp_writes = timestamps.as_ref().map(|(query_set, first)| wgpu::ComputePassTimestampWrites {
+            query_set,
+            beginning_of_pass_write_index: Some(*first),
+            end_of_pass_write_index: Some(first + 1),
+        });
+        encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label, timestamp_writes })
     }
 
     /// Idle pooled buffers and their bytes (images dropped since, kept for reuse).

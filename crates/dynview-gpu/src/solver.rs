@@ -136,13 +136,7 @@ impl GridSolver {
                 device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("red_black"), layout: &self.layout, entries: &entries })
             })
             .collect();
-        let timestamps = ctx.pass_timestamps();
-        let timestamp_writes = timestamps.as_ref().map(|(query_set, first)| wgpu::ComputePassTimestampWrites {
-            query_set,
-            beginning_of_pass_write_index: Some(*first),
-            end_of_pass_write_index: Some(first + 1),
-        });
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("red_black"), timestamp_writes });
+        let mut pass = ctx.begin_compute_pass(encoder, Some("red_black"));
         pass.set_pipeline(&self.pipeline);
         let groups = ((width as u32).div_ceil(WORKGROUP), (height as u32).div_ceil(WORKGROUP));
         for _ in 0..sweeps {
