@@ -1,0 +1,1 @@
+//! Sparse bundle adjustment.
