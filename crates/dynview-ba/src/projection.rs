@@ -1,0 +1,230 @@
+//! The camera model's projection and its exact Jacobians with respect to every parameter block.
+
+use nalgebra::{Matrix2x3, Matrix3, SMatrix, Vector2, Vector3};
+
+use crate::problem::{CameraIntrinsics, ImagePose, Problem};
+use crate::rotation::{right_jacobian, rotation_from_angle_axis, skew};
+
+/// Number of intrinsic parameters, in the order `[focal_px, cx_px, cy_px, k1, k2]`.
+pub(crate) const INTRINSIC_COUNT: usize = 5;
+
+/// One image's pose prepared for projecting many points: `R`, `R Jr` and the centre.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ImageFrame {
+    camera_from_world: Matrix3<f64>,
+    rotation_times_right_jacobian: Matrix3<f64>,
+    center_world: Vector3<f64>,
+}
+
+impl ImageFrame {
+    /// Precomputes the rotation and its right Jacobian.
+    pub(crate) fn new(pose: &ImagePose) -> Self {
+        let angle_axis = Vector3::from(pose.angle_axis);
+        let camera_from_world = rotation_from_angle_axis(&angle_axis);
+        Self {
+            camera_from_world,
+            rotation_times_right_jacobian: camera_from_world * right_jacobian(&angle_axis),
+            center_world: Vector3::from(pose.center_world),
+        }
+    }
+
+    /// The point in this image's camera frame.
+    pub(crate) fn point_camera(&self, point_world: &Vector3<f64>) -> Vector3<f64> {
+        self.camera_from_world * (point_world - self.center_world)
+    }
+}
+
+/// The pixel of a camera-frame point, or `None` when it is not in front of the camera (`Z <= 0`).
+pub(crate) fn pixel_from_camera(camera: &CameraIntrinsics, point_camera: &Vector3<f64>) -> Option<Vector2<f64>> {
+    if point_camera.z.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let x = point_camera.x / point_camera.z;
+    let y = point_camera.y / point_camera.z;
+    let r2 = x * x + y * y;
+    let scale = camera.focal_px * (1.0 + camera.k1 * r2 + camera.k2 * r2 * r2);
+    Some(Vector2::new(scale * x + camera.cx_px, scale * y + camera.cy_px))
+}
+
+/// Projects a world point into an image; `None` when the point is not in front of the camera.
+pub fn pixel_from_world(camera: &CameraIntrinsics, pose: &ImagePose, point_world: &[f64; 3]) -> Option<[f64; 2]> {
+    let point_camera = ImageFrame::new(pose).point_camera(&Vector3::from(*point_world));
+    pixel_from_camera(camera, &point_camera).map(|pixel| [pixel.x, pixel.y])
+}
+
+/// Per observation, the Euclidean reprojection error in pixels; `f64::INFINITY` when the point
+/// is not in front of the camera and `f64::NAN` when the observation's indices are out of range.
+pub fn reprojection_errors_px(problem: &Problem) -> Vec<f64> {
+    let frames: Vec<ImageFrame> = problem.images.iter().map(ImageFrame::new).collect();
+    problem
+        .observations
+        .iter()
+        .map(|observation| {
+            let (Some(frame), Some(camera), Some(point)) = (
+                frames.get(observation.image),
+                problem.image_camera.get(observation.image).and_then(|&camera| problem.cameras.get(camera)),
+                problem.points_world.get(observation.point),
+            ) else {
+                return f64::NAN;
+            };
+            match pixel_from_camera(camera, &frame.point_camera(&Vector3::from(*point))) {
+                Some(pixel) => (pixel - Vector2::from(observation.pixel)).norm(),
+                None => f64::INFINITY,
+            }
+        })
+        .collect()
+}
+
+/// The residual `projected - measured` of one observation and its Jacobians.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ResidualJacobians {
+    /// `pixel(parameters) - measured`, pixels.
+    pub residual_px: Vector2<f64>,
+    /// d residual / d angle_axis.
+    pub d_angle_axis: Matrix2x3<f64>,
+    /// d residual / d center_world (equals `-d_point`).
+    pub d_center: Matrix2x3<f64>,
+    /// d residual / d point_world.
+    pub d_point: Matrix2x3<f64>,
+    /// d residual / d `[focal_px, cx_px, cy_px, k1, k2]`.
+    pub d_intrinsics: SMatrix<f64, 2, INTRINSIC_COUNT>,
+}
+
+/// The residual and all its Jacobians; `None` when the point is not in front of the camera.
+pub(crate) fn residual_jacobians(
+    camera: &CameraIntrinsics,
+    frame: &ImageFrame,
+    point_world: &Vector3<f64>,
+    measured_px: &Vector2<f64>,
+) -> Option<ResidualJacobians> {
+    let point_camera = frame.point_camera(point_world);
+    let pixel = pixel_from_camera(camera, &point_camera)?;
+    let inverse_depth = 1.0 / point_camera.z;
+    let x = point_camera.x * inverse_depth;
+    let y = point_camera.y * inverse_depth;
+    let r2 = x * x + y * y;
+    let distortion = 1.0 + camera.k1 * r2 + camera.k2 * r2 * r2;
+    let f = camera.focal_px;
+    // d distortion / d r2, and d pixel / d (x, y).
+    let d_distortion = camera.k1 + 2.0 * camera.k2 * r2;
+    let d_pixel_d_normalized = nalgebra::Matrix2::new(
+        f * (distortion + 2.0 * x * x * d_distortion),
+        f * 2.0 * x * y * d_distortion,
+        f * 2.0 * x * y * d_distortion,
+        f * (distortion + 2.0 * y * y * d_distortion),
+    );
+    // d (x, y) / d point_camera.
+    let d_normalized_d_camera = Matrix2x3::new(inverse_depth, 0.0, -x * inverse_depth, 0.0, inverse_depth, -y * inverse_depth);
+    let d_pixel_d_camera = d_pixel_d_normalized * d_normalized_d_camera;
+    let d_point = d_pixel_d_camera * frame.camera_from_world;
+    let d_angle_axis = -(d_pixel_d_camera * skew(&point_camera)) * frame.rotation_times_right_jacobian;
+    let r4 = r2 * r2;
+    let d_intrinsics = SMatrix::<f64, 2, INTRINSIC_COUNT>::new(
+        distortion * x,
+        1.0,
+        0.0,
+        f * r2 * x,
+        f * r4 * x,
+        distortion * y,
+        0.0,
+        1.0,
+        f * r2 * y,
+        f * r4 * y,
+    );
+    Some(ResidualJacobians { residual_px: pixel - measured_px, d_angle_axis, d_center: -d_point, d_point, d_intrinsics })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const STEP: f64 = 1e-6;
+
+    /// Parameters of one observation flattened as `[angle_axis(3), center(3), point(3), intrinsics(5)]`.
+    fn residual_of(parameters: &[f64; 14], measured: &Vector2<f64>) -> Vector2<f64> {
+        let pose = ImagePose {
+            angle_axis: [parameters[0], parameters[1], parameters[2]],
+            center_world: [parameters[3], parameters[4], parameters[5]],
+        };
+        let point = Vector3::new(parameters[6], parameters[7], parameters[8]);
+        let camera = CameraIntrinsics {
+            focal_px: parameters[9],
+            cx_px: parameters[10],
+            cy_px: parameters[11],
+            k1: parameters[12],
+            k2: parameters[13],
+        };
+        pixel_from_camera(&camera, &ImageFrame::new(&pose).point_camera(&point)).map(|pixel| pixel - measured).unwrap_or_default()
+    }
+
+    fn check(parameters: [f64; 14]) {
+        let measured = Vector2::new(310.0, 250.0);
+        let pose = ImagePose {
+            angle_axis: [parameters[0], parameters[1], parameters[2]],
+            center_world: [parameters[3], parameters[4], parameters[5]],
+        };
+        let camera = CameraIntrinsics {
+            focal_px: parameters[9],
+            cx_px: parameters[10],
+            cy_px: parameters[11],
+            k1: parameters[12],
+            k2: parameters[13],
+        };
+        let point = Vector3::new(parameters[6], parameters[7], parameters[8]);
+        let jacobians = residual_jacobians(&camera, &ImageFrame::new(&pose), &point, &measured).expect("in front");
+        assert!((jacobians.residual_px - residual_of(&parameters, &measured)).norm() < 1e-12);
+        for index in 0..14 {
+            // Relative step for the large focal length and principal point.
+            let step = STEP * parameters[index].abs().max(1.0);
+            let mut plus = parameters;
+            plus[index] += step;
+            let mut minus = parameters;
+            minus[index] -= step;
+            let numeric = (residual_of(&plus, &measured) - residual_of(&minus, &measured)) / (2.0 * step);
+            let analytic = match index {
+                0..3 => jacobians.d_angle_axis.column(index).into_owned(),
+                3..6 => jacobians.d_center.column(index - 3).into_owned(),
+                6..9 => jacobians.d_point.column(index - 6).into_owned(),
+                _ => jacobians.d_intrinsics.column(index - 9).into_owned(),
+            };
+            let tolerance = 1e-6 * analytic.norm().max(1.0);
+            assert!((numeric - analytic).norm() < tolerance, "parameter {index}: numeric {numeric:?} analytic {analytic:?}");
+        }
+    }
+
+    #[test]
+    fn jacobians_match_central_differences() {
+        check([0.1, -0.2, 0.15, 0.3, -0.2, -4.0, 0.5, 0.4, 3.0, 800.0, 320.0, 240.0, -0.08, 0.02]);
+        check([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -0.3, 0.2, 2.0, 500.0, 300.0, 200.0, 0.1, -0.03]);
+        check([1e-7, 2e-7, -1e-7, 0.1, 0.0, -1.0, 0.1, 0.0, 1.0, 1000.0, 640.0, 360.0, 0.0, 0.0]);
+        // A large rotation, with the point placed in front of the camera.
+        let angle_axis = Vector3::new(2.0, 0.5, -1.0);
+        let center = Vector3::new(1.0, 2.0, 3.0);
+        let point = center + rotation_from_angle_axis(&angle_axis).transpose() * Vector3::new(0.3, -0.2, 4.0);
+        check([2.0, 0.5, -1.0, 1.0, 2.0, 3.0, point.x, point.y, point.z, 700.0, 320.0, 240.0, -0.2, 0.05]);
+    }
+
+    #[test]
+    fn jacobians_match_central_differences_for_a_point_at_the_far_side() {
+        // A rotation of nearly pi about y looks back at the origin from +z.
+        let parameters = [0.0, 3.0, 0.0, 0.2, -0.1, 5.0, 0.3, 0.1, 0.5, 900.0, 400.0, 300.0, -0.1, 0.01];
+        let pose = ImagePose { angle_axis: [0.0, 3.0, 0.0], center_world: [0.2, -0.1, 5.0] };
+        let camera = CameraIntrinsics { focal_px: 900.0, cx_px: 400.0, cy_px: 300.0, k1: -0.1, k2: 0.01 };
+        assert!(pixel_from_world(&camera, &pose, &[0.3, 0.1, 0.5]).is_some());
+        check(parameters);
+    }
+
+    #[test]
+    fn projection_follows_the_documented_model() {
+        let camera = CameraIntrinsics { focal_px: 500.0, cx_px: 320.0, cy_px: 240.0, k1: 0.1, k2: 0.01 };
+        let pose = ImagePose { angle_axis: [0.0; 3], center_world: [0.0, 0.0, -2.0] };
+        let pixel = pixel_from_world(&camera, &pose, &[0.2, -0.4, 2.0]).expect("in front");
+        let (x, y) = (0.2 / 4.0, -0.4 / 4.0);
+        let r2: f64 = x * x + y * y;
+        let d = 1.0 + 0.1 * r2 + 0.01 * r2 * r2;
+        assert!((pixel[0] - (500.0 * d * x + 320.0)).abs() < 1e-12);
+        assert!((pixel[1] - (500.0 * d * y + 240.0)).abs() < 1e-12);
+        assert!(pixel_from_world(&camera, &pose, &[0.0, 0.0, -3.0]).is_none());
+        assert!(pixel_from_world(&camera, &pose, &[0.0, 0.0, -2.0]).is_none());
+    }
+}
