@@ -14,7 +14,7 @@ pub mod binary;
 #[cfg(not(target_family = "wasm"))]
 mod dir;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 pub mod text;
 
 use std::collections::BTreeMap;
