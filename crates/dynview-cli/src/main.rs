@@ -1,5 +1,6 @@
 //! `dynview`: turn synchronized videos of an event into a scene package, inspect it, render
-//! novel views of it, and make synthetic events with ground truth.
+//! novel views of it, make synthetic events with ground truth, and exchange camera poses with
+//! COLMAP.
 
 mod commands;
 mod progress;
@@ -22,6 +23,10 @@ enum Command {
     Info(commands::info::Args),
     /// Render a camera path (nerfstudio camera_path.json or dynview path) through a scene.
     Render(commands::render::Args),
+    /// Convert a COLMAP model (text or binary) into poses.json.
+    ImportColmap(commands::colmap::ImportArgs),
+    /// Write the cameras and poses of a scene package or a poses.json as a COLMAP model.
+    ExportColmap(commands::colmap::ExportArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -30,6 +35,8 @@ fn main() -> std::process::ExitCode {
         Command::Synth(args) => commands::synth::run(args),
         Command::Info(args) => commands::info::run(args),
         Command::Render(args) => commands::render::run(args),
+        Command::ImportColmap(args) => commands::colmap::run_import(args),
+        Command::ExportColmap(args) => commands::colmap::run_export(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -6,7 +6,8 @@
 //! - [`raster`]: pixel grids and 8-bit conversions;
 //! - [`scene`]: the scene package (format v1: `scene.json`, `clouds.bin`, frames);
 //! - [`camera_path`]: nerfstudio `camera_path.json` paths;
-//! - [`colmap`]: COLMAP text models;
+//! - [`colmap`]: COLMAP sparse models, text and binary;
+//! - [`poses`]: `poses.json`, the camera poses of a whole event, and its COLMAP conversions;
 //! - [`depth_io`]: 16-bit depth images with a scale;
 //! - [`display`]: render outputs as pictures (false-color depth, view weights, RGBA);
 //! - [`render`]: the paper's renderer (CPU) and its baselines;
@@ -25,6 +26,7 @@ pub mod display;
 pub mod fsutil;
 pub mod metrics;
 pub mod par;
+pub mod poses;
 pub mod raster;
 pub mod render;
 pub mod rotation;

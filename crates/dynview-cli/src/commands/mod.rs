@@ -1,5 +1,6 @@
 //! One module per subcommand: argument parsing and wiring only, no math.
 
+pub mod colmap;
 pub mod info;
 pub mod render;
 pub mod synth;

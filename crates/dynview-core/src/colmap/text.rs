@@ -1,202 +1,15 @@
-//! COLMAP sparse models in text form (`cameras.txt`, `images.txt`, `points3D.txt`).
+//! COLMAP's text form: `cameras.txt`, `images.txt`, `points3D.txt`.
 //!
-//! COLMAP puts the centre of the top-left pixel at `(0.5, 0.5)`; dynview at `(0, 0)`. The
-//! conversion functions shift principal points and 2D points by half a pixel both ways.
-//! Image poses are `camera_from_world` with the quaternion in `QW QX QY QZ` order.
+//! One line per camera, two per image (the second lists the 2D points, possibly empty), one per
+//! 3D point; `#` starts a comment. Numbers are written with Rust's shortest round-trip
+//! formatting, so they read back exactly (rotations pass through a quaternion: about 1e-16).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
-use crate::camera::{Intrinsics, Rigid3};
+use super::{CameraModel, ColmapCamera, ColmapError, ColmapImage, ColmapModel, ColmapPoint3D, MAX_ENTRIES, Point2D};
+use crate::camera::Rigid3;
 use crate::rotation::{matrix_from_quaternion_wxyz, quaternion_wxyz_from_matrix};
-
-/// Errors reading a COLMAP model.
-#[derive(Debug, thiserror::Error)]
-pub enum ColmapError {
-    /// A line does not parse.
-    #[error("{file}:{line}: field `{field}`: {problem}")]
-    Parse {
-        /// File name.
-        file: String,
-        /// 1-based line number.
-        line: usize,
-        /// The field that failed.
-        field: String,
-        /// What is wrong.
-        problem: String,
-    },
-    /// The model is inconsistent across files.
-    #[error("{file}: {problem}")]
-    Inconsistent {
-        /// File name.
-        file: String,
-        /// What is wrong.
-        problem: String,
-    },
-}
-
-/// COLMAP camera models dynview understands. Parameter order as in COLMAP's `models.h`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CameraModel {
-    /// `f, cx, cy`.
-    SimplePinhole,
-    /// `fx, fy, cx, cy`.
-    Pinhole,
-    /// `f, cx, cy, k`.
-    SimpleRadial,
-    /// `f, cx, cy, k1, k2`.
-    Radial,
-    /// `fx, fy, cx, cy, k1, k2, p1, p2`.
-    OpenCv,
-}
-
-impl CameraModel {
-    /// COLMAP's name of the model.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::SimplePinhole => "SIMPLE_PINHOLE",
-            Self::Pinhole => "PINHOLE",
-            Self::SimpleRadial => "SIMPLE_RADIAL",
-            Self::Radial => "RADIAL",
-            Self::OpenCv => "OPENCV",
-        }
-    }
-
-    /// COLMAP's numeric id of the model (binary files).
-    pub fn id(self) -> i32 {
-        match self {
-            Self::SimplePinhole => 0,
-            Self::Pinhole => 1,
-            Self::SimpleRadial => 2,
-            Self::Radial => 3,
-            Self::OpenCv => 4,
-        }
-    }
-
-    /// The model with COLMAP name `name`.
-    pub fn from_name(name: &str) -> Option<Self> {
-        [Self::SimplePinhole, Self::Pinhole, Self::SimpleRadial, Self::Radial, Self::OpenCv].into_iter().find(|m| m.name() == name)
-    }
-
-    /// The model with COLMAP id `id`.
-    pub fn from_id(id: i32) -> Option<Self> {
-        [Self::SimplePinhole, Self::Pinhole, Self::SimpleRadial, Self::Radial, Self::OpenCv].into_iter().find(|m| m.id() == id)
-    }
-
-    /// Number of parameters.
-    pub fn param_count(self) -> usize {
-        match self {
-            Self::SimplePinhole => 3,
-            Self::Pinhole => 4,
-            Self::SimpleRadial => 4,
-            Self::Radial => 5,
-            Self::OpenCv => 8,
-        }
-    }
-}
-
-/// A COLMAP camera (intrinsics shared by images).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ColmapCamera {
-    /// The model.
-    pub model: CameraModel,
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// Parameters in COLMAP's order and pixel convention.
-    pub params: Vec<f64>,
-}
-
-/// OpenCV-style distortion `k1, k2, p1, p2` (zero for pinhole models).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Distortion {
-    /// Radial k1.
-    pub k1: f64,
-    /// Radial k2.
-    pub k2: f64,
-    /// Tangential p1.
-    pub p1: f64,
-    /// Tangential p2.
-    pub p2: f64,
-}
-
-impl ColmapCamera {
-    /// A `PINHOLE` camera from dynview intrinsics.
-    pub fn pinhole(intrinsics: &Intrinsics, width: u32, height: u32) -> Self {
-        Self {
-            model: CameraModel::Pinhole,
-            width,
-            height,
-            params: vec![intrinsics.fx, intrinsics.fy, intrinsics.cx + 0.5, intrinsics.cy + 0.5],
-        }
-    }
-
-    /// dynview intrinsics (pixel centres at integers) and distortion of this camera.
-    pub fn intrinsics(&self) -> (Intrinsics, Distortion) {
-        let p = &self.params;
-        let (fx, fy, cx, cy, rest): (f64, f64, f64, f64, &[f64]) = match self.model {
-            CameraModel::SimplePinhole | CameraModel::SimpleRadial | CameraModel::Radial => (p[0], p[0], p[1], p[2], &p[3..]),
-            CameraModel::Pinhole | CameraModel::OpenCv => (p[0], p[1], p[2], p[3], &p[4..]),
-        };
-        let distortion = match self.model {
-            CameraModel::SimpleRadial => Distortion { k1: rest[0], ..Distortion::default() },
-            CameraModel::Radial => Distortion { k1: rest[0], k2: rest[1], ..Distortion::default() },
-            CameraModel::OpenCv => Distortion { k1: rest[0], k2: rest[1], p1: rest[2], p2: rest[3] },
-            _ => Distortion::default(),
-        };
-        (Intrinsics { fx, fy, cx: cx - 0.5, cy: cy - 0.5 }, distortion)
-    }
-}
-
-/// One 2D observation of an image.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Point2D {
-    /// Position in COLMAP's pixel convention.
-    pub xy: [f64; 2],
-    /// The 3D point it observes, if any.
-    pub point3d_id: Option<u64>,
-}
-
-/// A registered image.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ColmapImage {
-    /// Id of its camera.
-    pub camera_id: u32,
-    /// World-to-camera pose.
-    pub camera_from_world: Rigid3,
-    /// Name, e.g. `cam0/00012.png`.
-    pub name: String,
-    /// Its 2D points.
-    pub points2d: Vec<Point2D>,
-}
-
-/// A 3D point with its track.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ColmapPoint3D {
-    /// World position.
-    pub xyz: [f64; 3],
-    /// Color.
-    pub rgb: [u8; 3],
-    /// Mean reprojection error in pixels.
-    pub error: f64,
-    /// `(image_id, point2d_index)` observations.
-    pub track: Vec<(u32, u32)>,
-}
-
-/// A whole sparse model, keyed by COLMAP ids.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct ColmapModel {
-    /// Cameras by id.
-    pub cameras: BTreeMap<u32, ColmapCamera>,
-    /// Images by id.
-    pub images: BTreeMap<u32, ColmapImage>,
-    /// Points by id.
-    pub points3d: BTreeMap<u64, ColmapPoint3D>,
-}
-
-/// Most entries of one kind accepted from a file (hostile-input guard).
-pub const MAX_ENTRIES: usize = 50_000_000;
 
 struct Lines<'a> {
     file: &'a str,
@@ -343,26 +156,18 @@ pub fn parse_points3d_txt(text: &str, file: &str) -> Result<BTreeMap<u64, Colmap
 impl ColmapModel {
     /// Parses the three text files and checks that images name existing cameras.
     pub fn from_text(cameras_txt: &str, images_txt: &str, points3d_txt: &str) -> Result<Self, ColmapError> {
-        let model = Self {
-            cameras: parse_cameras_txt(cameras_txt, "cameras.txt")?,
-            images: parse_images_txt(images_txt, "images.txt")?,
-            points3d: parse_points3d_txt(points3d_txt, "points3D.txt")?,
-        };
-        model.check()?;
-        Ok(model)
+        Self::from_text_named([cameras_txt, images_txt, points3d_txt], ["cameras.txt", "images.txt", "points3D.txt"])
     }
 
-    /// Checks cross-references: every image's camera exists.
-    pub fn check(&self) -> Result<(), ColmapError> {
-        for (id, image) in &self.images {
-            if !self.cameras.contains_key(&image.camera_id) {
-                return Err(ColmapError::Inconsistent {
-                    file: "images.txt".into(),
-                    problem: format!("image {id} ({}) uses missing camera {}", image.name, image.camera_id),
-                });
-            }
-        }
-        Ok(())
+    /// [`ColmapModel::from_text`] with the names (or paths) errors give the three files.
+    pub(crate) fn from_text_named(texts: [&str; 3], files: [&str; 3]) -> Result<Self, ColmapError> {
+        let model = Self {
+            cameras: parse_cameras_txt(texts[0], files[0])?,
+            images: parse_images_txt(texts[1], files[1])?,
+            points3d: parse_points3d_txt(texts[2], files[2])?,
+        };
+        model.check_references(files[1])?;
+        Ok(model)
     }
 
     /// `cameras.txt` contents.
@@ -416,26 +221,8 @@ impl ColmapModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::{DMat3, DVec3};
-
-    fn model() -> ColmapModel {
-        let mut m = ColmapModel::default();
-        let k = Intrinsics { fx: 500.0, fy: 510.0, cx: 319.5, cy: 239.5 };
-        m.cameras.insert(1, ColmapCamera::pinhole(&k, 640, 480));
-        m.images.insert(
-            1,
-            ColmapImage {
-                camera_id: 1,
-                camera_from_world: Rigid3::new(DMat3::from_rotation_y(0.3), DVec3::new(0.1, -0.2, 3.0)),
-                name: "cam0/00000.png".into(),
-                points2d: vec![Point2D { xy: [10.5, 20.25], point3d_id: Some(7) }, Point2D { xy: [1.0, 2.0], point3d_id: None }],
-            },
-        );
-        m.images
-            .insert(2, ColmapImage { camera_id: 1, camera_from_world: Rigid3::IDENTITY, name: "cam1/00000.png".into(), points2d: vec![] });
-        m.points3d.insert(7, ColmapPoint3D { xyz: [1.0, 2.0, 3.0], rgb: [1, 2, 3], error: 0.5, track: vec![(1, 0)] });
-        m
-    }
+    use crate::camera::Intrinsics;
+    use crate::colmap::tests::sample_model as model;
 
     #[test]
     fn text_round_trip() {

@@ -1,0 +1,186 @@
+//! `dynview import-colmap` and `export-colmap` as a user runs them.
+
+use std::fs;
+use std::path::Path;
+use std::process::Command;
+
+use dynview_core::poses::EventPoses;
+use dynview_core::scene::{Manifest, PoseEntry, ScenePackage};
+
+fn dynview(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_dynview")).args(args).output().expect("run dynview");
+    (out.status.success(), format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr)))
+}
+
+fn path(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A tiny synthetic event (3 cameras, 2 frames of 32x18, no videos) in `event`.
+fn synth(event: &Path) -> Manifest {
+    let (ok, log) =
+        dynview(&["synth", "--out", path(event), "--cameras", "3", "--frames", "2", "--width", "32", "--height", "18", "--no-video"]);
+    assert!(ok, "{log}");
+    ScenePackage::open(event.join("scene")).unwrap().manifest().clone()
+}
+
+fn import(model: &Path, out: &Path) -> EventPoses {
+    let (ok, log) = dynview(&["import-colmap", path(model), "--out", path(out)]);
+    assert!(ok, "{log}");
+    EventPoses::read(out).unwrap()
+}
+
+fn max_pose_difference(a: &PoseEntry, b: &PoseEntry) -> f64 {
+    let values = |p: &PoseEntry| p.rotation.into_iter().flatten().chain(p.translation).collect::<Vec<_>>();
+    values(a).iter().zip(values(b)).fold(0.0, |m, (x, y)| m.max((x - y).abs()))
+}
+
+/// Checks that `poses` holds the package's cameras, intrinsics and poses (to 1e-9), with frame
+/// files `<t:05>.<extension>`.
+fn assert_poses_match_package(poses: &EventPoses, manifest: &Manifest, extension: &str) {
+    assert_eq!(poses.cameras.len(), manifest.cameras.len());
+    for (camera, entry) in poses.cameras.iter().zip(&manifest.cameras) {
+        assert_eq!((&camera.name, camera.width, camera.height), (&entry.name, entry.width, entry.height));
+        assert_eq!(camera.distortion, [0.0; 4]);
+        let (a, b) = (camera.intrinsics, entry.intrinsics);
+        assert!([a.fx - b.fx, a.fy - b.fy, a.cx - b.cx, a.cy - b.cy].iter().all(|d| d.abs() < 1e-9), "{a:?} vs {b:?}");
+        assert_eq!(camera.frames.len(), entry.poses.len());
+        for (t, (frame, pose)) in camera.frames.iter().zip(&entry.poses).enumerate() {
+            assert_eq!(frame.file, format!("{t:05}.{extension}"));
+            let d = max_pose_difference(frame.camera_from_world.as_ref().unwrap(), pose);
+            assert!(d < 1e-9, "{}/{}: pose differs by {d}", camera.name, frame.file);
+        }
+    }
+}
+
+#[test]
+fn export_then_import_gives_the_package_poses_in_text_and_binary() {
+    let tmp = tempfile::tempdir().unwrap();
+    let event = tmp.path().join("event");
+    let manifest = synth(&event);
+    let extension = manifest.frame_format.extension();
+    let scene = event.join("scene");
+    for (flag, files) in
+        [(None, ["cameras.txt", "images.txt", "points3D.txt"]), (Some("--binary"), ["cameras.bin", "images.bin", "points3D.bin"])]
+    {
+        let model = tmp.path().join(format!("model{}", flag.unwrap_or("")));
+        let mut args = vec!["export-colmap", path(&scene), "--out", path(&model)];
+        args.extend(flag);
+        let (ok, log) = dynview(&args);
+        assert!(ok, "{log}");
+        assert!(log.contains("3 cameras, 6 images"), "{log}");
+        for file in files {
+            assert!(model.join(file).is_file(), "{file} missing");
+        }
+        let poses_json = tmp.path().join(format!("poses{}.json", flag.unwrap_or("")));
+        let (ok, log) = dynview(&["import-colmap", path(&model), "--out", path(&poses_json)]);
+        assert!(ok, "{log}");
+        assert!(log.contains("3 cameras, 6 frames, 6 registered"), "{log}");
+        assert_poses_match_package(&EventPoses::read(&poses_json).unwrap(), &manifest, extension);
+        // Exporting again over the earlier model replaces it.
+        let (ok, log) = dynview(&args);
+        assert!(ok, "{log}");
+    }
+
+    // A poses.json is a source too, and survives the round trip.
+    let poses_json = tmp.path().join("poses.json");
+    let poses = import(&tmp.path().join("model"), &poses_json);
+    let again = tmp.path().join("again");
+    let (ok, log) = dynview(&["export-colmap", path(&poses_json), "--out", path(&again), "--binary"]);
+    assert!(ok, "{log}");
+    let back = import(&again, &tmp.path().join("back.json"));
+    assert_poses_match_package(&back, &manifest, extension);
+    assert_eq!(back.cameras.iter().map(|c| &c.name).collect::<Vec<_>>(), poses.cameras.iter().map(|c| &c.name).collect::<Vec<_>>());
+}
+
+#[test]
+fn imports_the_synth_ground_truth_model() {
+    let tmp = tempfile::tempdir().unwrap();
+    let event = tmp.path().join("event");
+    let manifest = synth(&event);
+    let (ok, log) = dynview(&["import-colmap", path(&event.join("colmap")), "--out", path(&tmp.path().join("gt.json"))]);
+    assert!(ok, "{log}");
+    assert!(log.contains("read text COLMAP model"), "{log}");
+    // The ground-truth model names its images `<camera>/<t:05>.png`.
+    assert_poses_match_package(&EventPoses::read(&tmp.path().join("gt.json")).unwrap(), &manifest, "png");
+}
+
+#[test]
+fn corrupt_models_give_errors_naming_the_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let event = tmp.path().join("event");
+    synth(&event);
+    let out = tmp.path().join("poses.json");
+
+    let binary = tmp.path().join("binary");
+    let (ok, log) = dynview(&["export-colmap", path(&event.join("scene")), "--out", path(&binary), "--binary"]);
+    assert!(ok, "{log}");
+    let images_bin = binary.join("images.bin");
+    let bytes = fs::read(&images_bin).unwrap();
+    fs::write(&images_bin, &bytes[..bytes.len() - 5]).unwrap();
+    let (ok, log) = dynview(&["import-colmap", path(&binary), "--out", path(&out)]);
+    assert!(!ok);
+    assert!(log.contains("images.bin: image 5 (id 6)") && log.contains("truncated"), "{log}");
+
+    let text = tmp.path().join("text");
+    let (ok, log) = dynview(&["export-colmap", path(&event.join("scene")), "--out", path(&text)]);
+    assert!(ok, "{log}");
+    let images_txt = text.join("images.txt");
+    let contents = fs::read_to_string(&images_txt).unwrap();
+    let line = contents.lines().find(|l| l.starts_with("2 ")).unwrap();
+    let mut fields: Vec<&str> = line.split(' ').collect();
+    fields[5] = "nan";
+    fs::write(&images_txt, contents.replace(line, &fields.join(" "))).unwrap();
+    let (ok, log) = dynview(&["import-colmap", path(&text), "--out", path(&out)]);
+    assert!(!ok);
+    assert!(log.contains("images.txt:") && log.contains("field `TX`: not finite"), "{log}");
+
+    // Names that are not `<camera>/<frame file>` are named.
+    fs::write(&images_txt, contents.replace("cam01/00001.jpg", "loose.jpg")).unwrap();
+    let (ok, log) = dynview(&["import-colmap", path(&text), "--out", path(&out)]);
+    assert!(!ok);
+    assert!(log.contains("image 4 (loose.jpg): name must be <camera>/<frame file>"), "{log}");
+    assert!(!out.exists(), "no poses.json is written on failure");
+}
+
+#[test]
+fn refuses_folders_that_are_not_models() {
+    let tmp = tempfile::tempdir().unwrap();
+    let event = tmp.path().join("event");
+    synth(&event);
+    let mine = tmp.path().join("mine");
+    fs::create_dir(&mine).unwrap();
+    fs::write(mine.join("notes.txt"), "keep me").unwrap();
+    let (ok, log) = dynview(&["export-colmap", path(&event.join("scene")), "--out", path(&mine)]);
+    assert!(!ok);
+    assert!(log.contains("is not a COLMAP model folder") && log.contains("refusing"), "{log}");
+    assert_eq!(fs::read_dir(&mine).unwrap().count(), 1);
+    let (ok, log) = dynview(&["import-colmap", path(&mine), "--out", path(&tmp.path().join("p.json"))]);
+    assert!(!ok);
+    assert!(log.contains("no COLMAP model here"), "{log}");
+}
+
+#[test]
+fn colmap_itself_reads_the_export() {
+    let tmp = tempfile::tempdir().unwrap();
+    let event = tmp.path().join("event");
+    let manifest = synth(&event);
+    let binary = tmp.path().join("binary");
+    let (ok, log) = dynview(&["export-colmap", path(&event.join("scene")), "--out", path(&binary), "--binary"]);
+    assert!(ok, "{log}");
+    let text = tmp.path().join("text");
+    fs::create_dir(&text).unwrap();
+    let run = Command::new("colmap")
+        .args(["model_converter", "--input_path", path(&binary), "--output_path", path(&text), "--output_type", "TXT"])
+        .output();
+    let output = match run {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            println!("note: colmap is not on PATH; skipping the COLMAP interoperation test");
+            return;
+        }
+        other => other.unwrap(),
+    };
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let poses = import(&text, &tmp.path().join("poses.json"));
+    assert_poses_match_package(&poses, &manifest, manifest.frame_format.extension());
+}
