@@ -21,6 +21,9 @@ enum Command {
     Synth(commands::synth::Args),
     /// Check a scene package and print its cameras, time steps, points and size.
     Info(commands::info::Args),
+    /// Camera poses of every frame from one video or image folder per camera (structure from
+    /// motion on keyframes, then frame-to-frame refinement).
+    Prep(commands::prep::Args),
     /// Render a camera path (nerfstudio camera_path.json or dynview path) through a scene.
     Render(commands::render::Args),
     /// Convert a COLMAP model (text or binary) into poses.json.
@@ -37,6 +40,7 @@ fn main() -> std::process::ExitCode {
         Command::Render(args) => commands::render::run(args),
         Command::ImportColmap(args) => commands::colmap::run_import(args),
         Command::ExportColmap(args) => commands::colmap::run_export(args),
+        Command::Prep(args) => commands::prep::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -2,5 +2,6 @@
 
 pub mod colmap;
 pub mod info;
+pub mod prep;
 pub mod render;
 pub mod synth;

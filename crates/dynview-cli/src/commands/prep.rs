@@ -1,0 +1,118 @@
+//! `dynview prep`: camera poses (and, later, clouds) from one video or image folder per camera.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::{Context, bail};
+use dynview_sfm::{PrepOptions, Stage};
+
+use crate::progress::StageBars;
+
+/// Arguments of `dynview prep`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Folder with one video (mp4, mov, ...) or one folder of images per camera; camera names
+    /// come from the file or folder names; frames are assumed synchronized.
+    #[arg(long)]
+    input: PathBuf,
+    /// Output folder: `poses.json`, and `work/` with every stage's result (a re-run skips
+    /// finished stages).
+    #[arg(long)]
+    out: PathBuf,
+    /// Every N-th frame of every camera is a keyframe of the structure from motion (kappa).
+    #[arg(long, default_value_t = PrepOptions::default().keyframe_interval)]
+    keyframe_interval: usize,
+    /// When cameras have different frame counts, keep the first frames of every camera up to
+    /// the shortest.
+    #[arg(long)]
+    trim: bool,
+    /// Known focal length in pixels: `PX` for every camera or `CAMERA=PX` for one (repeatable).
+    /// Focal lengths not given are estimated.
+    #[arg(long, value_name = "PX|CAMERA=PX")]
+    focal: Vec<String>,
+    /// Weight of the smoothness priors on camera paths (0: off).
+    #[arg(long, default_value_t = PrepOptions::default().refine.smoothness)]
+    smoothness: f64,
+    /// Most SIFT features per image.
+    #[arg(long, default_value_t = PrepOptions::default().features.max_features)]
+    max_features: usize,
+    /// The last stage to run: frames, keyframes or poses.
+    #[arg(long, default_value = "poses")]
+    stop_after: Stage,
+}
+
+fn parse_focal(values: &[String]) -> anyhow::Result<(BTreeMap<String, f64>, Option<f64>)> {
+    let (mut per_camera, mut all) = (BTreeMap::new(), None);
+    for v in values {
+        let parse = |s: &str| s.parse::<f64>().with_context(|| format!("--focal {v:?}: expected PX or CAMERA=PX"));
+        match v.split_once('=') {
+            Some((camera, px)) => {
+                per_camera.insert(camera.to_string(), parse(px)?);
+            }
+            None => all = Some(parse(v)?),
+        }
+    }
+    Ok((per_camera, all))
+}
+
+/// Runs `dynview prep`.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let (focal_px, focal_px_all) = parse_focal(&args.focal)?;
+    let mut options = PrepOptions {
+        keyframe_interval: args.keyframe_interval,
+        trim: args.trim,
+        focal_px,
+        focal_px_all,
+        stop_after: args.stop_after,
+        ..PrepOptions::default()
+    };
+    options.refine.smoothness = args.smoothness;
+    options.features.max_features = args.max_features;
+    let interrupt = Arc::new(AtomicBool::new(false));
+    let flag = interrupt.clone();
+    // A second Ctrl-C while a stage winds down exits at once.
+    let _ = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupted: finishing the current item; finished stages are kept");
+    });
+    let bars = StageBars::new();
+    let started = std::time::Instant::now();
+    let result = dynview_sfm::run(&args.input, &args.out, &options, &|stage, done, total| bars.update(stage, done, total), &interrupt);
+    bars.finish();
+    let report = match result {
+        Ok(report) => report,
+        Err(dynview_sfm::SfmError::Interrupted) => bail!("interrupted; re-run the same command to continue from the last finished stage"),
+        Err(e) => return Err(e).with_context(|| format!("dynview prep --input {}", args.input.display())),
+    };
+    println!("{} cameras x {} frames", report.cameras, report.frames);
+    if !report.skipped.is_empty() {
+        println!("reused from an earlier run: {}", report.skipped.join(", "));
+    }
+    if report.keyframes > 0 {
+        println!(
+            "keyframes: {}/{} registered, {} points, RMS reprojection error {:.3} px",
+            report.keyframes_registered, report.keyframes, report.keyframe_points, report.keyframe_rms_px
+        );
+        for (name, source) in report.focal_source.iter().enumerate() {
+            println!("  focal of camera {name}: {source}");
+        }
+    }
+    for r in &report.refine {
+        println!(
+            "  refined: {} frames by PnP, {} from neighbours, {} observations, RMS {:.3} px",
+            r.frames_with_pnp, r.frames_interpolated, r.observations, r.rms_px
+        );
+    }
+    for (stage, secs) in &report.stage_seconds {
+        println!("  {stage:<10} {secs:>8.1} s");
+    }
+    if let Some(path) = &report.poses_file {
+        println!("wrote {}", path.display());
+    }
+    println!("total {:.1} s", started.elapsed().as_secs_f64());
+    Ok(())
+}

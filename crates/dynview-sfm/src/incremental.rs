@@ -1,0 +1,443 @@
+//! Incremental structure from motion on keyframes: initial pair, registration by PnP,
+//! triangulation of tracks, bundle adjustment with a robust loss, outlier filtering.
+
+use nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
+use opencv::calib3d;
+use opencv::core::{Mat, Point2d, Point3d, Vector};
+use opencv::prelude::*;
+
+use crate::error::{SfmError, SfmResult};
+use crate::geometry::{Intrinsics, Pose, ray_angle_rad, reprojection_error_px, triangulate};
+use crate::matching::{MatchOptions, TwoView};
+use crate::tracks::Tracks;
+use crate::Progress;
+
+/// How the keyframe reconstruction runs.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MapperOptions {
+    /// Largest reprojection error (px) of an observation kept in the model.
+    pub max_reprojection_px: f64,
+    /// Smallest angle (degrees) between two rays of a new point.
+    pub min_triangulation_angle_deg: f64,
+    /// Fewest 2D-3D inliers to register an image.
+    pub min_registration_inliers: usize,
+    /// Fewest points of an initial pair.
+    pub min_initial_points: usize,
+    /// Cauchy loss scale (px) of bundle adjustment.
+    pub loss_scale_px: f64,
+    /// Refine the radial distortion (k1) in the final bundle adjustment.
+    pub refine_distortion: bool,
+}
+
+impl Default for MapperOptions {
+    fn default() -> Self {
+        Self {
+            max_reprojection_px: 4.0,
+            min_triangulation_angle_deg: 1.5,
+            min_registration_inliers: 20,
+            min_initial_points: 50,
+            loss_scale_px: 1.0,
+            refine_distortion: true,
+        }
+    }
+}
+
+/// A keyframe to reconstruct.
+#[derive(Clone, Debug)]
+pub struct MapImage {
+    /// Index of its physical camera (shared intrinsics).
+    pub camera: usize,
+    /// Feature positions (px).
+    pub xy: Vec<[f32; 2]>,
+}
+
+/// A 3D point and the image features that see it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MapPoint {
+    /// Position in the world.
+    pub xyz: Vector3<f64>,
+    /// `(image, feature)` observations.
+    pub observations: Vec<(usize, u32)>,
+}
+
+/// The keyframe reconstruction.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Reconstruction {
+    /// Per physical camera.
+    pub intrinsics: Vec<Intrinsics>,
+    /// Per image; `None` when it could not be registered.
+    pub poses: Vec<Option<Pose>>,
+    /// Triangulated points.
+    pub points: Vec<MapPoint>,
+}
+
+impl Reconstruction {
+    /// Per image, per feature: the point it observes.
+    pub fn point_of_feature(&self, feature_counts: &[usize]) -> Vec<Vec<Option<u32>>> {
+        let mut out: Vec<Vec<Option<u32>>> = feature_counts.iter().map(|&n| vec![None; n]).collect();
+        for (p, point) in self.points.iter().enumerate() {
+            for &(image, f) in &point.observations {
+                if let Some(slot) = out.get_mut(image).and_then(|v| v.get_mut(f as usize)) {
+                    *slot = Some(p as u32);
+                }
+            }
+        }
+        out
+    }
+
+    /// Reprojection error (px) of every observation.
+    pub fn reprojection_errors_px(&self, images: &[MapImage]) -> Vec<f64> {
+        let mut out = Vec::new();
+        for point in &self.points {
+            for &(image, f) in &point.observations {
+                if let Some(pose) = &self.poses[image] {
+                    let xy = images[image].xy[f as usize];
+                    let k = &self.intrinsics[images[image].camera];
+                    out.push(reprojection_error_px(k, pose, &point.xyz, &Vector2::new(f64::from(xy[0]), f64::from(xy[1]))));
+                }
+            }
+        }
+        out
+    }
+}
+
+struct Mapper<'a> {
+    images: &'a [MapImage],
+    tracks: Tracks,
+    options: &'a MapperOptions,
+    intrinsics: Vec<Intrinsics>,
+    poses: Vec<Option<Pose>>,
+    /// Per track: its point (index into `points`), if triangulated.
+    point_of_track: Vec<Option<usize>>,
+    points: Vec<Option<MapPoint>>,
+    fixed_image: usize,
+}
+
+fn pixel(xy: [f32; 2]) -> Vector2<f64> {
+    Vector2::new(f64::from(xy[0]), f64::from(xy[1]))
+}
+
+impl Mapper<'_> {
+    fn observation(&self, image: usize, feature: u32) -> Vector2<f64> {
+        pixel(self.images[image].xy[feature as usize])
+    }
+
+    fn error(&self, image: usize, feature: u32, xyz: &Vector3<f64>) -> f64 {
+        let Some(pose) = &self.poses[image] else { return f64::INFINITY };
+        reprojection_error_px(&self.intrinsics[self.images[image].camera], pose, xyz, &self.observation(image, feature))
+    }
+
+    /// Triangulates track `t` from its registered observations, dropping the worst until all
+    /// agree; keeps the point when two or more rays at a wide enough angle remain.
+    fn triangulate_track(&mut self, t: usize) -> bool {
+        if self.point_of_track[t].is_some() {
+            return false;
+        }
+        let mut obs: Vec<(usize, u32)> = self.tracks.tracks[t].iter().copied().filter(|(i, _)| self.poses[*i].is_some()).collect();
+        while obs.len() >= 2 {
+            let views: Vec<(Pose, Vector2<f64>)> = obs
+                .iter()
+                .map(|&(i, f)| {
+                    let k = &self.intrinsics[self.images[i].camera];
+                    (self.poses[i].unwrap_or_else(|| unreachable!()), k.normalized(self.observation(i, f)))
+                })
+                .collect();
+            let Some(xyz) = triangulate(&views) else { return false };
+            let errors: Vec<f64> = obs.iter().map(|&(i, f)| self.error(i, f, &xyz)).collect();
+            let (worst, &worst_error) = errors.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap_or((0, &0.0));
+            if worst_error > self.options.max_reprojection_px {
+                obs.remove(worst);
+                continue;
+            }
+            let centers: Vec<Vector3<f64>> = views.iter().map(|(p, _)| p.center_world).collect();
+            let mut max_angle: f64 = 0.0;
+            for a in 0..centers.len() {
+                for b in a + 1..centers.len() {
+                    max_angle = max_angle.max(ray_angle_rad(&centers[a], &centers[b], &xyz));
+                }
+            }
+            if max_angle.to_degrees() < self.options.min_triangulation_angle_deg {
+                return false;
+            }
+            self.point_of_track[t] = Some(self.points.len());
+            self.points.push(Some(MapPoint { xyz, observations: obs }));
+            return true;
+        }
+        false
+    }
+
+    /// Adds image `i`'s features to existing points where they agree, and triangulates the
+    /// tracks through it that have none.
+    fn extend_from_image(&mut self, i: usize) {
+        for (f, track) in self.tracks.track_of[i].clone().into_iter().enumerate() {
+            let Some(t) = track else { continue };
+            match self.point_of_track[t as usize] {
+                Some(p) => {
+                    let Some(point) = &self.points[p] else { continue };
+                    if point.observations.iter().all(|(j, _)| *j != i) && self.error(i, f as u32, &point.xyz) <= self.options.max_reprojection_px {
+                        if let Some(point) = &mut self.points[p] {
+                            point.observations.push((i, f as u32));
+                        }
+                    }
+                }
+                None => {
+                    self.triangulate_track(t as usize);
+                }
+            }
+        }
+    }
+
+    fn registered(&self) -> usize {
+        self.poses.iter().filter(|p| p.is_some()).count()
+    }
+
+    /// Tries to start the model from the pair `(a, b)`.
+    fn try_initial_pair(&mut self, a: usize, b: usize, pair: &TwoView) -> SfmResult<bool> {
+        let (ka, kb) = (self.intrinsics[self.images[a].camera], self.intrinsics[self.images[b].camera]);
+        let to_cv = |v: Vector2<f64>| Point2d::new(v.x, v.y);
+        let pa: Vector<Point2d> = pair.inliers.iter().map(|m| to_cv(ka.normalized(self.observation(a, m[0])))).collect();
+        let pb: Vector<Point2d> = pair.inliers.iter().map(|m| to_cv(kb.normalized(self.observation(b, m[1])))).collect();
+        let identity = Mat::eye(3, 3, opencv::core::CV_64F).and_then(|m| m.to_mat()).map_err(SfmError::cv("identity"))?;
+        let threshold = 1.0 / ka.focal_px.min(kb.focal_px);
+        let mut mask = Mat::default();
+        let e = calib3d::find_essential_mat(&pa, &pb, &identity, calib3d::USAC_MAGSAC, 0.9999, threshold, 10_000, &mut mask)
+            .map_err(SfmError::cv("essential matrix of the initial pair"))?;
+        if e.rows() != 3 || e.cols() != 3 {
+            return Ok(false);
+        }
+        let (mut r, mut t) = (Mat::default(), Mat::default());
+        let good = calib3d::recover_pose_estimated(&e, &pa, &pb, &identity, &mut r, &mut t, &mut mask)
+            .map_err(SfmError::cv("relative pose of the initial pair"))?;
+        if (good as usize) < self.options.min_initial_points {
+            return Ok(false);
+        }
+        let rotation = Matrix3::from_fn(|i, j| r.at_2d::<f64>(i as i32, j as i32).copied().unwrap_or(f64::NAN));
+        let translation = Vector3::from_fn(|i, _| t.at_2d::<f64>(i as i32, 0).copied().unwrap_or(f64::NAN));
+        if !rotation.iter().chain(translation.iter()).all(|v| v.is_finite()) {
+            return Ok(false);
+        }
+        self.poses[a] = Some(Pose { rotation: Matrix3::identity(), center_world: Vector3::zeros() });
+        self.poses[b] = Some(Pose::from_rt(rotation, translation));
+        for m in &pair.inliers {
+            if let Some(t) = self.tracks.track_of[a][m[0] as usize] {
+                self.triangulate_track(t as usize);
+            }
+        }
+        let count = self.points.iter().flatten().count();
+        if count < self.options.min_initial_points {
+            self.reset();
+            return Ok(false);
+        }
+        self.fixed_image = a;
+        self.bundle_adjust(false, false)?;
+        Ok(self.points.iter().flatten().count() >= self.options.min_initial_points)
+    }
+
+    fn reset(&mut self) {
+        self.poses.iter_mut().for_each(|p| *p = None);
+        self.points.clear();
+        self.point_of_track.iter_mut().for_each(|p| *p = None);
+    }
+
+    /// Registers image `i` by PnP against the existing points.
+    fn register(&mut self, i: usize) -> SfmResult<bool> {
+        let mut object = Vector::<Point3d>::new();
+        let mut image = Vector::<Point2d>::new();
+        for (f, track) in self.tracks.track_of[i].iter().enumerate() {
+            if let Some(point) = track.and_then(|t| self.point_of_track[t as usize]).and_then(|p| self.points[p].as_ref()) {
+                object.push(Point3d::new(point.xyz.x, point.xyz.y, point.xyz.z));
+                let xy = self.images[i].xy[f];
+                image.push(Point2d::new(f64::from(xy[0]), f64::from(xy[1])));
+            }
+        }
+        if object.len() < self.options.min_registration_inliers {
+            return Ok(false);
+        }
+        let k = self.intrinsics[self.images[i].camera];
+        let camera_matrix = Mat::from_slice_2d(&[[k.focal_px, 0.0, k.cx_px], [0.0, k.focal_px, k.cy_px], [0.0, 0.0, 1.0]])
+            .map_err(SfmError::cv("camera matrix"))?;
+        let distortion = Mat::from_slice(&[k.k1, k.k2, 0.0, 0.0]).and_then(|m| m.try_clone()).map_err(SfmError::cv("distortion"))?;
+        let (mut rvec, mut tvec, mut inliers) = (Mat::default(), Mat::default(), Mat::default());
+        let ok = calib3d::solve_pnp_ransac(
+            &object,
+            &image,
+            &camera_matrix,
+            &distortion,
+            &mut rvec,
+            &mut tvec,
+            false,
+            2000,
+            self.options.max_reprojection_px as f32,
+            0.9999,
+            &mut inliers,
+            calib3d::SOLVEPNP_EPNP,
+        )
+        .map_err(SfmError::cv("PnP"))?;
+        if !ok || (inliers.rows() as usize) < self.options.min_registration_inliers {
+            return Ok(false);
+        }
+        let read = |m: &Mat| Vector3::from_fn(|r, _| m.at::<f64>(r as i32).copied().unwrap_or(f64::NAN));
+        let (aa, t) = (read(&rvec), read(&tvec));
+        if !aa.iter().chain(t.iter()).all(|v| v.is_finite()) {
+            return Ok(false);
+        }
+        self.poses[i] = Some(Pose::from_rt(Rotation3::from_scaled_axis(aa).into_inner(), t));
+        Ok(true)
+    }
+
+    /// Global bundle adjustment of every registered image and point, then outlier filtering.
+    fn bundle_adjust(&mut self, refine_focal: bool, refine_distortion: bool) -> SfmResult<()> {
+        let image_ids: Vec<usize> = (0..self.poses.len()).filter(|&i| self.poses[i].is_some()).collect();
+        let mut slot = vec![usize::MAX; self.poses.len()];
+        for (s, &i) in image_ids.iter().enumerate() {
+            slot[i] = s;
+        }
+        let point_ids: Vec<usize> = (0..self.points.len()).filter(|&p| self.points[p].is_some()).collect();
+        let mut problem = dynview_ba::Problem {
+            cameras: self.intrinsics.iter().map(|k| dynview_ba::CameraIntrinsics { focal_px: k.focal_px, cx_px: k.cx_px, cy_px: k.cy_px, k1: k.k1, k2: k.k2 }).collect(),
+            images: image_ids
+                .iter()
+                .map(|&i| {
+                    let pose = self.poses[i].unwrap_or_else(|| unreachable!());
+                    let aa = pose.angle_axis();
+                    dynview_ba::ImagePose { angle_axis: [aa.x, aa.y, aa.z], center_world: pose.center_world.into() }
+                })
+                .collect(),
+            image_camera: image_ids.iter().map(|&i| self.images[i].camera).collect(),
+            image_fixed: image_ids.iter().map(|&i| i == self.fixed_image).collect(),
+            points_world: point_ids.iter().map(|&p| self.points[p].as_ref().map_or([0.0; 3], |q| q.xyz.into())).collect(),
+            point_fixed: vec![false; point_ids.len()],
+            observations: Vec::new(),
+            priors: Vec::new(),
+        };
+        for (s, &p) in point_ids.iter().enumerate() {
+            for &(i, f) in &self.points[p].as_ref().map_or(&Vec::new(), |q| &q.observations).clone() {
+                problem.observations.push(dynview_ba::Observation { image: slot[i], point: s, pixel: self.observation(i, f).into() });
+            }
+        }
+        let options = dynview_ba::Options {
+            loss: dynview_ba::Loss::Cauchy { scale_px: self.options.loss_scale_px },
+            refine_focal,
+            refine_principal_point: false,
+            refine_distortion,
+            max_iterations: 50,
+            ..Default::default()
+        };
+        dynview_ba::solve(&mut problem, &options)?;
+        for (s, &i) in image_ids.iter().enumerate() {
+            let p = &problem.images[s];
+            self.poses[i] = Some(Pose::from_angle_axis(p.angle_axis.into(), p.center_world.into()));
+        }
+        for (s, &p) in point_ids.iter().enumerate() {
+            if let Some(point) = &mut self.points[p] {
+                point.xyz = problem.points_world[s].into();
+            }
+        }
+        for (c, k) in problem.cameras.iter().enumerate() {
+            self.intrinsics[c] = Intrinsics { focal_px: k.focal_px, cx_px: k.cx_px, cy_px: k.cy_px, k1: k.k1, k2: k.k2 };
+        }
+        self.filter_outliers();
+        Ok(())
+    }
+
+    /// Drops observations above the reprojection limit and points left with fewer than two.
+    fn filter_outliers(&mut self) {
+        for t in 0..self.point_of_track.len() {
+            let Some(p) = self.point_of_track[t] else { continue };
+            let Some(point) = self.points[p].take() else { continue };
+            let observations: Vec<(usize, u32)> =
+                point.observations.iter().copied().filter(|&(i, f)| self.error(i, f, &point.xyz) <= self.options.max_reprojection_px).collect();
+            if observations.len() >= 2 {
+                self.points[p] = Some(MapPoint { xyz: point.xyz, observations });
+            } else {
+                self.point_of_track[t] = None;
+            }
+        }
+    }
+
+    fn next_image(&self, failed: &[bool]) -> Option<usize> {
+        (0..self.images.len())
+            .filter(|&i| self.poses[i].is_none() && !failed[i])
+            .map(|i| {
+                let seen = self.tracks.track_of[i]
+                    .iter()
+                    .filter(|t| t.and_then(|t| self.point_of_track[t as usize]).is_some())
+                    .count();
+                (i, seen)
+            })
+            .filter(|&(_, seen)| seen >= self.options.min_registration_inliers)
+            .max_by_key(|&(i, seen)| (seen, std::cmp::Reverse(i)))
+            .map(|(i, _)| i)
+    }
+}
+
+/// Reconstructs the keyframes `images` from verified `pairs` `(a, b, geometry)` with initial
+/// `intrinsics` per physical camera.
+pub fn reconstruct(
+    images: &[MapImage],
+    pairs: &[(usize, usize, TwoView)],
+    intrinsics: Vec<Intrinsics>,
+    match_options: &MatchOptions,
+    options: &MapperOptions,
+    progress: Progress,
+) -> SfmResult<Reconstruction> {
+    let counts: Vec<usize> = images.iter().map(|i| i.xy.len()).collect();
+    let matches: Vec<(usize, usize, Vec<[u32; 2]>)> = pairs.iter().map(|(a, b, v)| (*a, *b, v.inliers.clone())).collect();
+    let tracks = Tracks::build(&counts, &matches);
+    let mut mapper = Mapper {
+        images,
+        point_of_track: vec![None; tracks.tracks.len()],
+        tracks,
+        options,
+        intrinsics,
+        poses: vec![None; images.len()],
+        points: Vec::new(),
+        fixed_image: 0,
+    };
+    let mut candidates: Vec<&(usize, usize, TwoView)> =
+        pairs.iter().filter(|(_, _, v)| !v.is_degenerate(match_options) && v.inliers.len() >= options.min_initial_points).collect();
+    candidates.sort_by_key(|(a, b, v)| (std::cmp::Reverse(v.inliers.len()), *a, *b));
+    let mut started = false;
+    for (a, b, pair) in candidates.iter().take(30) {
+        if mapper.try_initial_pair(*a, *b, pair)? {
+            started = true;
+            break;
+        }
+        mapper.reset();
+    }
+    if !started {
+        return Err(SfmError::Reconstruction(format!(
+            "no image pair has enough matches with parallax to start ({} verified pairs, {} with parallax); the cameras may share too little of the scene, or the frames are textureless",
+            pairs.iter().filter(|p| !p.2.inliers.is_empty()).count(),
+            candidates.len()
+        )));
+    }
+    let total = images.len() as u64;
+    progress("keyframe SfM", mapper.registered() as u64, total);
+    let mut failed = vec![false; images.len()];
+    let mut last_ba = mapper.registered();
+    while let Some(i) = mapper.next_image(&failed) {
+        if !mapper.register(i)? {
+            failed[i] = true;
+            continue;
+        }
+        mapper.extend_from_image(i);
+        let n = mapper.registered();
+        if n <= 8 || n as f64 >= 1.25 * last_ba as f64 {
+            mapper.bundle_adjust(n >= 3, false)?;
+            last_ba = n;
+            // Tracks that failed before may triangulate now.
+            for t in 0..mapper.point_of_track.len() {
+                mapper.triangulate_track(t);
+            }
+            failed.iter_mut().for_each(|f| *f = false);
+        }
+        progress("keyframe SfM", n as u64, total);
+    }
+    mapper.bundle_adjust(true, false)?;
+    for t in 0..mapper.point_of_track.len() {
+        mapper.triangulate_track(t);
+    }
+    mapper.bundle_adjust(true, options.refine_distortion)?;
+    Ok(Reconstruction { intrinsics: mapper.intrinsics, poses: mapper.poses, points: mapper.points.into_iter().flatten().collect() })
+}

@@ -1,0 +1,213 @@
+//! The keyframe stage: SIFT on every `kappa`-th frame of every camera, exhaustive matching,
+//! verification, focal estimation and the incremental reconstruction; saved to
+//! `work/keyframes/` (our model as JSON and as a COLMAP text model).
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+use rayon::prelude::*;
+
+use dynview_core::colmap::{CameraModel, ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
+use dynview_core::fsutil::write_atomic;
+
+use crate::error::{SfmError, SfmResult};
+use crate::features::{FeatureOptions, Features};
+use crate::focal::{PRIOR_FOCAL_FACTOR, PairGeometry, estimate_focal_factor};
+use crate::geometry::Intrinsics;
+use crate::incremental::{MapImage, MapperOptions, Reconstruction, reconstruct};
+use crate::input::EventFrames;
+use crate::matching::{MatchOptions, TwoView, mutual_matches, verify};
+use crate::work::WorkDir;
+use crate::Progress;
+
+/// A keyframe: camera index and frame index.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Keyframe {
+    /// Camera (index into the event's cameras).
+    pub camera: usize,
+    /// Frame (time step).
+    pub frame: usize,
+}
+
+/// The keyframe stage's result.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct KeyframeModel {
+    /// The keyframes, in image order of the reconstruction.
+    pub keyframes: Vec<Keyframe>,
+    /// The reconstruction.
+    pub reconstruction: Reconstruction,
+    /// How the focal lengths were initialised, per camera.
+    pub focal_source: Vec<String>,
+}
+
+/// The frames every `interval` frames, in camera-then-time order.
+pub fn keyframes(frames: &EventFrames, interval: usize) -> Vec<Keyframe> {
+    let n = frames.frame_count();
+    (0..frames.cameras.len()).flat_map(|camera| (0..n).step_by(interval.max(1)).map(move |frame| Keyframe { camera, frame })).collect()
+}
+
+/// Path of a frame's feature file in the work folder.
+pub fn feature_path(work: &WorkDir, frames: &EventFrames, k: Keyframe) -> std::path::PathBuf {
+    let c = &frames.cameras[k.camera];
+    work.join(format!("features/{}/{}.sift", c.name, c.file_name(k.frame)))
+}
+
+fn check_interrupt(interrupt: &AtomicBool) -> SfmResult<()> {
+    if interrupt.load(Ordering::Relaxed) { Err(SfmError::Interrupted) } else { Ok(()) }
+}
+
+/// Extracts (or loads) the features of `keys`.
+pub fn keyframe_features(
+    work: &WorkDir,
+    frames: &EventFrames,
+    keys: &[Keyframe],
+    options: &FeatureOptions,
+    progress: Progress,
+    interrupt: &AtomicBool,
+) -> SfmResult<Vec<Features>> {
+    let done = AtomicU64::new(0);
+    let stamp = serde_json::to_string(options).unwrap_or_default();
+    keys.par_iter()
+        .map(|&k| {
+            check_interrupt(interrupt)?;
+            let path = feature_path(work, frames, k);
+            let stamp_path = path.with_extension("sift.options");
+            let cached = std::fs::read_to_string(&stamp_path).is_ok_and(|s| s == stamp);
+            let features = match cached.then(|| Features::read(&path)).transpose() {
+                Ok(Some(f)) => f,
+                _ => {
+                    let f = crate::features::extract_file(&frames.cameras[k.camera].files[k.frame], options)?;
+                    f.write(&path)?;
+                    write_atomic(&stamp_path, stamp.as_bytes()).map_err(SfmError::io(&stamp_path))?;
+                    f
+                }
+            };
+            progress("features", done.fetch_add(1, Ordering::Relaxed) + 1, keys.len() as u64);
+            Ok(features)
+        })
+        .collect()
+}
+
+/// Matches and verifies every pair of `features`.
+pub fn match_all_pairs(features: &[Features], options: &MatchOptions, progress: Progress, interrupt: &AtomicBool) -> SfmResult<Vec<(usize, usize, TwoView)>> {
+    let mats = features.iter().map(Features::descriptor_mat).collect::<SfmResult<Vec<_>>>()?;
+    let pairs: Vec<(usize, usize)> = (0..features.len()).flat_map(|a| (a + 1..features.len()).map(move |b| (a, b))).collect();
+    let done = AtomicU64::new(0);
+    let verified: Vec<(usize, usize, TwoView)> = pairs
+        .par_iter()
+        .map(|&(a, b)| {
+            check_interrupt(interrupt)?;
+            let matches = mutual_matches(&mats[a], &mats[b], options.ratio)?;
+            let two_view = verify(&features[a].xy, &features[b].xy, &matches, options)?;
+            progress("matching", done.fetch_add(1, Ordering::Relaxed) + 1, pairs.len() as u64);
+            Ok((a, b, two_view))
+        })
+        .collect::<SfmResult<Vec<_>>>()?;
+    Ok(verified.into_iter().filter(|(_, _, v)| !v.inliers.is_empty()).collect())
+}
+
+/// Initial intrinsics per camera: the given focal, else self-calibration, else the prior.
+pub fn initial_intrinsics(
+    frames: &EventFrames,
+    keys: &[Keyframe],
+    pairs: &[(usize, usize, TwoView)],
+    focal_hints: &BTreeMap<String, f64>,
+    match_options: &MatchOptions,
+) -> (Vec<Intrinsics>, Vec<String>) {
+    let geometry: Vec<PairGeometry> = pairs
+        .iter()
+        .filter(|(_, _, v)| !v.is_degenerate(match_options))
+        .filter_map(|(a, b, v)| {
+            let (ca, cb) = (&frames.cameras[keys[*a].camera], &frames.cameras[keys[*b].camera]);
+            Some(PairGeometry { fundamental: v.fundamental?, size_a: (ca.width, ca.height), size_b: (cb.width, cb.height), inliers: v.inliers.len() })
+        })
+        .collect();
+    let estimated = estimate_focal_factor(&geometry);
+    frames
+        .cameras
+        .iter()
+        .map(|c| {
+            let longer = f64::from(c.width.max(c.height));
+            match (focal_hints.get(&c.name), estimated) {
+                (Some(&f), _) => (Intrinsics::centred(f, c.width, c.height), "given".to_string()),
+                (None, Some(factor)) => (Intrinsics::centred(factor * longer, c.width, c.height), format!("self-calibrated ({factor:.3} x {longer})")),
+                (None, None) => (Intrinsics::centred(PRIOR_FOCAL_FACTOR * longer, c.width, c.height), "prior (1.2 x longer side)".to_string()),
+            }
+        })
+        .unzip()
+}
+
+/// Runs the reconstruction of the keyframes.
+#[allow(clippy::too_many_arguments)]
+pub fn reconstruct_keyframes(
+    frames: &EventFrames,
+    keys: &[Keyframe],
+    features: &[Features],
+    pairs: &[(usize, usize, TwoView)],
+    focal_hints: &BTreeMap<String, f64>,
+    match_options: &MatchOptions,
+    mapper_options: &MapperOptions,
+    progress: Progress,
+) -> SfmResult<KeyframeModel> {
+    let (intrinsics, focal_source) = initial_intrinsics(frames, keys, pairs, focal_hints, match_options);
+    let images: Vec<MapImage> = keys.iter().zip(features).map(|(k, f)| MapImage { camera: k.camera, xy: f.xy.clone() }).collect();
+    let reconstruction = reconstruct(&images, pairs, intrinsics, match_options, mapper_options, progress)?;
+    Ok(KeyframeModel { keyframes: keys.to_vec(), reconstruction, focal_source })
+}
+
+/// The keyframe model as a COLMAP model (RADIAL cameras, image names `<camera>/<file>`, all
+/// features as 2D points, point errors as mean reprojection errors).
+pub fn to_colmap(model: &KeyframeModel, frames: &EventFrames, features: &[Features]) -> ColmapModel {
+    let mut out = ColmapModel::default();
+    let r = &model.reconstruction;
+    for (c, camera) in frames.cameras.iter().enumerate() {
+        let k = &r.intrinsics[c];
+        out.cameras.insert(
+            c as u32 + 1,
+            ColmapCamera { model: CameraModel::Radial, width: camera.width, height: camera.height, params: vec![k.focal_px, k.cx_px + 0.5, k.cy_px + 0.5, k.k1, k.k2] },
+        );
+    }
+    let counts: Vec<usize> = features.iter().map(Features::len).collect();
+    let point_of = r.point_of_feature(&counts);
+    for (i, key) in model.keyframes.iter().enumerate() {
+        let Some(pose) = &r.poses[i] else { continue };
+        let camera = &frames.cameras[key.camera];
+        let points2d = features[i]
+            .xy
+            .iter()
+            .zip(&point_of[i])
+            .map(|(xy, p)| Point2D { xy: [f64::from(xy[0]) + 0.5, f64::from(xy[1]) + 0.5], point3d_id: p.map(|p| u64::from(p) + 1) })
+            .collect();
+        out.images.insert(
+            i as u32 + 1,
+            ColmapImage { camera_id: key.camera as u32 + 1, camera_from_world: pose.to_rigid(), name: format!("{}/{}", camera.name, camera.file_name(key.frame)), points2d },
+        );
+    }
+    let images: Vec<MapImage> = model.keyframes.iter().zip(features).map(|(k, f)| MapImage { camera: k.camera, xy: f.xy.clone() }).collect();
+    for (p, point) in r.points.iter().enumerate() {
+        let errors: Vec<f64> = point
+            .observations
+            .iter()
+            .filter_map(|&(i, f)| {
+                let pose = r.poses[i].as_ref()?;
+                let xy = images[i].xy[f as usize];
+                Some(crate::geometry::reprojection_error_px(&r.intrinsics[images[i].camera], pose, &point.xyz, &nalgebra::Vector2::new(f64::from(xy[0]), f64::from(xy[1]))))
+            })
+            .collect();
+        let error = errors.iter().sum::<f64>() / errors.len().max(1) as f64;
+        out.points3d.insert(
+            p as u64 + 1,
+            ColmapPoint3D { xyz: point.xyz.into(), rgb: [128, 128, 128], error, track: point.observations.iter().map(|&(i, f)| (i as u32 + 1, f)).collect() },
+        );
+    }
+    out
+}
+
+/// Writes a COLMAP text model into `dir` (each file atomically).
+pub fn write_colmap_text(model: &ColmapModel, dir: &std::path::Path) -> SfmResult<()> {
+    for (name, text) in [("cameras.txt", model.cameras_txt()), ("images.txt", model.images_txt()), ("points3D.txt", model.points3d_txt())] {
+        let path = dir.join(name);
+        write_atomic(&path, text.as_bytes()).map_err(SfmError::io(&path))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,134 @@
+//! Descriptor matching (ratio test and cross-check) and robust two-view verification
+//! (OpenCV's USAC MAGSAC++ for the fundamental matrix and a homography).
+
+use opencv::calib3d;
+use opencv::core::{DMatch, Mat, Point2f, Vector};
+use opencv::features2d::BFMatcher;
+use opencv::prelude::*;
+
+use crate::error::{SfmError, SfmResult};
+
+/// How image pairs are matched and verified.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MatchOptions {
+    /// Lowe's ratio: the best match must be closer than `ratio` times the second best.
+    pub ratio: f32,
+    /// Fewest geometrically verified matches for a pair to count.
+    pub min_inliers: usize,
+    /// MAGSAC++'s upper bound on the noise scale (px); MAGSAC marginalises over scales below it,
+    /// so no fixed inlier threshold is set by hand.
+    pub max_sigma_px: f64,
+    /// RANSAC confidence.
+    pub confidence: f64,
+    /// A pair whose homography explains this share of the fundamental matrix's inliers is
+    /// treated as having no usable baseline (tripod frames, pure rotation, a plane).
+    pub homography_ratio: f64,
+}
+
+impl Default for MatchOptions {
+    fn default() -> Self {
+        Self { ratio: 0.8, min_inliers: 15, max_sigma_px: 3.0, confidence: 0.9999, homography_ratio: 0.85 }
+    }
+}
+
+/// Verified matches of an image pair.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TwoView {
+    /// Index pairs `(feature in a, feature in b)` consistent with the pair's geometry.
+    pub inliers: Vec<[u32; 2]>,
+    /// Inliers of the fundamental matrix.
+    pub fundamental_inliers: usize,
+    /// Inliers of the homography.
+    pub homography_inliers: usize,
+    /// The fundamental matrix (row-major, `x_b^T F x_a = 0`), when one was found.
+    pub fundamental: Option<[f64; 9]>,
+}
+
+impl TwoView {
+    /// Whether the homography explains nearly everything: no baseline to triangulate from.
+    pub fn is_degenerate(&self, options: &MatchOptions) -> bool {
+        self.homography_inliers as f64 >= options.homography_ratio * self.fundamental_inliers as f64
+    }
+}
+
+fn knn(query: &Mat, train: &Mat) -> SfmResult<Vector<Vector<DMatch>>> {
+    let matcher = BFMatcher::create(opencv::core::NORM_L2, false).map_err(SfmError::cv("creating a matcher"))?;
+    let mut matches = Vector::new();
+    matcher.knn_train_match(query, train, &mut matches, 2, &Mat::default(), false).map_err(SfmError::cv("knn matching"))?;
+    Ok(matches)
+}
+
+fn best_passing_ratio(matches: &Vector<Vector<DMatch>>, ratio: f32, train_len: usize) -> Vec<Option<u32>> {
+    matches
+        .iter()
+        .map(|m| {
+            let first = m.get(0).ok()?;
+            let passes = match m.get(1) {
+                Ok(second) => first.distance < ratio * second.distance,
+                Err(_) => true,
+            };
+            (passes && (first.train_idx as usize) < train_len).then_some(first.train_idx as u32)
+        })
+        .collect()
+}
+
+/// Mutual nearest neighbours passing the ratio test in both directions.
+pub fn mutual_matches(a: &Mat, b: &Mat, ratio: f32) -> SfmResult<Vec<[u32; 2]>> {
+    if a.rows() < 2 || b.rows() < 2 {
+        return Ok(Vec::new());
+    }
+    let ab = best_passing_ratio(&knn(a, b)?, ratio, b.rows() as usize);
+    let ba = best_passing_ratio(&knn(b, a)?, ratio, a.rows() as usize);
+    Ok(ab
+        .iter()
+        .enumerate()
+        .filter_map(|(i, j)| {
+            let j = (*j)?;
+            (ba.get(j as usize).copied().flatten() == Some(i as u32)).then_some([i as u32, j])
+        })
+        .collect())
+}
+
+fn points(xy: &[[f32; 2]], matches: &[[u32; 2]], side: usize) -> Vector<Point2f> {
+    matches.iter().map(|m| { let p = xy[m[side] as usize]; Point2f::new(p[0], p[1]) }).collect()
+}
+
+fn mask_indices(mask: &Mat) -> SfmResult<Vec<usize>> {
+    let bytes = mask.data_bytes().map_err(SfmError::cv("reading an inlier mask"))?;
+    Ok(bytes.iter().enumerate().filter(|(_, v)| **v != 0).map(|(i, _)| i).collect())
+}
+
+/// Verifies `matches` between keypoints `xy_a` and `xy_b` with a fundamental matrix and a
+/// homography (both USAC MAGSAC++). Degenerate pairs keep the homography's inliers.
+pub fn verify(xy_a: &[[f32; 2]], xy_b: &[[f32; 2]], matches: &[[u32; 2]], options: &MatchOptions) -> SfmResult<TwoView> {
+    if matches.len() < options.min_inliers.max(8) {
+        return Ok(TwoView::default());
+    }
+    let (pa, pb) = (points(xy_a, matches, 0), points(xy_b, matches, 1));
+    let mut f_mask = Mat::default();
+    let f = calib3d::find_fundamental_mat(&pa, &pb, calib3d::USAC_MAGSAC, options.max_sigma_px, options.confidence, 10_000, &mut f_mask)
+        .map_err(SfmError::cv("fundamental matrix"))?;
+    let mut h_mask = Mat::default();
+    let h = calib3d::find_homography_ext(&pa, &pb, calib3d::USAC_MAGSAC, options.max_sigma_px, &mut h_mask, 10_000, options.confidence)
+        .map_err(SfmError::cv("homography"))?;
+    let f_inliers = if f.rows() == 3 && !f_mask.empty() { mask_indices(&f_mask)? } else { Vec::new() };
+    let h_inliers = if h.rows() == 3 && !h_mask.empty() { mask_indices(&h_mask)? } else { Vec::new() };
+    let mut out = TwoView {
+        inliers: Vec::new(),
+        fundamental_inliers: f_inliers.len(),
+        homography_inliers: h_inliers.len(),
+        fundamental: None,
+    };
+    if f.rows() == 3 && f.cols() == 3 {
+        let mut m = [0.0; 9];
+        for (i, v) in m.iter_mut().enumerate() {
+            *v = *f.at_2d::<f64>((i / 3) as i32, (i % 3) as i32).map_err(SfmError::cv("fundamental matrix"))?;
+        }
+        out.fundamental = Some(m);
+    }
+    let keep = if out.is_degenerate(options) { &h_inliers } else { &f_inliers };
+    if keep.len() >= options.min_inliers {
+        out.inliers = keep.iter().map(|&i| matches[i]).collect();
+    }
+    Ok(out)
+}

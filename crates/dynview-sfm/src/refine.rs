@@ -1,0 +1,310 @@
+//! Frame-to-frame refinement (METHOD.md Part 1 step 2): every frame of a camera is matched only
+//! with the next frame of the same camera; the keyframes' 3D points are carried along these
+//! matches to every frame; all non-keyframe poses are then solved by bundle adjustment with the
+//! keyframe poses and the points fixed, plus the paper's smoothness priors (Eqs. 1-2):
+//! `w(t - t') ||C_t - C_t'||^2` and `w(t - t') ||A_t - A_t'||^2` over a +-3 frame window with a
+//! Gaussian `w`.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+use nalgebra::{Rotation3, UnitQuaternion, Vector2, Vector3};
+use opencv::calib3d;
+use opencv::core::{Mat, Point2d, Point3d, Vector};
+use opencv::prelude::*;
+use rayon::prelude::*;
+
+use crate::error::{SfmError, SfmResult};
+use crate::features::{FeatureOptions, Features};
+use crate::geometry::{Intrinsics, Pose, reprojection_error_px};
+use crate::matching::{MatchOptions, mutual_matches, verify};
+use crate::Progress;
+
+/// How frames are refined.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RefineOptions {
+    /// Weight of the smoothness priors; 0 turns them off. 1 makes the prior between two
+    /// neighbouring frames worth as much as all of a frame's observations at one pixel of error
+    /// per scene-depth/focal of centre motion (or per 1/focal radian of rotation).
+    pub smoothness: f64,
+    /// Half-width of the prior window in frames (the paper: 3).
+    pub window: usize,
+    /// Standard deviation of the Gaussian weight over frame distance.
+    pub sigma_frames: f64,
+    /// Largest reprojection error (px) of an observation kept in the final solve.
+    pub max_reprojection_px: f64,
+    /// Cauchy loss scale (px).
+    pub loss_scale_px: f64,
+}
+
+impl Default for RefineOptions {
+    fn default() -> Self {
+        Self { smoothness: 0.1, window: 3, sigma_frames: 1.5, max_reprojection_px: 4.0, loss_scale_px: 1.0 }
+    }
+}
+
+/// One camera's input to refinement.
+pub struct CameraTrack<'a> {
+    /// Camera name (for messages).
+    pub name: &'a str,
+    /// Its frame files in time order.
+    pub files: &'a [std::path::PathBuf],
+    /// Its intrinsics (fixed).
+    pub intrinsics: Intrinsics,
+    /// Per frame: `Some((pose, features, point per feature))` for registered keyframes.
+    pub keyframes: Vec<Option<(Pose, &'a Features, Vec<Option<u32>>)>>,
+    /// The keyframe model's points.
+    pub points_world: &'a [Vector3<f64>],
+}
+
+/// What refinement measured for one camera.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RefineReport {
+    /// Frames posed by PnP before the solve.
+    pub frames_with_pnp: usize,
+    /// Frames whose initial pose came from their neighbours.
+    pub frames_interpolated: usize,
+    /// Observations in the final solve.
+    pub observations: usize,
+    /// RMS reprojection error (px) after the solve.
+    pub rms_px: f64,
+}
+
+fn check_interrupt(interrupt: &AtomicBool) -> SfmResult<()> {
+    if interrupt.load(Ordering::Relaxed) { Err(SfmError::Interrupted) } else { Ok(()) }
+}
+
+/// Carries point ids along the consecutive-frame `matches`, forward then backward, never
+/// overwriting a keyframe's own assignment or an earlier one.
+pub fn propagate(point_at: &mut [Vec<Option<u32>>], matches: &[Vec<[u32; 2]>], is_keyframe: &[bool]) {
+    for t in 0..matches.len() {
+        if is_keyframe[t + 1] {
+            continue;
+        }
+        for m in &matches[t] {
+            if let Some(p) = point_at[t][m[0] as usize]
+                && point_at[t + 1][m[1] as usize].is_none()
+            {
+                point_at[t + 1][m[1] as usize] = Some(p);
+            }
+        }
+    }
+    for t in (0..matches.len()).rev() {
+        if is_keyframe[t] {
+            continue;
+        }
+        for m in &matches[t] {
+            if let Some(p) = point_at[t + 1][m[1] as usize]
+                && point_at[t][m[0] as usize].is_none()
+            {
+                point_at[t][m[0] as usize] = Some(p);
+            }
+        }
+    }
+}
+
+fn pnp(intrinsics: &Intrinsics, features: &Features, point_at: &[Option<u32>], points: &[Vector3<f64>], max_px: f64) -> SfmResult<Option<Pose>> {
+    let mut object = Vector::<Point3d>::new();
+    let mut image = Vector::<Point2d>::new();
+    for (f, p) in point_at.iter().enumerate() {
+        if let Some(p) = p {
+            let x = points[*p as usize];
+            object.push(Point3d::new(x.x, x.y, x.z));
+            image.push(Point2d::new(f64::from(features.xy[f][0]), f64::from(features.xy[f][1])));
+        }
+    }
+    if object.len() < 12 {
+        return Ok(None);
+    }
+    let k = intrinsics;
+    let camera_matrix = Mat::from_slice_2d(&[[k.focal_px, 0.0, k.cx_px], [0.0, k.focal_px, k.cy_px], [0.0, 0.0, 1.0]]).map_err(SfmError::cv("camera matrix"))?;
+    let distortion = Mat::from_slice(&[k.k1, k.k2, 0.0, 0.0]).and_then(|m| m.try_clone()).map_err(SfmError::cv("distortion"))?;
+    let (mut rvec, mut tvec, mut inliers) = (Mat::default(), Mat::default(), Mat::default());
+    let ok = calib3d::solve_pnp_ransac(&object, &image, &camera_matrix, &distortion, &mut rvec, &mut tvec, false, 1000, max_px as f32, 0.999, &mut inliers, calib3d::SOLVEPNP_EPNP)
+        .map_err(SfmError::cv("PnP"))?;
+    if !ok || inliers.rows() < 12 {
+        return Ok(None);
+    }
+    let read = |m: &Mat| Vector3::from_fn(|r, _| m.at::<f64>(r as i32).copied().unwrap_or(f64::NAN));
+    let (aa, t) = (read(&rvec), read(&tvec));
+    if !aa.iter().chain(t.iter()).all(|v| v.is_finite()) {
+        return Ok(None);
+    }
+    Ok(Some(Pose::from_rt(Rotation3::from_scaled_axis(aa).into_inner(), t)))
+}
+
+/// Fills missing poses by interpolating (slerp and lerp) between the nearest posed frames.
+fn fill_missing(poses: &mut [Option<Pose>]) -> usize {
+    let known: Vec<usize> = (0..poses.len()).filter(|&t| poses[t].is_some()).collect();
+    let mut filled = 0;
+    for t in 0..poses.len() {
+        if poses[t].is_some() {
+            continue;
+        }
+        let before = known.iter().rev().find(|&&k| k < t).copied();
+        let after = known.iter().find(|&&k| k > t).copied();
+        let pose = match (before, after) {
+            (Some(a), Some(b)) => {
+                let (pa, pb) = (poses[a].unwrap_or_else(|| unreachable!()), poses[b].unwrap_or_else(|| unreachable!()));
+                let s = (t - a) as f64 / (b - a) as f64;
+                let qa = UnitQuaternion::from_matrix(&pa.rotation);
+                let qb = UnitQuaternion::from_matrix(&pb.rotation);
+                let q = qa.try_slerp(&qb, s, 1e-9).unwrap_or(qa);
+                Pose { rotation: q.to_rotation_matrix().into_inner(), center_world: pa.center_world.lerp(&pb.center_world, s) }
+            }
+            (Some(k), None) | (None, Some(k)) => poses[k].unwrap_or_else(|| unreachable!()),
+            (None, None) => continue,
+        };
+        poses[t] = Some(pose);
+        filled += 1;
+    }
+    filled
+}
+
+/// The Gaussian prior weight of two frames `dt` apart.
+pub fn prior_weight(options: &RefineOptions, dt: usize) -> f64 {
+    (-((dt * dt) as f64) / (2.0 * options.sigma_frames * options.sigma_frames)).exp()
+}
+
+/// Poses every frame of one camera.
+pub fn refine_camera(
+    camera: &CameraTrack,
+    feature_options: &FeatureOptions,
+    match_options: &MatchOptions,
+    options: &RefineOptions,
+    progress: Progress,
+    interrupt: &AtomicBool,
+) -> SfmResult<(Vec<Pose>, RefineReport)> {
+    let n = camera.files.len();
+    let is_keyframe: Vec<bool> = camera.keyframes.iter().map(Option::is_some).collect();
+    if !is_keyframe.iter().any(|k| *k) {
+        return Err(SfmError::Reconstruction(format!(
+            "camera {}: none of its keyframes could be registered (it shares too few features with the other cameras)",
+            camera.name
+        )));
+    }
+    let done = AtomicU64::new(0);
+    let label = format!("refine {}", camera.name);
+    let total = (2 * n) as u64;
+    let owned: Vec<Option<Features>> = (0..n)
+        .into_par_iter()
+        .map(|t| {
+            check_interrupt(interrupt)?;
+            let f = if camera.keyframes[t].is_some() { None } else { Some(crate::features::extract_file(&camera.files[t], feature_options)?) };
+            progress(&label, done.fetch_add(1, Ordering::Relaxed) + 1, total);
+            Ok(f)
+        })
+        .collect::<SfmResult<Vec<_>>>()?;
+    let features: Vec<&Features> =
+        (0..n).map(|t| camera.keyframes[t].as_ref().map_or_else(|| owned[t].as_ref().unwrap_or_else(|| unreachable!()), |k| k.1)).collect();
+    let matches: Vec<Vec<[u32; 2]>> = (0..n.saturating_sub(1))
+        .into_par_iter()
+        .map(|t| {
+            check_interrupt(interrupt)?;
+            let (a, b) = (features[t].descriptor_mat()?, features[t + 1].descriptor_mat()?);
+            let m = mutual_matches(&a, &b, match_options.ratio)?;
+            let v = verify(&features[t].xy, &features[t + 1].xy, &m, match_options)?;
+            progress(&label, done.fetch_add(1, Ordering::Relaxed) + 1, total);
+            Ok(v.inliers)
+        })
+        .collect::<SfmResult<Vec<_>>>()?;
+    let mut point_at: Vec<Vec<Option<u32>>> =
+        (0..n).map(|t| camera.keyframes[t].as_ref().map_or_else(|| vec![None; features[t].len()], |k| k.2.clone())).collect();
+    propagate(&mut point_at, &matches, &is_keyframe);
+
+    let mut report = RefineReport::default();
+    let mut poses: Vec<Option<Pose>> = (0..n)
+        .map(|t| match &camera.keyframes[t] {
+            Some(k) => Ok(Some(k.0)),
+            None => pnp(&camera.intrinsics, features[t], &point_at[t], camera.points_world, options.max_reprojection_px),
+        })
+        .collect::<SfmResult<Vec<_>>>()?;
+    report.frames_with_pnp = (0..n).filter(|&t| !is_keyframe[t] && poses[t].is_some()).count();
+    report.frames_interpolated = fill_missing(&mut poses);
+    let mut poses: Vec<Pose> = poses.into_iter().map(|p| p.unwrap_or_else(|| unreachable!())).collect();
+    if is_keyframe.iter().all(|k| *k) {
+        return Ok((poses, report));
+    }
+
+    // Scale of the priors: one pixel at the median scene depth.
+    let mut depths: Vec<f64> = Vec::new();
+    for t in 0..n {
+        for p in point_at[t].iter().flatten() {
+            let z = poses[t].to_camera(&camera.points_world[*p as usize]).z;
+            if z > 0.0 {
+                depths.push(z);
+            }
+        }
+    }
+    depths.sort_by(f64::total_cmp);
+    let depth = depths.get(depths.len() / 2).copied().unwrap_or(1.0);
+    let observations_per_frame = point_at.iter().map(|v| v.iter().flatten().count()).sum::<usize>() as f64 / n as f64;
+    let focal = camera.intrinsics.focal_px;
+    let scale = options.smoothness * observations_per_frame.max(1.0);
+
+    for round in 0..2 {
+        let mut used_points: Vec<u32> = point_at.iter().flatten().flatten().copied().collect();
+        used_points.sort_unstable();
+        used_points.dedup();
+        let slot = |p: u32| used_points.binary_search(&p).unwrap_or_else(|_| unreachable!());
+        let mut problem = dynview_ba::Problem {
+            cameras: vec![dynview_ba::CameraIntrinsics {
+                focal_px: camera.intrinsics.focal_px,
+                cx_px: camera.intrinsics.cx_px,
+                cy_px: camera.intrinsics.cy_px,
+                k1: camera.intrinsics.k1,
+                k2: camera.intrinsics.k2,
+            }],
+            images: poses.iter().map(|p| dynview_ba::ImagePose { angle_axis: p.angle_axis().into(), center_world: p.center_world.into() }).collect(),
+            image_camera: vec![0; n],
+            image_fixed: is_keyframe.clone(),
+            points_world: used_points.iter().map(|&p| camera.points_world[p as usize].into()).collect(),
+            point_fixed: vec![true; used_points.len()],
+            observations: Vec::new(),
+            priors: Vec::new(),
+        };
+        for t in 0..n {
+            if is_keyframe[t] {
+                continue;
+            }
+            for (f, p) in point_at[t].iter().enumerate() {
+                let Some(p) = p else { continue };
+                let xy = features[t].xy[f];
+                let pixel = Vector2::new(f64::from(xy[0]), f64::from(xy[1]));
+                if round > 0 && reprojection_error_px(&camera.intrinsics, &poses[t], &camera.points_world[*p as usize], &pixel) > options.max_reprojection_px {
+                    continue;
+                }
+                problem.observations.push(dynview_ba::Observation { image: t, point: slot(*p), pixel: pixel.into() });
+            }
+        }
+        if options.smoothness > 0.0 {
+            for t in 0..n {
+                for dt in 1..=options.window {
+                    if t + dt < n && !(is_keyframe[t] && is_keyframe[t + dt]) {
+                        let w = scale * prior_weight(options, dt);
+                        problem.priors.push(dynview_ba::SmoothnessPrior {
+                            image_a: t,
+                            image_b: t + dt,
+                            weight_center: w * (focal / depth).powi(2),
+                            weight_rotation: w * focal * focal,
+                        });
+                    }
+                }
+            }
+        }
+        let ba = dynview_ba::Options {
+            loss: dynview_ba::Loss::Cauchy { scale_px: options.loss_scale_px },
+            refine_focal: false,
+            refine_principal_point: false,
+            refine_distortion: false,
+            max_iterations: 50,
+            ..Default::default()
+        };
+        let solved = dynview_ba::solve(&mut problem, &ba)?;
+        report.observations = problem.observations.len();
+        report.rms_px = solved.final_rms_px;
+        for (t, p) in problem.images.iter().enumerate() {
+            poses[t] = Pose::from_angle_axis(p.angle_axis.into(), p.center_world.into());
+        }
+    }
+    Ok((poses, report))
+}
