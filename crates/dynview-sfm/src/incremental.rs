@@ -23,9 +23,18 @@ pub struct MapperOptions {
     pub min_registration_inliers: usize,
     /// Fewest points of an initial pair.
     pub min_initial_points: usize,
+    /// An initial pair is taken at once when the median angle between its rays is at least
+    /// this (degrees); otherwise the pair with the widest median angle among the candidates.
+    pub init_min_median_angle_deg: f64,
     /// Cauchy loss scale (px) of bundle adjustment.
     pub loss_scale_px: f64,
-    /// Refine the radial distortion (k1) in the final bundle adjustment.
+    /// Cameras with the same image size share one set of intrinsics (one camera model filmed
+    /// everything); with few viewpoints per camera, per-camera focals are poorly determined.
+    pub share_intrinsics: bool,
+    /// Refine the focal lengths in bundle adjustment (off when every focal is given).
+    pub refine_focal: bool,
+    /// Refine the radial distortion (k1, k2) in the final bundle adjustment (off by default:
+    /// with few viewpoints it trades off against the focal length).
     pub refine_distortion: bool,
 }
 
@@ -36,8 +45,11 @@ impl Default for MapperOptions {
             min_triangulation_angle_deg: 1.5,
             min_registration_inliers: 20,
             min_initial_points: 50,
+            init_min_median_angle_deg: 10.0,
             loss_scale_px: 1.0,
-            refine_distortion: true,
+            share_intrinsics: true,
+            refine_focal: true,
+            refine_distortion: false,
         }
     }
 }
@@ -191,8 +203,9 @@ impl Mapper<'_> {
         self.poses.iter().filter(|p| p.is_some()).count()
     }
 
-    /// Tries to start the model from the pair `(a, b)`.
-    fn try_initial_pair(&mut self, a: usize, b: usize, pair: &TwoView) -> SfmResult<bool> {
+    /// Tries to start the model from the pair `(a, b)`; returns the median ray angle (degrees)
+    /// of its points when it has enough.
+    fn try_initial_pair(&mut self, a: usize, b: usize, pair: &TwoView) -> SfmResult<Option<f64>> {
         let (ka, kb) = (self.intrinsics[self.images[a].camera], self.intrinsics[self.images[b].camera]);
         let to_cv = |v: Vector2<f64>| Point2d::new(v.x, v.y);
         let pa: Vector<Point2d> = pair.inliers.iter().map(|m| to_cv(ka.normalized(self.observation(a, m[0])))).collect();
@@ -203,18 +216,18 @@ impl Mapper<'_> {
         let e = calib3d::find_essential_mat(&pa, &pb, &identity, calib3d::USAC_MAGSAC, 0.9999, threshold, 10_000, &mut mask)
             .map_err(SfmError::cv("essential matrix of the initial pair"))?;
         if e.rows() != 3 || e.cols() != 3 {
-            return Ok(false);
+            return Ok(None);
         }
         let (mut r, mut t) = (Mat::default(), Mat::default());
         let good = calib3d::recover_pose_estimated(&e, &pa, &pb, &identity, &mut r, &mut t, &mut mask)
             .map_err(SfmError::cv("relative pose of the initial pair"))?;
         if (good as usize) < self.options.min_initial_points {
-            return Ok(false);
+            return Ok(None);
         }
         let rotation = Matrix3::from_fn(|i, j| r.at_2d::<f64>(i as i32, j as i32).copied().unwrap_or(f64::NAN));
         let translation = Vector3::from_fn(|i, _| t.at_2d::<f64>(i as i32, 0).copied().unwrap_or(f64::NAN));
         if !rotation.iter().chain(translation.iter()).all(|v| v.is_finite()) {
-            return Ok(false);
+            return Ok(None);
         }
         self.poses[a] = Some(Pose { rotation: Matrix3::identity(), center_world: Vector3::zeros() });
         self.poses[b] = Some(Pose::from_rt(rotation, translation));
@@ -223,14 +236,20 @@ impl Mapper<'_> {
                 self.triangulate_track(t as usize);
             }
         }
-        let count = self.points.iter().flatten().count();
-        if count < self.options.min_initial_points {
+        if self.points.iter().flatten().count() < self.options.min_initial_points {
             self.reset();
-            return Ok(false);
+            return Ok(None);
         }
         self.fixed_image = a;
         self.bundle_adjust(false, false)?;
-        Ok(self.points.iter().flatten().count() >= self.options.min_initial_points)
+        let (ca, cb) = (self.poses[a].map(|p| p.center_world), self.poses[b].map(|p| p.center_world));
+        let (Some(ca), Some(cb)) = (ca, cb) else { return Ok(None) };
+        let mut angles: Vec<f64> = self.points.iter().flatten().map(|p| ray_angle_rad(&ca, &cb, &p.xyz).to_degrees()).collect();
+        if angles.len() < self.options.min_initial_points {
+            return Ok(None);
+        }
+        angles.sort_by(f64::total_cmp);
+        Ok(Some(angles[angles.len() / 2]))
     }
 
     fn reset(&mut self) {
@@ -281,7 +300,20 @@ impl Mapper<'_> {
         if !aa.iter().chain(t.iter()).all(|v| v.is_finite()) {
             return Ok(false);
         }
-        self.poses[i] = Some(Pose::from_rt(Rotation3::from_scaled_axis(aa).into_inner(), t));
+        let pose = Pose::from_rt(Rotation3::from_scaled_axis(aa).into_inner(), t);
+        // PnP can return a mirrored pose with the points behind the camera: count the inliers
+        // by our own model (cheirality included), then refine the pose alone on them.
+        let mut correspondences: Vec<([f64; 3], [f64; 2])> = Vec::new();
+        for (object, pixel) in object.iter().zip(image.iter()) {
+            let (x, p) = (Vector3::new(object.x, object.y, object.z), Vector2::new(pixel.x, pixel.y));
+            if reprojection_error_px(&k, &pose, &x, &p) <= self.options.max_reprojection_px {
+                correspondences.push((x.into(), p.into()));
+            }
+        }
+        if correspondences.len() < self.options.min_registration_inliers {
+            return Ok(false);
+        }
+        self.poses[i] = Some(refine_pose(&k, pose, &correspondences, self.options.loss_scale_px)?);
         Ok(true)
     }
 
@@ -317,7 +349,7 @@ impl Mapper<'_> {
         }
         let options = dynview_ba::Options {
             loss: dynview_ba::Loss::Cauchy { scale_px: self.options.loss_scale_px },
-            refine_focal,
+            refine_focal: refine_focal && self.options.refine_focal,
             refine_principal_point: false,
             refine_distortion,
             max_iterations: 50,
@@ -371,6 +403,32 @@ impl Mapper<'_> {
     }
 }
 
+/// Refines one image's pose on fixed 3D points (robust loss).
+pub fn refine_pose(k: &Intrinsics, pose: Pose, correspondences: &[([f64; 3], [f64; 2])], loss_scale_px: f64) -> SfmResult<Pose> {
+    let aa = pose.angle_axis();
+    let mut problem = dynview_ba::Problem {
+        cameras: vec![dynview_ba::CameraIntrinsics { focal_px: k.focal_px, cx_px: k.cx_px, cy_px: k.cy_px, k1: k.k1, k2: k.k2 }],
+        images: vec![dynview_ba::ImagePose { angle_axis: aa.into(), center_world: pose.center_world.into() }],
+        image_camera: vec![0],
+        image_fixed: vec![false],
+        points_world: correspondences.iter().map(|c| c.0).collect(),
+        point_fixed: vec![true; correspondences.len()],
+        observations: correspondences.iter().enumerate().map(|(p, c)| dynview_ba::Observation { image: 0, point: p, pixel: c.1 }).collect(),
+        priors: Vec::new(),
+    };
+    let options = dynview_ba::Options {
+        loss: dynview_ba::Loss::Cauchy { scale_px: loss_scale_px },
+        refine_focal: false,
+        refine_principal_point: false,
+        refine_distortion: false,
+        max_iterations: 30,
+        ..Default::default()
+    };
+    dynview_ba::solve(&mut problem, &options)?;
+    let p = &problem.images[0];
+    Ok(Pose::from_angle_axis(p.angle_axis.into(), p.center_world.into()))
+}
+
 /// Reconstructs the keyframes `images` from verified `pairs` `(a, b, geometry)` with initial
 /// `intrinsics` per physical camera.
 pub fn reconstruct(
@@ -394,16 +452,30 @@ pub fn reconstruct(
         points: Vec::new(),
         fixed_image: 0,
     };
-    let mut candidates: Vec<&(usize, usize, TwoView)> =
-        pairs.iter().filter(|(_, _, v)| !v.is_degenerate(match_options) && v.inliers.len() >= options.min_initial_points).collect();
-    candidates.sort_by_key(|(a, b, v)| (std::cmp::Reverse(v.inliers.len()), *a, *b));
+    // Pairs of two physical cameras first (frames of one camera may have no baseline), then
+    // the most matches; a pair is accepted only if enough points triangulate at a wide angle.
+    let mut candidates: Vec<&(usize, usize, TwoView)> = pairs.iter().filter(|(_, _, v)| v.inliers.len() >= options.min_initial_points).collect();
+    candidates.sort_by_key(|(a, b, v)| (images[*a].camera == images[*b].camera, v.is_degenerate(match_options), std::cmp::Reverse(v.inliers.len()), *a, *b));
     let mut started = false;
+    let mut widest: Option<(f64, usize, usize)> = None;
     for (a, b, pair) in candidates.iter().take(30) {
-        if mapper.try_initial_pair(*a, *b, pair)? {
-            started = true;
-            break;
+        let angle = mapper.try_initial_pair(*a, *b, pair)?;
+        if let Some(angle) = angle {
+            if angle >= options.init_min_median_angle_deg {
+                started = true;
+                break;
+            }
+            if widest.is_none_or(|w| angle > w.0) {
+                widest = Some((angle, *a, *b));
+            }
         }
         mapper.reset();
+    }
+    if !started && let Some((_, a, b)) = widest {
+        let pair = candidates.iter().find(|(x, y, _)| (*x, *y) == (a, b)).map(|c| &c.2);
+        if let Some(pair) = pair {
+            started = mapper.try_initial_pair(a, b, pair)?.is_some();
+        }
     }
     if !started {
         return Err(SfmError::Reconstruction(format!(

@@ -114,9 +114,12 @@ pub fn initial_intrinsics(
     focal_hints: &BTreeMap<String, f64>,
     match_options: &MatchOptions,
 ) -> (Vec<Intrinsics>, Vec<String>) {
+    // Frames of one camera may share no baseline; use pairs of two cameras when there are any,
+    // and only pairs a homography does not explain (a dominant plane leaves F ill-determined).
+    let across = pairs.iter().any(|(a, b, _)| keys[*a].camera != keys[*b].camera);
     let geometry: Vec<PairGeometry> = pairs
         .iter()
-        .filter(|(_, _, v)| !v.is_degenerate(match_options))
+        .filter(|(a, b, v)| (!across || keys[*a].camera != keys[*b].camera) && !v.is_degenerate(match_options))
         .filter_map(|(a, b, v)| {
             let (ca, cb) = (&frames.cameras[keys[*a].camera], &frames.cameras[keys[*b].camera]);
             Some(PairGeometry { fundamental: v.fundamental?, size_a: (ca.width, ca.height), size_b: (cb.width, cb.height), inliers: v.inliers.len() })
@@ -149,10 +152,50 @@ pub fn reconstruct_keyframes(
     mapper_options: &MapperOptions,
     progress: Progress,
 ) -> SfmResult<KeyframeModel> {
-    let (intrinsics, focal_source) = initial_intrinsics(frames, keys, pairs, focal_hints, match_options);
-    let images: Vec<MapImage> = keys.iter().zip(features).map(|(k, f)| MapImage { camera: k.camera, xy: f.xy.clone() }).collect();
-    let reconstruction = reconstruct(&images, pairs, intrinsics, match_options, mapper_options, progress)?;
+    let (intrinsics, mut focal_source) = initial_intrinsics(frames, keys, pairs, focal_hints, match_options);
+    let group = intrinsics_groups(frames, focal_hints, mapper_options.share_intrinsics);
+    let group_count = group.iter().max().map_or(0, |g| g + 1);
+    let group_intrinsics: Vec<Intrinsics> = (0..group_count).map(|g| intrinsics[group.iter().position(|&x| x == g).unwrap_or(0)]).collect();
+    let images: Vec<MapImage> = keys.iter().zip(features).map(|(k, f)| MapImage { camera: group[k.camera], xy: f.xy.clone() }).collect();
+    let mut reconstruction = reconstruct(&images, pairs, group_intrinsics, match_options, mapper_options, progress)?;
+    reconstruction.intrinsics = group.iter().map(|&g| reconstruction.intrinsics[g]).collect();
+    for (c, source) in focal_source.iter_mut().enumerate() {
+        let sharing = group.iter().filter(|&&g| g == group[c]).count();
+        if sharing > 1 {
+            source.push_str(&format!("; shared by the {sharing} cameras of this image size"));
+        }
+    }
     Ok(KeyframeModel { keyframes: keys.to_vec(), reconstruction, focal_source })
+}
+
+/// Which intrinsics each camera uses: with `share`, cameras of equal image size without
+/// different given focals share one set (one camera model filmed everything), else one each.
+pub fn intrinsics_groups(frames: &EventFrames, focal_hints: &BTreeMap<String, f64>, share: bool) -> Vec<usize> {
+    let mut keys: Vec<(u32, u32, Option<u64>)> = Vec::new();
+    frames
+        .cameras
+        .iter()
+        .enumerate()
+        .map(|(c, camera)| {
+            if !share {
+                return c;
+            }
+            let key = (camera.width, camera.height, focal_hints.get(&camera.name).map(|f| f.to_bits()));
+            match keys.iter().position(|k| *k == key) {
+                Some(g) => g,
+                None => {
+                    keys.push(key);
+                    keys.len() - 1
+                }
+            }
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .scan(std::collections::BTreeMap::new(), |renumber: &mut BTreeMap<usize, usize>, g| {
+            let n = renumber.len();
+            Some(*renumber.entry(g).or_insert(n))
+        })
+        .collect()
 }
 
 /// The keyframe model as a COLMAP model (RADIAL cameras, image names `<camera>/<file>`, all

@@ -171,7 +171,11 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
             .iter()
             .filter_map(|c| options.focal_px.get(&c.name).copied().or(options.focal_px_all).map(|f| (c.name.clone(), f)))
             .collect();
-        let model = reconstruct_keyframes(&frames, &keys, &features, &pairs, &hints, &options.matching, &options.mapper, progress)?;
+        let mut mapper = options.mapper.clone();
+        if hints.len() == frames.cameras.len() {
+            mapper.refine_focal = false;
+        }
+        let model = reconstruct_keyframes(&frames, &keys, &features, &pairs, &hints, &options.matching, &mapper, progress)?;
         work.write_json("keyframes/model.json", &model)?;
         write_colmap_text(&to_colmap(&model, &frames, &features), &work.join("keyframes/model"))?;
         work.mark_done("keyframes", &key_stage)?;
