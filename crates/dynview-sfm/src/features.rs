@@ -57,8 +57,8 @@ impl Features {
     /// The descriptors as an `n x 128` float matrix for OpenCV's matchers.
     pub fn descriptor_mat(&self) -> SfmResult<Mat> {
         let floats: Vec<f32> = self.descriptors.iter().map(|&b| f32::from(b)).collect();
-        let mat = Mat::new_rows_cols_with_data(self.len() as i32, DESCRIPTOR_LEN as i32, &floats)
-            .map_err(SfmError::cv("descriptor matrix"))?;
+        let mat =
+            Mat::new_rows_cols_with_data(self.len() as i32, DESCRIPTOR_LEN as i32, &floats).map_err(SfmError::cv("descriptor matrix"))?;
         mat.try_clone().map_err(SfmError::cv("descriptor matrix"))
     }
 
@@ -130,8 +130,7 @@ pub fn extract_gray(gray: &Mat, options: &FeatureOptions) -> SfmResult<Features>
         .map_err(SfmError::cv("creating SIFT"))?;
     let mut keypoints = Vector::new();
     let mut descriptors = Mat::default();
-    sift.detect_and_compute(image, &Mat::default(), &mut keypoints, &mut descriptors, false)
-        .map_err(SfmError::cv("SIFT detection"))?;
+    sift.detect_and_compute(image, &Mat::default(), &mut keypoints, &mut descriptors, false).map_err(SfmError::cv("SIFT detection"))?;
     let n = keypoints.len();
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| {

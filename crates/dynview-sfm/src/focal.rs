@@ -68,7 +68,7 @@ pub fn estimate_focal_factor(pairs: &[PairGeometry]) -> Option<f64> {
     let at = |factor: f64| cost(pairs, factor);
     let f = factors[best];
     let contrast = at(f * 0.5).min(at(f * 2.0));
-    if !(best_cost < 0.5 * contrast) {
+    if best_cost.partial_cmp(&(0.5 * contrast)) != Some(std::cmp::Ordering::Less) {
         return None;
     }
     // Golden-section refinement between the grid neighbours.
@@ -95,7 +95,9 @@ mod tests {
         let size = (960, 540);
         let k = k_matrix(0.8, size);
         let mut pairs = Vec::new();
-        for (axis, t) in [(Vector3::new(0.1, 0.3, 0.05), Vector3::new(1.0, 0.2, 0.3)), (Vector3::new(-0.2, 0.1, 0.1), Vector3::new(0.3, -1.0, 0.5))] {
+        for (axis, t) in
+            [(Vector3::new(0.1, 0.3, 0.05), Vector3::new(1.0, 0.2, 0.3)), (Vector3::new(-0.2, 0.1, 0.1), Vector3::new(0.3, -1.0, 0.5))]
+        {
             let r = Rotation3::from_scaled_axis(axis).into_inner();
             let e = skew(t) * r;
             let f = k.transpose().try_inverse().unwrap() * e * k.try_inverse().unwrap();

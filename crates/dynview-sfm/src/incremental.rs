@@ -6,11 +6,11 @@ use opencv::calib3d;
 use opencv::core::{Mat, Point2d, Point3d, Vector};
 use opencv::prelude::*;
 
+use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 use crate::geometry::{Intrinsics, Pose, ray_angle_rad, reprojection_error_px, triangulate};
 use crate::matching::{MatchOptions, TwoView};
 use crate::tracks::Tracks;
-use crate::Progress;
 
 /// How the keyframe reconstruction runs.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -186,10 +186,11 @@ impl Mapper<'_> {
             match self.point_of_track[t as usize] {
                 Some(p) => {
                     let Some(point) = &self.points[p] else { continue };
-                    if point.observations.iter().all(|(j, _)| *j != i) && self.error(i, f as u32, &point.xyz) <= self.options.max_reprojection_px {
-                        if let Some(point) = &mut self.points[p] {
-                            point.observations.push((i, f as u32));
-                        }
+                    if point.observations.iter().all(|(j, _)| *j != i)
+                        && self.error(i, f as u32, &point.xyz) <= self.options.max_reprojection_px
+                        && let Some(point) = &mut self.points[p]
+                    {
+                        point.observations.push((i, f as u32));
                     }
                 }
                 None => {
@@ -326,7 +327,11 @@ impl Mapper<'_> {
         }
         let point_ids: Vec<usize> = (0..self.points.len()).filter(|&p| self.points[p].is_some()).collect();
         let mut problem = dynview_ba::Problem {
-            cameras: self.intrinsics.iter().map(|k| dynview_ba::CameraIntrinsics { focal_px: k.focal_px, cx_px: k.cx_px, cy_px: k.cy_px, k1: k.k1, k2: k.k2 }).collect(),
+            cameras: self
+                .intrinsics
+                .iter()
+                .map(|k| dynview_ba::CameraIntrinsics { focal_px: k.focal_px, cx_px: k.cx_px, cy_px: k.cy_px, k1: k.k1, k2: k.k2 })
+                .collect(),
             images: image_ids
                 .iter()
                 .map(|&i| {
@@ -377,8 +382,12 @@ impl Mapper<'_> {
         for t in 0..self.point_of_track.len() {
             let Some(p) = self.point_of_track[t] else { continue };
             let Some(point) = self.points[p].take() else { continue };
-            let observations: Vec<(usize, u32)> =
-                point.observations.iter().copied().filter(|&(i, f)| self.error(i, f, &point.xyz) <= self.options.max_reprojection_px).collect();
+            let observations: Vec<(usize, u32)> = point
+                .observations
+                .iter()
+                .copied()
+                .filter(|&(i, f)| self.error(i, f, &point.xyz) <= self.options.max_reprojection_px)
+                .collect();
             if observations.len() >= 2 {
                 self.points[p] = Some(MapPoint { xyz: point.xyz, observations });
             } else {
@@ -391,10 +400,7 @@ impl Mapper<'_> {
         (0..self.images.len())
             .filter(|&i| self.poses[i].is_none() && !failed[i])
             .map(|i| {
-                let seen = self.tracks.track_of[i]
-                    .iter()
-                    .filter(|t| t.and_then(|t| self.point_of_track[t as usize]).is_some())
-                    .count();
+                let seen = self.tracks.track_of[i].iter().filter(|t| t.and_then(|t| self.point_of_track[t as usize]).is_some()).count();
                 (i, seen)
             })
             .filter(|&(_, seen)| seen >= self.options.min_registration_inliers)
@@ -454,8 +460,11 @@ pub fn reconstruct(
     };
     // Pairs of two physical cameras first (frames of one camera may have no baseline), then
     // the most matches; a pair is accepted only if enough points triangulate at a wide angle.
-    let mut candidates: Vec<&(usize, usize, TwoView)> = pairs.iter().filter(|(_, _, v)| v.inliers.len() >= options.min_initial_points).collect();
-    candidates.sort_by_key(|(a, b, v)| (images[*a].camera == images[*b].camera, v.is_degenerate(match_options), std::cmp::Reverse(v.inliers.len()), *a, *b));
+    let mut candidates: Vec<&(usize, usize, TwoView)> =
+        pairs.iter().filter(|(_, _, v)| v.inliers.len() >= options.min_initial_points).collect();
+    candidates.sort_by_key(|(a, b, v)| {
+        (images[*a].camera == images[*b].camera, v.is_degenerate(match_options), std::cmp::Reverse(v.inliers.len()), *a, *b)
+    });
     let mut started = false;
     let mut widest: Option<(f64, usize, usize)> = None;
     for (a, b, pair) in candidates.iter().take(30) {

@@ -14,8 +14,8 @@ use serde::{Deserialize, Serialize};
 use dynview_core::fsutil::write_atomic;
 use dynview_core::scene::manifest::is_safe_name;
 
-use crate::error::{SfmError, SfmResult};
 use crate::Progress;
+use crate::error::{SfmError, SfmResult};
 
 /// File extensions read as videos.
 pub const VIDEO_EXTENSIONS: &[&str] = &["mp4", "mov", "avi", "mkv", "webm", "m4v", "mpg", "mpeg"];
@@ -102,8 +102,7 @@ pub fn discover(input: &Path) -> SfmResult<Vec<DiscoveredCamera>> {
         return Err(bad("not a folder (expected one video or one image folder per camera)".into()));
     }
     let mut cameras = Vec::new();
-    let mut entries: Vec<PathBuf> =
-        fs::read_dir(input).map_err(SfmError::io(input))?.filter_map(|e| e.ok().map(|e| e.path())).collect();
+    let mut entries: Vec<PathBuf> = fs::read_dir(input).map_err(SfmError::io(input))?.filter_map(|e| e.ok().map(|e| e.path())).collect();
     entries.sort();
     for path in entries {
         let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -170,11 +169,17 @@ fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: Progress) 
             return Ok(files);
         }
     }
-    let mut capture =
-        videoio::VideoCapture::from_file(video, videoio::CAP_ANY).map_err(|e| decode(e.to_string()))?;
-    if !capture.is_opened().map_err(|e| decode(e.to_string()))? {
-        return Err(decode("OpenCV cannot open it as a video".into()));
+    // FFmpeg first (quiet and exact frame counts), then whatever backend OpenCV has.
+    let mut capture = None;
+    for backend in [videoio::CAP_FFMPEG, videoio::CAP_ANY] {
+        if let Ok(c) = videoio::VideoCapture::from_file(video, backend)
+            && c.is_opened().unwrap_or(false)
+        {
+            capture = Some(c);
+            break;
+        }
     }
+    let Some(mut capture) = capture else { return Err(decode("OpenCV cannot open it as a video".into())) };
     let expected = capture.get(videoio::CAP_PROP_FRAME_COUNT).unwrap_or(0.0).max(0.0) as u64;
     fs::create_dir_all(out_dir).map_err(SfmError::io(out_dir))?;
     let mut files = Vec::new();

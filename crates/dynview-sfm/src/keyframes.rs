@@ -10,6 +10,7 @@ use rayon::prelude::*;
 use dynview_core::colmap::{CameraModel, ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
 use dynview_core::fsutil::write_atomic;
 
+use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features};
 use crate::focal::{PRIOR_FOCAL_FACTOR, PairGeometry, estimate_focal_factor};
@@ -18,7 +19,6 @@ use crate::incremental::{MapImage, MapperOptions, Reconstruction, reconstruct};
 use crate::input::EventFrames;
 use crate::matching::{MatchOptions, TwoView, mutual_matches, verify};
 use crate::work::WorkDir;
-use crate::Progress;
 
 /// A keyframe: camera index and frame index.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -89,7 +89,12 @@ pub fn keyframe_features(
 }
 
 /// Matches and verifies every pair of `features`.
-pub fn match_all_pairs(features: &[Features], options: &MatchOptions, progress: Progress, interrupt: &AtomicBool) -> SfmResult<Vec<(usize, usize, TwoView)>> {
+pub fn match_all_pairs(
+    features: &[Features],
+    options: &MatchOptions,
+    progress: Progress,
+    interrupt: &AtomicBool,
+) -> SfmResult<Vec<(usize, usize, TwoView)>> {
     let mats = features.iter().map(Features::descriptor_mat).collect::<SfmResult<Vec<_>>>()?;
     let pairs: Vec<(usize, usize)> = (0..features.len()).flat_map(|a| (a + 1..features.len()).map(move |b| (a, b))).collect();
     let done = AtomicU64::new(0);
@@ -122,7 +127,12 @@ pub fn initial_intrinsics(
         .filter(|(a, b, v)| (!across || keys[*a].camera != keys[*b].camera) && !v.is_degenerate(match_options))
         .filter_map(|(a, b, v)| {
             let (ca, cb) = (&frames.cameras[keys[*a].camera], &frames.cameras[keys[*b].camera]);
-            Some(PairGeometry { fundamental: v.fundamental?, size_a: (ca.width, ca.height), size_b: (cb.width, cb.height), inliers: v.inliers.len() })
+            Some(PairGeometry {
+                fundamental: v.fundamental?,
+                size_a: (ca.width, ca.height),
+                size_b: (cb.width, cb.height),
+                inliers: v.inliers.len(),
+            })
         })
         .collect();
     let estimated = estimate_focal_factor(&geometry);
@@ -133,8 +143,12 @@ pub fn initial_intrinsics(
             let longer = f64::from(c.width.max(c.height));
             match (focal_hints.get(&c.name), estimated) {
                 (Some(&f), _) => (Intrinsics::centred(f, c.width, c.height), "given".to_string()),
-                (None, Some(factor)) => (Intrinsics::centred(factor * longer, c.width, c.height), format!("self-calibrated ({factor:.3} x {longer})")),
-                (None, None) => (Intrinsics::centred(PRIOR_FOCAL_FACTOR * longer, c.width, c.height), "prior (1.2 x longer side)".to_string()),
+                (None, Some(factor)) => {
+                    (Intrinsics::centred(factor * longer, c.width, c.height), format!("self-calibrated ({factor:.3} x {longer})"))
+                }
+                (None, None) => {
+                    (Intrinsics::centred(PRIOR_FOCAL_FACTOR * longer, c.width, c.height), "prior (1.2 x longer side)".to_string())
+                }
             }
         })
         .unzip()
@@ -207,7 +221,12 @@ pub fn to_colmap(model: &KeyframeModel, frames: &EventFrames, features: &[Featur
         let k = &r.intrinsics[c];
         out.cameras.insert(
             c as u32 + 1,
-            ColmapCamera { model: CameraModel::Radial, width: camera.width, height: camera.height, params: vec![k.focal_px, k.cx_px + 0.5, k.cy_px + 0.5, k.k1, k.k2] },
+            ColmapCamera {
+                model: CameraModel::Radial,
+                width: camera.width,
+                height: camera.height,
+                params: vec![k.focal_px, k.cx_px + 0.5, k.cy_px + 0.5, k.k1, k.k2],
+            },
         );
     }
     let counts: Vec<usize> = features.iter().map(Features::len).collect();
@@ -223,10 +242,16 @@ pub fn to_colmap(model: &KeyframeModel, frames: &EventFrames, features: &[Featur
             .collect();
         out.images.insert(
             i as u32 + 1,
-            ColmapImage { camera_id: key.camera as u32 + 1, camera_from_world: pose.to_rigid(), name: format!("{}/{}", camera.name, camera.file_name(key.frame)), points2d },
+            ColmapImage {
+                camera_id: key.camera as u32 + 1,
+                camera_from_world: pose.to_rigid(),
+                name: format!("{}/{}", camera.name, camera.file_name(key.frame)),
+                points2d,
+            },
         );
     }
-    let images: Vec<MapImage> = model.keyframes.iter().zip(features).map(|(k, f)| MapImage { camera: k.camera, xy: f.xy.clone() }).collect();
+    let images: Vec<MapImage> =
+        model.keyframes.iter().zip(features).map(|(k, f)| MapImage { camera: k.camera, xy: f.xy.clone() }).collect();
     for (p, point) in r.points.iter().enumerate() {
         let errors: Vec<f64> = point
             .observations
@@ -234,13 +259,23 @@ pub fn to_colmap(model: &KeyframeModel, frames: &EventFrames, features: &[Featur
             .filter_map(|&(i, f)| {
                 let pose = r.poses[i].as_ref()?;
                 let xy = images[i].xy[f as usize];
-                Some(crate::geometry::reprojection_error_px(&r.intrinsics[images[i].camera], pose, &point.xyz, &nalgebra::Vector2::new(f64::from(xy[0]), f64::from(xy[1]))))
+                Some(crate::geometry::reprojection_error_px(
+                    &r.intrinsics[images[i].camera],
+                    pose,
+                    &point.xyz,
+                    &nalgebra::Vector2::new(f64::from(xy[0]), f64::from(xy[1])),
+                ))
             })
             .collect();
         let error = errors.iter().sum::<f64>() / errors.len().max(1) as f64;
         out.points3d.insert(
             p as u64 + 1,
-            ColmapPoint3D { xyz: point.xyz.into(), rgb: [128, 128, 128], error, track: point.observations.iter().map(|&(i, f)| (i as u32 + 1, f)).collect() },
+            ColmapPoint3D {
+                xyz: point.xyz.into(),
+                rgb: [128, 128, 128],
+                error,
+                track: point.observations.iter().map(|&(i, f)| (i as u32 + 1, f)).collect(),
+            },
         );
     }
     out

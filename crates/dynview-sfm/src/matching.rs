@@ -90,7 +90,13 @@ pub fn mutual_matches(a: &Mat, b: &Mat, ratio: f32) -> SfmResult<Vec<[u32; 2]>> 
 }
 
 fn points(xy: &[[f32; 2]], matches: &[[u32; 2]], side: usize) -> Vector<Point2f> {
-    matches.iter().map(|m| { let p = xy[m[side] as usize]; Point2f::new(p[0], p[1]) }).collect()
+    matches
+        .iter()
+        .map(|m| {
+            let p = xy[m[side] as usize];
+            Point2f::new(p[0], p[1])
+        })
+        .collect()
 }
 
 fn mask_indices(mask: &Mat) -> SfmResult<Vec<usize>> {
@@ -113,12 +119,8 @@ pub fn verify(xy_a: &[[f32; 2]], xy_b: &[[f32; 2]], matches: &[[u32; 2]], option
         .map_err(SfmError::cv("homography"))?;
     let f_inliers = if f.rows() == 3 && !f_mask.empty() { mask_indices(&f_mask)? } else { Vec::new() };
     let h_inliers = if h.rows() == 3 && !h_mask.empty() { mask_indices(&h_mask)? } else { Vec::new() };
-    let mut out = TwoView {
-        inliers: Vec::new(),
-        fundamental_inliers: f_inliers.len(),
-        homography_inliers: h_inliers.len(),
-        fundamental: None,
-    };
+    let mut out =
+        TwoView { inliers: Vec::new(), fundamental_inliers: f_inliers.len(), homography_inliers: h_inliers.len(), fundamental: None };
     if f.rows() == 3 && f.cols() == 3 {
         let mut m = [0.0; 9];
         for (i, v) in m.iter_mut().enumerate() {

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use dynview_core::poses::{CameraPoses, EventPoses, FramePose, POSES_FILE};
 use dynview_core::scene::manifest::PoseEntry;
 
+use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features};
 use crate::geometry::Pose;
@@ -20,7 +21,6 @@ use crate::keyframes::{KeyframeModel, keyframe_features, keyframes, match_all_pa
 use crate::matching::MatchOptions;
 use crate::refine::{CameraTrack, RefineOptions, RefineReport, refine_camera};
 use crate::work::WorkDir;
-use crate::Progress;
 
 /// The stages, in order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
@@ -66,6 +66,8 @@ pub struct PrepOptions {
     pub refine: RefineOptions,
     /// The last stage to run.
     pub stop_after: Stage,
+    /// Known poses (a COLMAP model folder or a `poses.json`): pose estimation is skipped.
+    pub poses: Option<PathBuf>,
 }
 
 impl Default for PrepOptions {
@@ -80,6 +82,7 @@ impl Default for PrepOptions {
             mapper: MapperOptions::default(),
             refine: RefineOptions::default(),
             stop_after: Stage::Poses,
+            poses: None,
         }
     }
 }
@@ -152,15 +155,38 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
         return Ok(report);
     }
 
+    if let Some(known) = &options.poses {
+        let event = known_poses(known, &frames)?;
+        let path = out.join(POSES_FILE);
+        event.write(&path)?;
+        report.poses_file = Some(path);
+        report.skipped.push(format!("pose estimation (poses from {})", known.display()));
+        lap(&mut report, "poses");
+        return Ok(report);
+    }
+
     let keys = keyframes(&frames, options.keyframe_interval);
     let features = keyframe_features(&work, &frames, &keys, &options.features, progress, interrupt)?;
     for (k, f) in keys.iter().zip(&features) {
         if f.len() < options.matching.min_inliers {
             let c = &frames.cameras[k.camera];
-            return Err(SfmError::TooFewFeatures { camera: c.name.clone(), file: c.file_name(k.frame), found: f.len(), needed: options.matching.min_inliers });
+            return Err(SfmError::TooFewFeatures {
+                camera: c.name.clone(),
+                file: c.file_name(k.frame),
+                found: f.len(),
+                needed: options.matching.min_inliers,
+            });
         }
     }
-    let key_stage = (&frames, options.keyframe_interval, &options.features, &options.matching, &options.mapper, &options.focal_px, options.focal_px_all);
+    let key_stage = (
+        &frames,
+        options.keyframe_interval,
+        &options.features,
+        &options.matching,
+        &options.mapper,
+        &options.focal_px,
+        options.focal_px_all,
+    );
     let model: KeyframeModel = if work.is_done("keyframes", &key_stage) {
         report.skipped.push("keyframes".into());
         work.read_json("keyframes/model.json")?
@@ -240,7 +266,8 @@ fn refine_all<K: Serialize>(
                 keyframes[k.frame] = Some((pose, &features[i], point_of[i].clone()));
             }
         }
-        let track = CameraTrack { name: &camera.name, files: &camera.files, intrinsics: r.intrinsics[c], keyframes, points_world: &points_world };
+        let track =
+            CameraTrack { name: &camera.name, files: &camera.files, intrinsics: r.intrinsics[c], keyframes, points_world: &points_world };
         let (poses, camera_report) = refine_camera(&track, &options.features, &options.matching, &options.refine, progress, interrupt)?;
         work.write_json(&format!("{stage}.json"), &(&poses, &camera_report))?;
         work.mark_done(&stage, &key)?;
@@ -267,10 +294,60 @@ pub fn event_poses(frames: &EventFrames, model: &KeyframeModel, poses: &[Vec<Pos
                     intrinsics: dynview_core::Intrinsics { fx: k.focal_px, fy: k.focal_px, cx: k.cx_px, cy: k.cy_px },
                     distortion: [k.k1, k.k2, 0.0, 0.0],
                     frames: (0..camera.files.len())
-                        .map(|t| FramePose { file: camera.file_name(t), camera_from_world: poses[c].get(t).map(|p| PoseEntry::from(p.to_rigid())) })
+                        .map(|t| FramePose {
+                            file: camera.file_name(t),
+                            camera_from_world: poses[c].get(t).map(|p| PoseEntry::from(p.to_rigid())),
+                        })
                         .collect(),
                 }
             })
             .collect(),
     }
+}
+
+/// Reads known poses (a COLMAP model folder or a `poses.json`) and fits them to the input's
+/// cameras and frames: every camera must be there with the input's image size, and either one
+/// pose per frame or a single pose (a camera on a tripod or a calibrated rig) for all frames.
+pub fn known_poses(path: &Path, frames: &EventFrames) -> SfmResult<EventPoses> {
+    let given = if path.is_dir() {
+        let model = dynview_core::colmap::ColmapModel::read_dir(path)
+            .map_err(|e| SfmError::Input { path: path.to_path_buf(), problem: e.to_string() })?;
+        EventPoses::from_colmap(&model)?
+    } else {
+        EventPoses::read(path)?
+    };
+    let bad = |problem: String| SfmError::Input { path: path.to_path_buf(), problem };
+    let mut cameras = Vec::new();
+    for camera in &frames.cameras {
+        let Some(known) = given.cameras.iter().find(|c| c.name == camera.name) else {
+            let names: Vec<&str> = given.cameras.iter().map(|c| c.name.as_str()).collect();
+            return Err(bad(format!("no poses for camera {} (it has: {})", camera.name, names.join(", "))));
+        };
+        if (known.width, known.height) != (camera.width, camera.height) {
+            return Err(bad(format!(
+                "camera {}: poses are for {}x{} images, its frames are {}x{}",
+                camera.name, known.width, known.height, camera.width, camera.height
+            )));
+        }
+        let n = camera.files.len();
+        let poses: Vec<Option<PoseEntry>> = match known.frames.len() {
+            1 => vec![known.frames[0].camera_from_world; n],
+            m if m == n => known.frames.iter().map(|f| f.camera_from_world).collect(),
+            m => return Err(bad(format!("camera {}: {m} poses for {n} frames (give one per frame, or one for all)", camera.name))),
+        };
+        if let Some(t) = poses.iter().position(Option::is_none) {
+            return Err(bad(format!("camera {}: frame {t} has no pose", camera.name)));
+        }
+        cameras.push(CameraPoses {
+            name: camera.name.clone(),
+            width: camera.width,
+            height: camera.height,
+            intrinsics: known.intrinsics,
+            distortion: known.distortion,
+            frames: poses.into_iter().enumerate().map(|(t, p)| FramePose { file: camera.file_name(t), camera_from_world: p }).collect(),
+        });
+    }
+    let event = EventPoses { cameras };
+    event.validate()?;
+    Ok(event)
 }

@@ -13,11 +13,11 @@ use opencv::core::{Mat, Point2d, Point3d, Vector};
 use opencv::prelude::*;
 use rayon::prelude::*;
 
+use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features};
 use crate::geometry::{Intrinsics, Pose, reprojection_error_px};
 use crate::matching::{MatchOptions, mutual_matches, verify};
-use crate::Progress;
 
 /// How frames are refined.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -38,9 +38,13 @@ pub struct RefineOptions {
 
 impl Default for RefineOptions {
     fn default() -> Self {
-        Self { smoothness: 0.1, window: 3, sigma_frames: 1.5, max_reprojection_px: 4.0, loss_scale_px: 1.0 }
+        Self { smoothness: 0.001, window: 3, sigma_frames: 1.5, max_reprojection_px: 4.0, loss_scale_px: 1.0 }
     }
 }
+
+/// A registered keyframe as refinement sees it: its pose, its features and the keyframe
+/// model's point seen by each feature.
+pub type KeyframeView<'a> = (Pose, &'a Features, Vec<Option<u32>>);
 
 /// One camera's input to refinement.
 pub struct CameraTrack<'a> {
@@ -51,7 +55,7 @@ pub struct CameraTrack<'a> {
     /// Its intrinsics (fixed).
     pub intrinsics: Intrinsics,
     /// Per frame: `Some((pose, features, point per feature))` for registered keyframes.
-    pub keyframes: Vec<Option<(Pose, &'a Features, Vec<Option<u32>>)>>,
+    pub keyframes: Vec<Option<KeyframeView<'a>>>,
     /// The keyframe model's points.
     pub points_world: &'a [Vector3<f64>],
 }
@@ -102,7 +106,13 @@ pub fn propagate(point_at: &mut [Vec<Option<u32>>], matches: &[Vec<[u32; 2]>], i
     }
 }
 
-fn pnp(intrinsics: &Intrinsics, features: &Features, point_at: &[Option<u32>], points: &[Vector3<f64>], max_px: f64) -> SfmResult<Option<Pose>> {
+fn pnp(
+    intrinsics: &Intrinsics,
+    features: &Features,
+    point_at: &[Option<u32>],
+    points: &[Vector3<f64>],
+    max_px: f64,
+) -> SfmResult<Option<Pose>> {
     let mut object = Vector::<Point3d>::new();
     let mut image = Vector::<Point2d>::new();
     for (f, p) in point_at.iter().enumerate() {
@@ -116,11 +126,25 @@ fn pnp(intrinsics: &Intrinsics, features: &Features, point_at: &[Option<u32>], p
         return Ok(None);
     }
     let k = intrinsics;
-    let camera_matrix = Mat::from_slice_2d(&[[k.focal_px, 0.0, k.cx_px], [0.0, k.focal_px, k.cy_px], [0.0, 0.0, 1.0]]).map_err(SfmError::cv("camera matrix"))?;
+    let camera_matrix = Mat::from_slice_2d(&[[k.focal_px, 0.0, k.cx_px], [0.0, k.focal_px, k.cy_px], [0.0, 0.0, 1.0]])
+        .map_err(SfmError::cv("camera matrix"))?;
     let distortion = Mat::from_slice(&[k.k1, k.k2, 0.0, 0.0]).and_then(|m| m.try_clone()).map_err(SfmError::cv("distortion"))?;
     let (mut rvec, mut tvec, mut inliers) = (Mat::default(), Mat::default(), Mat::default());
-    let ok = calib3d::solve_pnp_ransac(&object, &image, &camera_matrix, &distortion, &mut rvec, &mut tvec, false, 1000, max_px as f32, 0.999, &mut inliers, calib3d::SOLVEPNP_EPNP)
-        .map_err(SfmError::cv("PnP"))?;
+    let ok = calib3d::solve_pnp_ransac(
+        &object,
+        &image,
+        &camera_matrix,
+        &distortion,
+        &mut rvec,
+        &mut tvec,
+        false,
+        1000,
+        max_px as f32,
+        0.999,
+        &mut inliers,
+        calib3d::SOLVEPNP_EPNP,
+    )
+    .map_err(SfmError::cv("PnP"))?;
     if !ok || inliers.rows() < 12 {
         return Ok(None);
     }
@@ -189,7 +213,8 @@ pub fn refine_camera(
         .into_par_iter()
         .map(|t| {
             check_interrupt(interrupt)?;
-            let f = if camera.keyframes[t].is_some() { None } else { Some(crate::features::extract_file(&camera.files[t], feature_options)?) };
+            let f =
+                if camera.keyframes[t].is_some() { None } else { Some(crate::features::extract_file(&camera.files[t], feature_options)?) };
             progress(&label, done.fetch_add(1, Ordering::Relaxed) + 1, total);
             Ok(f)
         })
@@ -254,7 +279,10 @@ pub fn refine_camera(
                 k1: camera.intrinsics.k1,
                 k2: camera.intrinsics.k2,
             }],
-            images: poses.iter().map(|p| dynview_ba::ImagePose { angle_axis: p.angle_axis().into(), center_world: p.center_world.into() }).collect(),
+            images: poses
+                .iter()
+                .map(|p| dynview_ba::ImagePose { angle_axis: p.angle_axis().into(), center_world: p.center_world.into() })
+                .collect(),
             image_camera: vec![0; n],
             image_fixed: is_keyframe.clone(),
             points_world: used_points.iter().map(|&p| camera.points_world[p as usize].into()).collect(),
@@ -270,7 +298,10 @@ pub fn refine_camera(
                 let Some(p) = p else { continue };
                 let xy = features[t].xy[f];
                 let pixel = Vector2::new(f64::from(xy[0]), f64::from(xy[1]));
-                if round > 0 && reprojection_error_px(&camera.intrinsics, &poses[t], &camera.points_world[*p as usize], &pixel) > options.max_reprojection_px {
+                if round > 0
+                    && reprojection_error_px(&camera.intrinsics, &poses[t], &camera.points_world[*p as usize], &pixel)
+                        > options.max_reprojection_px
+                {
                     continue;
                 }
                 problem.observations.push(dynview_ba::Observation { image: t, point: slot(*p), pixel: pixel.into() });

@@ -12,7 +12,12 @@ use crate::util::{describe, have, run_step};
 pub type Packages = &'static [(&'static str, &'static str)];
 
 /// Packages of `cargo xtask demo`.
-pub const DEMO_PACKAGES: Packages = &[("ffmpeg", "videos of the sample event")];
+pub const DEMO_PACKAGES: Packages = &[
+    ("ffmpeg", "videos of the sample event"),
+    ("libopencv-dev", "dynview prep: features, matching and geometry (OpenCV 4)"),
+    ("clang", "the opencv crate generates its bindings with clang"),
+    ("libclang-dev", "the opencv crate generates its bindings with libclang"),
+];
 
 /// Packages of `cargo xtask test`.
 pub const TEST_PACKAGES: Packages = &[
@@ -20,6 +25,9 @@ pub const TEST_PACKAGES: Packages = &[
     ("chromium", "headless browser tests of the wasm API and the page"),
     ("chromium-driver", "wasm-bindgen-test-runner drives Chromium through it"),
     ("mesa-vulkan-drivers", "lavapipe: the GPU renderer's tests run on the CPU through Vulkan"),
+    ("libopencv-dev", "dynview prep: features, matching and geometry (OpenCV 4)"),
+    ("clang", "the opencv crate generates its bindings with clang"),
+    ("libclang-dev", "the opencv crate generates its bindings with libclang"),
 ];
 
 fn is_installed(package: &str) -> bool {

@@ -38,6 +38,18 @@ pub struct Args {
     /// Most SIFT features per image.
     #[arg(long, default_value_t = PrepOptions::default().features.max_features)]
     max_features: usize,
+    /// Known poses, a COLMAP model folder (text or binary) or a poses.json: pose estimation is
+    /// skipped (calibrated rigs, ground truth, earlier COLMAP results). Image names
+    /// `<camera>/<frame file>`; one pose per frame or one per camera.
+    #[arg(long, value_name = "MODEL_DIR|POSES_JSON")]
+    poses: Option<PathBuf>,
+    /// Refine the radial distortion (k1, k2) in the final bundle adjustment.
+    #[arg(long)]
+    refine_distortion: bool,
+    /// Give every camera its own intrinsics even when image sizes are equal (by default,
+    /// cameras of one image size share them).
+    #[arg(long)]
+    per_camera_intrinsics: bool,
     /// The last stage to run: frames, keyframes or poses.
     #[arg(long, default_value = "poses")]
     stop_after: Stage,
@@ -66,8 +78,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         focal_px,
         focal_px_all,
         stop_after: args.stop_after,
+        poses: args.poses,
         ..PrepOptions::default()
     };
+    options.mapper.refine_distortion = args.refine_distortion;
+    options.mapper.share_intrinsics = !args.per_camera_intrinsics;
     options.refine.smoothness = args.smoothness;
     options.features.max_features = args.max_features;
     let interrupt = Arc::new(AtomicBool::new(false));

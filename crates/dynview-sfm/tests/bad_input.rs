@@ -1,0 +1,91 @@
+//! Bad inputs give errors that name the file, camera or option, never a panic.
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+use dynview_sfm::{PrepOptions, SfmError, Stage, run};
+
+fn textured(path: &Path, seed: u32) {
+    // A deterministic high-contrast pattern SIFT finds many features in.
+    let image = image::RgbImage::from_fn(160, 120, |x, y| {
+        let v = (x.wrapping_mul(7919) ^ y.wrapping_mul(104_729) ^ seed).wrapping_mul(2_654_435_761) >> 24;
+        let block = ((x / 6 + y / 6 + seed) % 3) as u8 * 60;
+        image::Rgb([v as u8, block, (255 - v) as u8])
+    });
+    image.save(path).expect("write png");
+}
+
+fn camera(root: &Path, name: &str, frames: usize, black: bool) {
+    let dir = root.join(name);
+    std::fs::create_dir_all(&dir).expect("mkdir");
+    for t in 0..frames {
+        let path = dir.join(format!("{t:05}.png"));
+        if black {
+            image::RgbImage::new(160, 120).save(&path).expect("write png");
+        } else {
+            textured(&path, t as u32);
+        }
+    }
+}
+
+fn prep(input: &Path, options: &PrepOptions) -> Result<dynview_sfm::PrepReport, SfmError> {
+    let out = tempfile::tempdir().expect("temp dir");
+    run(input, out.path(), options, &|_, _, _| {}, &AtomicBool::new(false))
+}
+
+#[test]
+fn different_frame_counts_need_trim() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    camera(dir.path(), "a", 3, false);
+    camera(dir.path(), "b", 2, false);
+    let frames_only = PrepOptions { stop_after: Stage::Frames, ..PrepOptions::default() };
+    let err = prep(dir.path(), &frames_only).expect_err("counts differ").to_string();
+    assert!(err.contains("a: 3") && err.contains("b: 2") && err.contains("--trim"), "{err}");
+    let report = prep(dir.path(), &PrepOptions { trim: true, ..frames_only }).expect("trimmed");
+    assert_eq!(report.frames, 2);
+}
+
+#[test]
+fn an_undecodable_video_is_named() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(dir.path().join("cam1.mp4"), b"this is not a video").expect("write");
+    let err = prep(dir.path(), &PrepOptions { stop_after: Stage::Frames, ..PrepOptions::default() }).expect_err("garbage video");
+    assert!(matches!(err, SfmError::Decode { .. }), "{err}");
+    assert!(err.to_string().contains("cam1.mp4"), "{err}");
+}
+
+#[test]
+fn a_textureless_camera_is_named() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    camera(dir.path(), "good", 1, false);
+    camera(dir.path(), "dark", 1, true);
+    let err = prep(dir.path(), &PrepOptions { stop_after: Stage::Keyframes, ..PrepOptions::default() }).expect_err("black camera");
+    let text = err.to_string();
+    assert!(matches!(err, SfmError::TooFewFeatures { .. }) && text.contains("camera dark") && text.contains("00000.png"), "{text}");
+}
+
+#[test]
+fn empty_folders_bad_names_and_bad_options_are_clear() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let err = prep(dir.path(), &PrepOptions::default()).expect_err("empty").to_string();
+    assert!(err.contains("no cameras found"), "{err}");
+    let err = prep(&dir.path().join("missing"), &PrepOptions::default()).expect_err("missing").to_string();
+    assert!(err.contains("not a folder"), "{err}");
+    camera(dir.path(), "bad name", 1, false);
+    let err = prep(dir.path(), &PrepOptions::default()).expect_err("bad name").to_string();
+    assert!(err.contains("bad name") && err.contains("camera name"), "{err}");
+    let err = prep(dir.path(), &PrepOptions { keyframe_interval: 0, ..PrepOptions::default() }).expect_err("kappa 0").to_string();
+    assert!(err.contains("keyframe-interval"), "{err}");
+}
+
+#[test]
+fn cameras_that_share_nothing_give_a_clear_error() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    camera(dir.path(), "a", 1, false);
+    // Different random patterns: features, but no matches between the cameras.
+    let b = dir.path().join("b");
+    std::fs::create_dir_all(&b).expect("mkdir");
+    textured(&b.join("00000.png"), 99_991);
+    let err = prep(dir.path(), &PrepOptions::default()).expect_err("nothing shared").to_string();
+    assert!(err.contains("structure from motion"), "{err}");
+}

@@ -1,0 +1,114 @@
+//! The pose stages on a small synthetic hand-held event with ground truth: every frame of every
+//! camera posed within the accuracy, the smoothness priors reduce frame-to-frame jitter,
+//! and a re-run reuses the keyframe stage.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use std::sync::atomic::AtomicBool;
+
+use dynview_core::Rigid3;
+use dynview_core::align::{PoseEvalOptions, evaluate_poses};
+use dynview_core::colmap::ColmapModel;
+use dynview_core::poses::EventPoses;
+use dynview_sfm::{PrepOptions, run};
+use dynview_synth::SynthConfig;
+
+const FRAMES: u32 = 25;
+const KEYFRAME_INTERVAL: usize = 12;
+
+/// One synthetic event for all tests of this file: 4 hand-held cameras, 25 frames, 480x270.
+fn event() -> &'static Path {
+    static EVENT: OnceLock<(tempfile::TempDir, PathBuf)> = OnceLock::new();
+    &EVENT
+        .get_or_init(|| {
+            let dir = tempfile::tempdir().expect("temp dir");
+            let out = dir.path().join("event");
+            let config = SynthConfig { cameras: 4, frames: FRAMES, width: 480, height: 270, handheld: true, ..SynthConfig::default() };
+            dynview_synth::generate(&config, &out, &|_, _, _| {}).expect("synth");
+            (dir, out)
+        })
+        .1
+}
+
+/// The event's videos when ffmpeg wrote them, else its image folders.
+fn input() -> PathBuf {
+    let videos = event().join("videos");
+    if videos.is_dir() { videos } else { event().join("input") }
+}
+
+/// `<camera>/<frame stem>` -> pose, from a name like `cam00/00012.png`.
+fn by_stem(poses: impl IntoIterator<Item = (String, Rigid3)>) -> BTreeMap<String, Rigid3> {
+    poses.into_iter().map(|(name, pose)| (name.rsplit_once('.').map_or(name.clone(), |(s, _)| s.to_string()), pose)).collect()
+}
+
+fn ground_truth() -> BTreeMap<String, Rigid3> {
+    let model = ColmapModel::read_dir(&event().join("colmap")).expect("ground-truth model");
+    by_stem(model.images.values().map(|im| (im.name.clone(), im.camera_from_world)))
+}
+
+fn estimated(poses: &EventPoses) -> BTreeMap<String, Rigid3> {
+    let mut out = Vec::new();
+    for (c, camera) in poses.cameras.iter().enumerate() {
+        for (t, frame) in camera.frames.iter().enumerate() {
+            if let Some(pose) = poses.camera_from_world(c, t) {
+                out.push((format!("{}/{}", camera.name, frame.file), pose));
+            }
+        }
+    }
+    by_stem(out)
+}
+
+/// RMS over consecutive frames of one camera of the change of the centre error, as a share of
+/// the scene size: how much the recovered path shakes around the true one.
+fn jitter(estimated: &BTreeMap<String, Rigid3>, truth: &BTreeMap<String, Rigid3>) -> f64 {
+    let accuracy = evaluate_poses(estimated, truth, PoseEvalOptions::default()).expect("evaluation");
+    let sim = accuracy.true_from_estimated;
+    let error = |name: &str| sim.transform_point(estimated[name].camera_center_world()) - truth[name].camera_center_world();
+    let names: Vec<&String> = estimated.keys().collect();
+    let mut sum = 0.0;
+    let mut count = 0;
+    for pair in names.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        if a.split('/').next() == b.split('/').next() {
+            sum += (error(b) - error(a)).length_squared();
+            count += 1;
+        }
+    }
+    (sum / count as f64).sqrt() / accuracy.scene_size
+}
+
+#[test]
+fn every_frame_is_posed_accurately_and_the_priors_reduce_jitter() {
+    let out = tempfile::tempdir().expect("temp dir");
+    let options = PrepOptions { keyframe_interval: KEYFRAME_INTERVAL, ..PrepOptions::default() };
+    let stop = AtomicBool::new(false);
+    let report = run(&input(), out.path(), &options, &|_, _, _| {}, &stop).expect("prep with priors");
+    assert_eq!((report.cameras, report.frames), (4, FRAMES as usize));
+    assert_eq!(report.keyframes_registered, report.keyframes, "every keyframe registered");
+    let with_priors = estimated(&EventPoses::read(&out.path().join("poses.json")).expect("poses.json"));
+    let truth = ground_truth();
+    let accuracy = evaluate_poses(&with_priors, &truth, PoseEvalOptions::default()).expect("evaluation");
+    println!(
+        "with priors: {} of {} frames, rotation median {:.3} max {:.3} deg, centre median {:.3}% max {:.3}%",
+        accuracy.registered,
+        accuracy.ground_truth_images,
+        accuracy.rotation_error_median_deg,
+        accuracy.rotation_error_max_deg,
+        100.0 * accuracy.center_error_median_fraction,
+        100.0 * accuracy.center_error_max_fraction
+    );
+    assert_eq!(accuracy.registered, 4 * FRAMES as usize, "every frame of every camera has a pose");
+    assert!(accuracy.rotation_error_median_deg < 0.2, "median rotation error {} deg", accuracy.rotation_error_median_deg);
+    assert!(accuracy.center_error_median_fraction < 0.005, "median centre error {}", accuracy.center_error_median_fraction);
+
+    // The same run without priors: the keyframe stage is reused, only refinement reruns.
+    let mut off = options.clone();
+    off.refine.smoothness = 0.0;
+    let report = run(&input(), out.path(), &off, &|_, _, _| {}, &stop).expect("prep without priors");
+    assert!(report.skipped.iter().any(|s| s == "keyframes"), "keyframes reused: {:?}", report.skipped);
+    let without = estimated(&EventPoses::read(&out.path().join("poses.json")).expect("poses.json"));
+    let (j_on, j_off) = (jitter(&with_priors, &truth), jitter(&without, &truth));
+    println!("jitter (RMS frame-to-frame change of the centre error): {:.4}% with priors, {:.4}% without", 100.0 * j_on, 100.0 * j_off);
+    assert!(j_on < 0.8 * j_off, "priors must reduce jitter: {j_on} vs {j_off}");
+}
