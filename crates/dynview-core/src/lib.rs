@@ -7,6 +7,7 @@
 //! - [`scene`]: the scene package (format v1: `scene.json`, `clouds.bin`, frames);
 //! - [`camera_path`]: nerfstudio `camera_path.json` paths;
 //! - [`colmap`]: COLMAP text models;
+//! - [`align`]: similarity (Umeyama) alignment and the pose accuracy of a reconstruction;
 //! - [`depth_io`]: 16-bit depth images with a scale;
 //! - [`display`]: render outputs as pictures (false-color depth, view weights, RGBA);
 //! - [`render`]: the paper's renderer (CPU) and its baselines;
@@ -16,6 +17,7 @@
 //!
 //! No GPU, browser or OpenCV dependency lives here; the crate builds for `wasm32`.
 
+pub mod align;
 pub mod camera;
 pub mod camera_path;
 pub mod colmap;
