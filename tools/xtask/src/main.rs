@@ -11,6 +11,8 @@ mod eval;
 mod fixtures;
 mod serve;
 mod setup;
+mod sfm_data;
+mod sfm_qualisys;
 mod test;
 mod util;
 mod web;
