@@ -140,6 +140,10 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
     let out = bench_dir.join("results.md");
     dynview_core::fsutil::write_atomic(&out, report.as_bytes())?;
     println!("(also written to {})", out.display());
+    let failed = rows.iter().filter(|r| r.result.is_err()).count();
+    if failed > 0 {
+        bail!("{failed} of {} runs failed (see the notes above)", rows.len());
+    }
     Ok(())
 }
 
@@ -147,7 +151,7 @@ fn figures(dataset: &Dataset, reconstruction: &Reconstruction, eval: PoseEvalOpt
     let model = &reconstruction.model;
     let estimated = poses_from_colmap(model);
     let registered = dataset.ground_truth.keys().filter(|name| estimated.contains_key(*name)).count();
-    let mut notes = Vec::new();
+    let mut notes: Vec<String> = reconstruction.note.iter().cloned().collect();
     let reprojection_px = match mean_reprojection_error_px(model) {
         Ok(Some((mean, _))) => {
             if let Some(own) = track_weighted_error_px(model)
@@ -209,10 +213,7 @@ fn table(rows: &[Row], eval: PoseEvalOptions) -> String {
                         100.0 * a.center_error_median_fraction,
                         100.0 * a.center_error_max_fraction
                     ),
-                    Err(e) => {
-                        let _ = writeln!(notes, "- {} / {label}: no pose errors: {e}", row.dataset);
-                        "- | - | - | -".into()
-                    }
+                    Err(_) => "- | - | - | -".into(),
                 };
                 let _ = writeln!(
                     s,
@@ -221,6 +222,9 @@ fn table(rows: &[Row], eval: PoseEvalOptions) -> String {
                 );
                 for note in &f.notes {
                     let _ = writeln!(notes, "- {} / {label}: {note}", row.dataset);
+                }
+                if let Err(e) = &f.accuracy {
+                    let _ = writeln!(notes, "- {} / {label}: no pose errors: {e}", row.dataset);
                 }
             }
         }
@@ -237,4 +241,47 @@ fn colmap_version() -> Option<String> {
     let text = String::from_utf8_lossy(&out.stdout);
     let line = text.lines().find(|l| l.starts_with("COLMAP"))?;
     line.split_whitespace().nth(1).map(str::to_owned)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dynview_core::Rigid3;
+    use dynview_core::colmap::{ColmapCamera, ColmapImage, ColmapModel};
+    use glam::DVec3;
+
+    fn dataset() -> Dataset {
+        let ground_truth = (0..4)
+            .map(|i| {
+                let eye = DVec3::new(f64::from(i), f64::from(i * i) * 0.3, 0.0);
+                (format!("cam/{i}.png"), Rigid3::camera_from_world_looking_at(eye, DVec3::new(1.0, 1.0, 5.0), DVec3::Y))
+            })
+            .collect();
+        Dataset { name: "toy", images_dir: PathBuf::from("unused"), ground_truth }
+    }
+
+    #[test]
+    fn figures_and_table_of_a_perfect_and_a_failed_run() {
+        let dataset = dataset();
+        let mut model = ColmapModel::default();
+        model.cameras.insert(1, ColmapCamera::pinhole(&dynview_core::Intrinsics { fx: 100.0, fy: 100.0, cx: 50.0, cy: 50.0 }, 100, 100));
+        // Three of the four images, exact (the same world): zero errors, one missing.
+        for (id, (name, pose)) in dataset.ground_truth.iter().take(3).enumerate() {
+            let image = ColmapImage { camera_id: 1, camera_from_world: *pose, name: name.clone(), points2d: Vec::new() };
+            model.images.insert(id as u32 + 1, image);
+        }
+        let figures = figures(&dataset, &Reconstruction { wall_secs: 1.5, model, note: None }, PoseEvalOptions::default());
+        assert_eq!((figures.registered, figures.images), (3, 4));
+        let accuracy = figures.accuracy.as_ref().unwrap();
+        assert!(accuracy.rotation_error_max_deg < 1e-9 && accuracy.center_error_max_fraction < 1e-12);
+        assert_eq!(figures.notes, ["not registered: cam/3.png"]);
+        let rows = [
+            Row { dataset: "toy", method: Method::Ours, result: Err("no binary".into()) },
+            Row { dataset: "toy", method: Method::Colmap, result: Ok(figures) },
+        ];
+        let text = table(&rows, PoseEvalOptions::default());
+        assert!(text.contains("| toy | ours | failed | - |"), "{text}");
+        assert!(text.contains("| toy | COLMAP | 1.5 | 3 / 4 | - | 0.000 | 0.000 | 0.000 | 0.000 |"), "{text}");
+        assert!(text.contains("- toy / ours: failed: no binary"), "{text}");
+    }
 }

@@ -18,7 +18,7 @@ use dynview_synth::SynthConfig;
 
 use crate::sfm_data::{Poses, parse_middlebury_par, poses_from_colmap, read_colmap_text};
 use crate::sfm_qualisys::parse_qualisys_calibration;
-use crate::util::{run_step, workspace_root};
+use crate::util::{describe, workspace_root};
 
 /// Names of the datasets, in the order the benchmark runs them.
 pub const DATASETS: [&str; 3] = ["synthetic", "temple", "pose2sim"];
@@ -165,6 +165,7 @@ fn pose2sim(images_dir: &Path) -> anyhow::Result<Poses> {
             let video = source.join("videos").join(format!("{}.mp4", camera.serial));
             let folder = out.join(&camera.serial);
             std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
+            println!("  extracting frames {POSE2SIM_FRAMES:?} of {}", video.display());
             for frame in POSE2SIM_FRAMES {
                 let png = folder.join(format!("{frame:05}.png"));
                 let mut cmd = Command::new("ffmpeg");
@@ -172,7 +173,10 @@ fn pose2sim(images_dir: &Path) -> anyhow::Result<Poses> {
                     .arg(&video)
                     .args(["-vf", &format!("select=eq(n\\,{frame})"), "-frames:v", "1"])
                     .arg(&png);
-                run_step(&format!("{} frame {frame}", camera.serial), cmd)?;
+                let status = cmd.status().with_context(|| format!("cannot start {} (is ffmpeg installed?)", describe(&cmd)))?;
+                if !status.success() {
+                    bail!("{} failed ({status})", describe(&cmd));
+                }
                 let size = image::image_dimensions(&png).with_context(|| format!("cannot read {}", png.display()))?;
                 if size != POSE2SIM_SIZE_PX {
                     bail!("{}: {}x{} pixels, expected {}x{}", png.display(), size.0, size.1, POSE2SIM_SIZE_PX.0, POSE2SIM_SIZE_PX.1);

@@ -9,7 +9,7 @@
 //!   the wall time covers the whole command.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::{Command, ExitStatus, Stdio};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
@@ -22,12 +22,17 @@ use crate::util::{cargo, describe, run_step, workspace_root};
 pub struct Reconstruction {
     /// Wall-clock seconds of the timed steps.
     pub wall_secs: f64,
-    /// The sparse model.
+    /// The sparse model (empty when the method ran but reconstructed nothing).
     pub model: ColmapModel,
+    /// What the table should say about the run, if anything.
+    pub note: Option<String>,
 }
 
 /// Where `dynview prep` writes its keyframe model, relative to `--out`.
 pub const OURS_MODEL_DIR: &str = "work/keyframes/model";
+
+/// What COLMAP's mapper logs when it cannot start any model.
+const COLMAP_NO_MODEL: &str = "failed to create sparse model";
 
 /// Lines of a failed step's log shown in the error.
 const LOG_TAIL_LINES: usize = 15;
@@ -40,21 +45,31 @@ fn fresh_dir(dir: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))
 }
 
-/// Runs `cmd` with its output in `log` (appended); on failure the error quotes the log's tail.
-fn run_logged(label: &str, mut cmd: Command, log: &Path) -> anyhow::Result<f64> {
+/// Runs `cmd` with its output in `log` (appended); returns the wall seconds and the status.
+fn run_logged_status(label: &str, mut cmd: Command, log: &Path) -> anyhow::Result<(f64, ExitStatus)> {
     println!("    {label}: {}", describe(&cmd));
     let file = std::fs::OpenOptions::new().create(true).append(true).open(log).with_context(|| format!("cannot open {}", log.display()))?;
     cmd.stdin(Stdio::null()).stdout(file.try_clone()?).stderr(file);
     let start = Instant::now();
     let status = cmd.status().with_context(|| format!("cannot start {}", describe(&cmd)))?;
     let secs = start.elapsed().as_secs_f64();
+    println!("      {} in {secs:.1} s", if status.success() { "ok" } else { "failed" });
+    Ok((secs, status))
+}
+
+/// The last lines of `log`.
+fn log_tail(log: &Path) -> String {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    let lines: Vec<&str> = text.lines().collect();
+    lines[lines.len().saturating_sub(LOG_TAIL_LINES)..].join("\n")
+}
+
+/// [`run_logged_status`], failing when the command fails; the error quotes the log's tail.
+fn run_logged(label: &str, cmd: Command, log: &Path) -> anyhow::Result<f64> {
+    let (secs, status) = run_logged_status(label, cmd, log)?;
     if !status.success() {
-        let text = std::fs::read_to_string(log).unwrap_or_default();
-        let lines: Vec<&str> = text.lines().collect();
-        let tail = lines[lines.len().saturating_sub(LOG_TAIL_LINES)..].join("\n");
-        bail!("{label} failed ({status}) after {secs:.1} s; the end of {}:\n{tail}", log.display());
+        bail!("{label} failed ({status}) after {secs:.1} s; the end of {}:\n{}", log.display(), log_tail(log));
     }
-    println!("      ok in {secs:.1} s");
     Ok(secs)
 }
 
@@ -87,9 +102,19 @@ pub fn run_colmap(images_dir: &Path, work_dir: &Path) -> anyhow::Result<Reconstr
     matcher.arg("--database_path").arg(&database).args(["--SiftMatching.use_gpu", "0"]);
     let mut mapper = colmap("mapper");
     mapper.arg("--database_path").arg(&database).arg("--image_path").arg(images_dir).arg("--output_path").arg(&sparse);
-    let mut wall_secs = 0.0;
-    for (label, cmd) in [("feature_extractor", extract), ("exhaustive_matcher", matcher), ("mapper", mapper)] {
-        wall_secs += run_logged(label, cmd, &log)?;
+    let mut wall_secs = run_logged("feature_extractor", extract, &log)?;
+    wall_secs += run_logged("exhaustive_matcher", matcher, &log)?;
+    let (mapper_secs, status) = run_logged_status("mapper", mapper, &log)?;
+    wall_secs += mapper_secs;
+    if !status.success() {
+        // COLMAP 3.8's mapper exits with 1 when no image pair can start a model: a result
+        // (nothing registered), not a crash.
+        let tail = log_tail(&log);
+        if tail.contains(COLMAP_NO_MODEL) {
+            let note = format!("COLMAP's mapper made no model (\"{COLMAP_NO_MODEL}\"; see {})", log.display());
+            return Ok(Reconstruction { wall_secs, model: ColmapModel::default(), note: Some(note) });
+        }
+        bail!("mapper failed ({status}) after {mapper_secs:.1} s; the end of {}:\n{tail}", log.display());
     }
 
     // The mapper writes one binary model per connected part: sparse/0, sparse/1, ...
@@ -109,7 +134,7 @@ pub fn run_colmap(images_dir: &Path, work_dir: &Path) -> anyhow::Result<Reconstr
         }
     }
     let model = best.with_context(|| format!("the mapper made no model (see {})", log.display()))?;
-    Ok(Reconstruction { wall_secs, model })
+    Ok(Reconstruction { wall_secs, model, note: None })
 }
 
 /// The release `dynview` binary: `$DYNVIEW_BIN` when set, else built with
@@ -141,9 +166,9 @@ pub fn run_ours(dynview: &Path, images_dir: &Path, work_dir: &Path) -> anyhow::R
     let mut prep = Command::new(dynview);
     prep.arg("prep").arg("--input").arg(images_dir).arg("--out").arg(&out).args(["--keyframe-interval", "1", "--stop-after", "keyframes"]);
     let wall_secs = run_logged("dynview prep", prep, &log)
-        .context("`dynview prep --input DIR --out DIR --keyframe-interval 1 --stop-after keyframes` failed")?;
+        .context("ours: the benchmark expects `dynview prep --input DIR --out DIR --keyframe-interval 1 --stop-after keyframes`")?;
     let model_dir = out.join(OURS_MODEL_DIR);
     let model = read_colmap_text(&model_dir)
         .with_context(|| format!("dynview prep finished but its keyframe model in {} is unreadable", model_dir.display()))?;
-    Ok(Reconstruction { wall_secs, model })
+    Ok(Reconstruction { wall_secs, model, note: None })
 }
