@@ -8,6 +8,7 @@
 //! - [`camera_path`]: nerfstudio `camera_path.json` paths;
 //! - [`colmap`]: COLMAP sparse models, text and binary;
 //! - [`poses`]: `poses.json`, the camera poses of a whole event, and its COLMAP conversions;
+//! - [`align`]: similarity (Umeyama) alignment and the pose accuracy of a reconstruction;
 //! - [`depth_io`]: 16-bit depth images with a scale;
 //! - [`display`]: render outputs as pictures (false-color depth, view weights, RGBA);
 //! - [`render`]: the paper's renderer (CPU) and its baselines;
@@ -17,6 +18,7 @@
 //!
 //! No GPU, browser or OpenCV dependency lives here; the crate builds for `wasm32`.
 
+pub mod align;
 pub mod camera;
 pub mod camera_path;
 pub mod colmap;

@@ -2,15 +2,21 @@
 //!
 //! - `cargo xtask test`: installs what is missing, then runs every check and test;
 //! - `cargo xtask demo [--fresh]`: installs what is missing, builds, makes the sample event and
-//!   serves the viewer with it.
+//!   serves the viewer with it;
+//! - `cargo xtask bench sfm`: our keyframe SfM against COLMAP and ground truth.
 
 mod bench;
+mod bench_sfm;
 mod bench_web;
 mod demo;
 mod eval;
 mod fixtures;
 mod serve;
 mod setup;
+mod sfm_data;
+mod sfm_datasets;
+mod sfm_qualisys;
+mod sfm_runners;
 mod test;
 mod util;
 mod web;
@@ -29,6 +35,10 @@ commands:
                  viewer on 127.0.0.1 (--fresh regenerates the event even if it exists)
   bench          ms per frame of the full method at 480x270, 960x540 and 1920x1080
                  (release build, all cores), per level and stage
+  bench sfm [--dataset NAME]... [--only ours|colmap] [--robust]
+                 our keyframe SfM (dynview prep) vs COLMAP on the synthetic event, the
+                 Middlebury temple ring and Pose2Sim: time, registered images, reprojection
+                 and pose errors against ground truth (target/bench/sfm/results.md)
   bench-web      the viewer in headless Chromium on the demo event: time to first frame,
                  CPU-path ms per frame at 480x270 and 960x540, wasm package size
   eval [--frames N] [--params FILE] [--out DIR]
@@ -57,6 +67,7 @@ fn run() -> anyhow::Result<()> {
         "demo" => demo::run(rest),
         "e2e" => test::run_end_to_end(rest),
         "serve" => demo::serve_scene(rest),
+        "bench" if rest.first().is_some_and(|a| a == "sfm") => bench_sfm::run(&rest[1..]),
         "bench" => bench::run(rest),
         "bench-release" => bench::run_release(rest),
         "bench-web" => bench_web::run(rest),

@@ -1,0 +1,287 @@
+//! `cargo xtask bench sfm`: our keyframe structure-from-motion (`dynview prep ... --stop-after
+//! keyframes`) and COLMAP side by side on the synthetic event, Middlebury's temple ring and
+//! Pose2Sim's lab capture (see `sfm_datasets`), against ground-truth poses.
+//!
+//! Metrics per method and dataset:
+//! - wall time of the reconstruction (see `sfm_runners` for what is timed);
+//! - registered images out of the dataset's images;
+//! - mean reprojection error in pixels, *recomputed* from the model (every observation of
+//!   every 3D point projected with its image's pose and camera model, distortion included),
+//!   so both methods are measured the same way whatever their `ERROR` fields hold;
+//! - after a similarity alignment of the camera centres to the ground truth
+//!   (`dynview_core::align`): median and largest rotation error in degrees, and median and
+//!   largest centre error in percent of the scene size (the diagonal of the bounding box of the
+//!   ground-truth camera centres).
+//!
+//! The table is printed and written to `target/bench/sfm/results.md`.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use dynview_core::align::{PoseAccuracy, PoseEvalOptions, evaluate_poses};
+
+use crate::sfm_data::{mean_reprojection_error_px, poses_from_colmap, track_weighted_error_px};
+use crate::sfm_datasets::{DATASETS, Dataset, prepare};
+use crate::sfm_runners::{Reconstruction, dynview_binary, run_colmap, run_ours};
+use crate::util::workspace_root;
+
+/// Relative gap between the recomputed and the model's own mean error that earns a note.
+const ERROR_FIELD_MISMATCH: f64 = 0.1;
+
+/// The methods compared.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Method {
+    Ours,
+    Colmap,
+}
+
+impl Method {
+    fn label(self) -> &'static str {
+        match self {
+            Self::Ours => "ours",
+            Self::Colmap => "COLMAP",
+        }
+    }
+}
+
+struct Options {
+    datasets: Vec<String>,
+    methods: Vec<Method>,
+    eval: PoseEvalOptions,
+}
+
+const USAGE: &str = "usage: cargo xtask bench sfm [--dataset NAME]... [--only ours|colmap] [--robust]
+  --dataset NAME   run only this dataset (synthetic, temple, pose2sim; repeatable)
+  --only METHOD    run only ours or only COLMAP
+  --robust         fit the similarity on the 80% best-aligned cameras (after a first fit on all)";
+
+fn parse_options(args: &[String]) -> anyhow::Result<Options> {
+    let mut options = Options { datasets: Vec::new(), methods: vec![Method::Ours, Method::Colmap], eval: PoseEvalOptions::default() };
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--dataset" => {
+                let name = it.next().with_context(|| format!("--dataset needs a name\n{USAGE}"))?;
+                if !DATASETS.contains(&name.as_str()) {
+                    bail!("unknown dataset {name:?} (known: {})", DATASETS.join(", "));
+                }
+                options.datasets.push(name.clone());
+            }
+            "--only" => {
+                options.methods = match it.next().map(String::as_str) {
+                    Some("ours") => vec![Method::Ours],
+                    Some("colmap") => vec![Method::Colmap],
+                    other => bail!("--only takes ours or colmap, got {other:?}\n{USAGE}"),
+                }
+            }
+            "--robust" => options.eval.robust = true,
+            "-h" | "--help" => {
+                println!("{USAGE}");
+                std::process::exit(0);
+            }
+            other => bail!("unknown argument {other:?}\n{USAGE}"),
+        }
+    }
+    if options.datasets.is_empty() {
+        options.datasets = DATASETS.iter().map(|s| s.to_string()).collect();
+    }
+    Ok(options)
+}
+
+/// What one method achieved on one dataset.
+struct Row {
+    dataset: &'static str,
+    method: Method,
+    /// The figures, or why there are none.
+    result: Result<Figures, String>,
+}
+
+struct Figures {
+    wall_secs: f64,
+    images: usize,
+    registered: usize,
+    reprojection_px: Option<f64>,
+    accuracy: Result<PoseAccuracy, String>,
+    notes: Vec<String>,
+}
+
+/// Entry from `cargo xtask bench sfm ...`.
+pub fn run(args: &[String]) -> anyhow::Result<()> {
+    let options = parse_options(args)?;
+    let bench_dir = workspace_root().join("target/bench/sfm");
+    let mut dynview: Option<Result<PathBuf, String>> = None;
+    let mut rows = Vec::new();
+    for name in &options.datasets {
+        println!("\n==> dataset {name}");
+        let dataset = prepare(name, &bench_dir)?;
+        println!("  {} images in {}", dataset.ground_truth.len(), dataset.images_dir.display());
+        for &method in &options.methods {
+            let work_dir = bench_dir.join(dataset.name).join(method.label().to_lowercase());
+            let reconstruction = match method {
+                Method::Colmap => run_colmap(&dataset.images_dir, &work_dir),
+                Method::Ours => {
+                    let binary = dynview.get_or_insert_with(|| dynview_binary().map_err(|e| format!("{e:#}")));
+                    match binary {
+                        Ok(binary) => run_ours(binary, &dataset.images_dir, &work_dir),
+                        Err(e) => Err(anyhow::anyhow!("no dynview binary: {e}")),
+                    }
+                }
+            };
+            let result = reconstruction.map(|r| figures(&dataset, &r, options.eval)).map_err(|e| format!("{e:#}"));
+            if let Err(e) = &result {
+                eprintln!("  {} failed on {}: {e}", method.label(), dataset.name);
+            }
+            rows.push(Row { dataset: dataset.name, method, result });
+        }
+    }
+    let report = table(&rows, options.eval);
+    println!("\n{report}");
+    let out = bench_dir.join("results.md");
+    dynview_core::fsutil::write_atomic(&out, report.as_bytes())?;
+    println!("(also written to {})", out.display());
+    let failed = rows.iter().filter(|r| r.result.is_err()).count();
+    if failed > 0 {
+        bail!("{failed} of {} runs failed (see the notes above)", rows.len());
+    }
+    Ok(())
+}
+
+fn figures(dataset: &Dataset, reconstruction: &Reconstruction, eval: PoseEvalOptions) -> Figures {
+    let model = &reconstruction.model;
+    let estimated = poses_from_colmap(model);
+    let registered = dataset.ground_truth.keys().filter(|name| estimated.contains_key(*name)).count();
+    let mut notes: Vec<String> = reconstruction.note.iter().cloned().collect();
+    let reprojection_px = match mean_reprojection_error_px(model) {
+        Ok(Some((mean, _))) => {
+            if let Some(own) = track_weighted_error_px(model)
+                && (own - mean).abs() > ERROR_FIELD_MISMATCH * mean.max(own)
+            {
+                notes.push(format!("the model's own points3D ERROR averages {own:.3} px (track-weighted), recomputed {mean:.3} px"));
+            }
+            Some(mean)
+        }
+        Ok(None) => None,
+        Err(e) => {
+            notes.push(format!("reprojection error not computed: {e:#}"));
+            None
+        }
+    };
+    let accuracy = evaluate_poses(&estimated, &dataset.ground_truth, eval).map_err(|e| e.to_string());
+    if let Ok(a) = &accuracy {
+        if !a.missing.is_empty() {
+            notes.push(format!("not registered: {}", a.missing.join(", ")));
+        }
+        if a.unknown > 0 {
+            notes.push(format!("{} images of the model are not in the dataset (ignored)", a.unknown));
+        }
+    }
+    Figures { wall_secs: reconstruction.wall_secs, images: dataset.ground_truth.len(), registered, reprojection_px, accuracy, notes }
+}
+
+fn table(rows: &[Row], eval: PoseEvalOptions) -> String {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "SfM: ours (`dynview prep --stop-after keyframes`) vs COLMAP {} (CPU), {threads} threads. Errors after a {} \
+         similarity alignment of the camera centres to the ground truth; centre errors in % of the scene size \
+         (diagonal of the ground-truth camera centres' bounding box); reprojection error recomputed from each model.\n",
+        colmap_version().unwrap_or_else(|| "(version unknown)".into()),
+        if eval.robust { "robust (best 80%)" } else { "least-squares" },
+    );
+    let _ = writeln!(
+        s,
+        "| dataset | method | wall s | registered | reproj. px | rot. median ° | rot. max ° | centre median % | centre max % |"
+    );
+    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
+    let mut notes = String::new();
+    for row in rows {
+        let label = row.method.label();
+        match &row.result {
+            Err(e) => {
+                let _ = writeln!(s, "| {} | {label} | failed | - | - | - | - | - | - |", row.dataset);
+                let _ = writeln!(notes, "- {} / {label}: failed: {}", row.dataset, e.replace('\n', "\n  "));
+            }
+            Ok(f) => {
+                let reprojection = f.reprojection_px.map_or("-".into(), |v| format!("{v:.3}"));
+                let errors = match &f.accuracy {
+                    Ok(a) => format!(
+                        "{:.3} | {:.3} | {:.3} | {:.3}",
+                        a.rotation_error_median_deg,
+                        a.rotation_error_max_deg,
+                        100.0 * a.center_error_median_fraction,
+                        100.0 * a.center_error_max_fraction
+                    ),
+                    Err(_) => "- | - | - | -".into(),
+                };
+                let _ = writeln!(
+                    s,
+                    "| {} | {label} | {:.1} | {} / {} | {reprojection} | {errors} |",
+                    row.dataset, f.wall_secs, f.registered, f.images
+                );
+                for note in &f.notes {
+                    let _ = writeln!(notes, "- {} / {label}: {note}", row.dataset);
+                }
+                if let Err(e) = &f.accuracy {
+                    let _ = writeln!(notes, "- {} / {label}: no pose errors: {e}", row.dataset);
+                }
+            }
+        }
+    }
+    if !notes.is_empty() {
+        let _ = write!(s, "\nNotes:\n\n{notes}");
+    }
+    s
+}
+
+/// COLMAP's version line, e.g. `3.8`.
+fn colmap_version() -> Option<String> {
+    let out = std::process::Command::new("colmap").arg("-h").env("QT_QPA_PLATFORM", "offscreen").output().ok()?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text.lines().find(|l| l.starts_with("COLMAP"))?;
+    line.split_whitespace().nth(1).map(str::to_owned)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dynview_core::Rigid3;
+    use dynview_core::colmap::{ColmapCamera, ColmapImage, ColmapModel};
+    use glam::DVec3;
+
+    fn dataset() -> Dataset {
+        let ground_truth = (0..4)
+            .map(|i| {
+                let eye = DVec3::new(f64::from(i), f64::from(i * i) * 0.3, 0.0);
+                (format!("cam/{i}.png"), Rigid3::camera_from_world_looking_at(eye, DVec3::new(1.0, 1.0, 5.0), DVec3::Y))
+            })
+            .collect();
+        Dataset { name: "toy", images_dir: PathBuf::from("unused"), ground_truth }
+    }
+
+    #[test]
+    fn figures_and_table_of_a_perfect_and_a_failed_run() {
+        let dataset = dataset();
+        let mut model = ColmapModel::default();
+        model.cameras.insert(1, ColmapCamera::pinhole(&dynview_core::Intrinsics { fx: 100.0, fy: 100.0, cx: 50.0, cy: 50.0 }, 100, 100));
+        // Three of the four images, exact (the same world): zero errors, one missing.
+        for (id, (name, pose)) in dataset.ground_truth.iter().take(3).enumerate() {
+            let image = ColmapImage { camera_id: 1, camera_from_world: *pose, name: name.clone(), points2d: Vec::new() };
+            model.images.insert(id as u32 + 1, image);
+        }
+        let figures = figures(&dataset, &Reconstruction { wall_secs: 1.5, model, note: None }, PoseEvalOptions::default());
+        assert_eq!((figures.registered, figures.images), (3, 4));
+        let accuracy = figures.accuracy.as_ref().unwrap();
+        assert!(accuracy.rotation_error_max_deg < 1e-9 && accuracy.center_error_max_fraction < 1e-12);
+        assert_eq!(figures.notes, ["not registered: cam/3.png"]);
+        let rows = [
+            Row { dataset: "toy", method: Method::Ours, result: Err("no binary".into()) },
+            Row { dataset: "toy", method: Method::Colmap, result: Ok(figures) },
+        ];
+        let text = table(&rows, PoseEvalOptions::default());
+        assert!(text.contains("| toy | ours | failed | - |"), "{text}");
+        assert!(text.contains("| toy | COLMAP | 1.5 | 3 / 4 | - | 0.000 | 0.000 | 0.000 | 0.000 |"), "{text}");
+        assert!(text.contains("- toy / ours: failed: no binary"), "{text}");
+    }
+}

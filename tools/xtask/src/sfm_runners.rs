@@ -1,0 +1,174 @@
+//! The two reconstructions the SfM benchmark compares, each run on an image folder
+//! `<root>/<camera>/<file>` and returning its sparse model (image names `<camera>/<file>`):
+//!
+//! - COLMAP (CPU, headless): `feature_extractor` (one SIMPLE_RADIAL camera per folder),
+//!   `exhaustive_matcher`, `mapper`, then `model_converter` of the largest model to text;
+//!   the wall time covers the first three steps;
+//! - ours: `dynview prep --input <images> --out <dir> --keyframe-interval 1 --stop-after
+//!   keyframes`, whose keyframe model is a COLMAP text model in `<dir>/work/keyframes/model/`;
+//!   the wall time covers the whole command.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitStatus, Stdio};
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use dynview_core::colmap::ColmapModel;
+
+use crate::sfm_data::read_colmap_text;
+use crate::util::{cargo, describe, run_step, workspace_root};
+
+/// A finished reconstruction.
+pub struct Reconstruction {
+    /// Wall-clock seconds of the timed steps.
+    pub wall_secs: f64,
+    /// The sparse model (empty when the method ran but reconstructed nothing).
+    pub model: ColmapModel,
+    /// What the table should say about the run, if anything.
+    pub note: Option<String>,
+}
+
+/// Where `dynview prep` writes its keyframe model, relative to `--out`.
+pub const OURS_MODEL_DIR: &str = "work/keyframes/model";
+
+/// What COLMAP's mapper logs when it cannot start any model.
+const COLMAP_NO_MODEL: &str = "failed to create sparse model";
+
+/// Lines of a failed step's log shown in the error.
+const LOG_TAIL_LINES: usize = 15;
+
+/// Empties `dir` (removing what an earlier run left) and creates it.
+fn fresh_dir(dir: &Path) -> anyhow::Result<()> {
+    if dir.exists() {
+        std::fs::remove_dir_all(dir).with_context(|| format!("cannot remove {}", dir.display()))?;
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))
+}
+
+/// Runs `cmd` with its output in `log` (appended); returns the wall seconds and the status.
+fn run_logged_status(label: &str, mut cmd: Command, log: &Path) -> anyhow::Result<(f64, ExitStatus)> {
+    println!("    {label}: {}", describe(&cmd));
+    let file = std::fs::OpenOptions::new().create(true).append(true).open(log).with_context(|| format!("cannot open {}", log.display()))?;
+    cmd.stdin(Stdio::null()).stdout(file.try_clone()?).stderr(file);
+    let start = Instant::now();
+    let status = cmd.status().with_context(|| format!("cannot start {}", describe(&cmd)))?;
+    let secs = start.elapsed().as_secs_f64();
+    println!("      {} in {secs:.1} s", if status.success() { "ok" } else { "failed" });
+    Ok((secs, status))
+}
+
+/// The last lines of `log`.
+fn log_tail(log: &Path) -> String {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    let lines: Vec<&str> = text.lines().collect();
+    lines[lines.len().saturating_sub(LOG_TAIL_LINES)..].join("\n")
+}
+
+/// [`run_logged_status`], failing when the command fails; the error quotes the log's tail.
+fn run_logged(label: &str, cmd: Command, log: &Path) -> anyhow::Result<f64> {
+    let (secs, status) = run_logged_status(label, cmd, log)?;
+    if !status.success() {
+        bail!("{label} failed ({status}) after {secs:.1} s; the end of {}:\n{}", log.display(), log_tail(log));
+    }
+    Ok(secs)
+}
+
+/// A `colmap` command; Qt is told to need no display (harmless where none is needed).
+fn colmap(subcommand: &str) -> Command {
+    let mut cmd = Command::new("colmap");
+    cmd.arg(subcommand).env("QT_QPA_PLATFORM", "offscreen");
+    cmd
+}
+
+/// Runs COLMAP on `images_dir` in `work_dir` (emptied first).
+pub fn run_colmap(images_dir: &Path, work_dir: &Path) -> anyhow::Result<Reconstruction> {
+    fresh_dir(work_dir)?;
+    let database = work_dir.join("database.db");
+    let sparse = work_dir.join("sparse");
+    std::fs::create_dir_all(&sparse)?;
+    let log = work_dir.join("colmap.log");
+    println!("  COLMAP (log: {})", log.display());
+
+    let mut extract = colmap("feature_extractor");
+    extract.arg("--database_path").arg(&database).arg("--image_path").arg(images_dir).args([
+        "--ImageReader.single_camera_per_folder",
+        "1",
+        "--ImageReader.camera_model",
+        "SIMPLE_RADIAL",
+        "--SiftExtraction.use_gpu",
+        "0",
+    ]);
+    let mut matcher = colmap("exhaustive_matcher");
+    matcher.arg("--database_path").arg(&database).args(["--SiftMatching.use_gpu", "0"]);
+    let mut mapper = colmap("mapper");
+    mapper.arg("--database_path").arg(&database).arg("--image_path").arg(images_dir).arg("--output_path").arg(&sparse);
+    let mut wall_secs = run_logged("feature_extractor", extract, &log)?;
+    wall_secs += run_logged("exhaustive_matcher", matcher, &log)?;
+    let (mapper_secs, status) = run_logged_status("mapper", mapper, &log)?;
+    wall_secs += mapper_secs;
+    if !status.success() {
+        // COLMAP 3.8's mapper exits with 1 when no image pair can start a model: a result
+        // (nothing registered), not a crash.
+        let tail = log_tail(&log);
+        if tail.contains(COLMAP_NO_MODEL) {
+            let note = format!("COLMAP's mapper made no model (\"{COLMAP_NO_MODEL}\"; see {})", log.display());
+            return Ok(Reconstruction { wall_secs, model: ColmapModel::default(), note: Some(note) });
+        }
+        bail!("mapper failed ({status}) after {mapper_secs:.1} s; the end of {}:\n{tail}", log.display());
+    }
+
+    // The mapper writes one binary model per connected part: sparse/0, sparse/1, ...
+    let mut best: Option<ColmapModel> = None;
+    let mut parts: Vec<PathBuf> = std::fs::read_dir(&sparse)?.filter_map(Result::ok).map(|e| e.path()).filter(|p| p.is_dir()).collect();
+    parts.sort();
+    for part in &parts {
+        let text_dir = work_dir.join("text").join(part.file_name().unwrap_or_default());
+        std::fs::create_dir_all(&text_dir)?;
+        let mut convert = colmap("model_converter");
+        convert.arg("--input_path").arg(part).arg("--output_path").arg(&text_dir).args(["--output_type", "TXT"]);
+        run_logged("model_converter", convert, &log)?;
+        let model = read_colmap_text(&text_dir)?;
+        println!("      model {}: {} images, {} points", part.display(), model.images.len(), model.points3d.len());
+        if best.as_ref().is_none_or(|b| model.images.len() > b.images.len()) {
+            best = Some(model);
+        }
+    }
+    let model = best.with_context(|| format!("the mapper made no model (see {})", log.display()))?;
+    Ok(Reconstruction { wall_secs, model, note: None })
+}
+
+/// The release `dynview` binary: `$DYNVIEW_BIN` when set, else built with
+/// `cargo build --release -p dynview-cli`.
+pub fn dynview_binary() -> anyhow::Result<PathBuf> {
+    if let Some(path) = std::env::var_os("DYNVIEW_BIN") {
+        let path = PathBuf::from(path);
+        if !path.is_file() {
+            bail!("DYNVIEW_BIN={} is not a file", path.display());
+        }
+        return Ok(path);
+    }
+    let mut cmd = cargo();
+    cmd.args(["build", "--release", "-p", "dynview-cli"]);
+    run_step("release build of dynview (set DYNVIEW_BIN to use another binary)", cmd)?;
+    let binary = workspace_root().join("target/release").join(format!("dynview{}", std::env::consts::EXE_SUFFIX));
+    if !binary.is_file() {
+        bail!("the release build did not produce {}", binary.display());
+    }
+    Ok(binary)
+}
+
+/// Runs `dynview prep` up to its keyframe model on `images_dir` in `work_dir` (emptied first).
+pub fn run_ours(dynview: &Path, images_dir: &Path, work_dir: &Path) -> anyhow::Result<Reconstruction> {
+    fresh_dir(work_dir)?;
+    let out = work_dir.join("out");
+    let log = work_dir.join("dynview.log");
+    println!("  ours (log: {})", log.display());
+    let mut prep = Command::new(dynview);
+    prep.arg("prep").arg("--input").arg(images_dir).arg("--out").arg(&out).args(["--keyframe-interval", "1", "--stop-after", "keyframes"]);
+    let wall_secs = run_logged("dynview prep", prep, &log)
+        .context("ours: the benchmark expects `dynview prep --input DIR --out DIR --keyframe-interval 1 --stop-after keyframes`")?;
+    let model_dir = out.join(OURS_MODEL_DIR);
+    let model = read_colmap_text(&model_dir)
+        .with_context(|| format!("dynview prep finished but its keyframe model in {} is unreadable", model_dir.display()))?;
+    Ok(Reconstruction { wall_secs, model, note: None })
+}
