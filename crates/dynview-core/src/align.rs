@@ -214,6 +214,11 @@ pub struct PoseEvalOptions {
     /// lie closest to the truth (after a first fit on all of them). The errors are still
     /// reported for every image.
     pub robust: bool,
+    /// Fit the similarity's rotation to the camera centres alone (Umeyama). By default the
+    /// rotation is the mean of `R_true^T R_est` over the images (their orientations fix it
+    /// well even when the centres lie near a line or an arc, where a centres-only rotation is
+    /// poorly determined about the line); scale and translation then come from the centres.
+    pub centers_only: bool,
 }
 
 /// Errors of one image after alignment.
@@ -282,7 +287,17 @@ pub fn evaluate_poses(
     let unknown = estimated.keys().filter(|name| !ground_truth.contains_key(*name)).count();
     let source: Vec<DVec3> = common.iter().map(|(_, est, _)| est.camera_center_world()).collect();
     let target: Vec<DVec3> = common.iter().map(|(_, _, truth)| truth.camera_center_world()).collect();
-    let mut true_from_estimated = similarity_from_point_pairs(&source, &target)?;
+    let orientations: Vec<DMat3> = common.iter().map(|(_, est, truth)| truth.rotation.transpose() * est.rotation).collect();
+    let fit = |indices: &[usize]| -> Result<Similarity3, AlignError> {
+        let (src, dst): (Vec<DVec3>, Vec<DVec3>) = indices.iter().map(|&i| (source[i], target[i])).unzip();
+        if options.centers_only {
+            return similarity_from_point_pairs(&src, &dst);
+        }
+        let rotation = mean_rotation(&indices.iter().map(|&i| orientations[i]).collect::<Vec<_>>());
+        similarity_given_rotation(&src, &dst, rotation)
+    };
+    let all: Vec<usize> = (0..source.len()).collect();
+    let mut true_from_estimated = fit(&all)?;
     let mut fitted_on = source.len();
     if options.robust {
         let mut order: Vec<(f64, usize)> = source
@@ -294,10 +309,8 @@ pub fn evaluate_poses(
         order.sort_by(|a, b| a.0.total_cmp(&b.0));
         let keep = ((ROBUST_INLIER_FRACTION * source.len() as f64).ceil() as usize).clamp(MIN_POINTS, source.len());
         let kept: Vec<usize> = order[..keep].iter().map(|&(_, i)| i).collect();
-        let refit_source: Vec<DVec3> = kept.iter().map(|&i| source[i]).collect();
-        let refit_target: Vec<DVec3> = kept.iter().map(|&i| target[i]).collect();
         // A degenerate subset (e.g. the best 80% collinear) keeps the first fit.
-        if let Ok(refit) = similarity_from_point_pairs(&refit_source, &refit_target) {
+        if let Ok(refit) = fit(&kept) {
             true_from_estimated = refit;
             fitted_on = keep;
         }
@@ -330,6 +343,46 @@ pub fn evaluate_poses(
         fitted_on,
         per_image,
     })
+}
+
+/// The rotation nearest the mean of `rotations` (sign-aligned unit quaternions, averaged and
+/// normalized: accurate for rotations that agree to within a few degrees).
+pub fn mean_rotation(rotations: &[DMat3]) -> DMat3 {
+    let Some(first) = rotations.first() else { return DMat3::IDENTITY };
+    let q0 = glam::DQuat::from_mat3(first);
+    let mut sum = glam::DVec4::ZERO;
+    for r in rotations {
+        let q = glam::DQuat::from_mat3(r);
+        let v = glam::DVec4::from(q);
+        sum += if v.dot(glam::DVec4::from(q0)) < 0.0 { -v } else { v };
+    }
+    DMat3::from_quat(glam::DQuat::from_vec4(sum).normalize())
+}
+
+/// The least-squares scale and translation of `target ≈ s R source + t` for a given `R`.
+pub fn similarity_given_rotation(source: &[DVec3], target: &[DVec3], rotation: DMat3) -> Result<Similarity3, AlignError> {
+    if source.len() != target.len() {
+        return Err(AlignError::LengthMismatch { source_len: source.len(), target_len: target.len() });
+    }
+    if source.len() < 2 {
+        return Err(AlignError::TooFewPoints { found: source.len() });
+    }
+    if let Some(index) = source.iter().zip(target).position(|(s, t)| !s.is_finite() || !t.is_finite()) {
+        return Err(AlignError::NonFinite { index });
+    }
+    let n = source.len() as f64;
+    let (mean_source, mean_target) = (source.iter().sum::<DVec3>() / n, target.iter().sum::<DVec3>() / n);
+    let (mut num, mut den) = (0.0, 0.0);
+    for (s, t) in source.iter().zip(target) {
+        let x = rotation * (*s - mean_source);
+        num += (*t - mean_target).dot(x);
+        den += x.length_squared();
+    }
+    if den <= 0.0 || num <= 0.0 {
+        return Err(AlignError::Degenerate);
+    }
+    let scale = num / den;
+    Ok(Similarity3 { scale, rotation, translation: mean_target - scale * (rotation * mean_source) })
 }
 
 /// Diagonal length of the axis-aligned bounding box of `points` (0 for none).

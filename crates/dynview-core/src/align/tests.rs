@@ -99,8 +99,8 @@ fn transformed_copy_has_zero_error() {
     let estimated_from_true = true_from_estimated.inverse();
     let estimated: BTreeMap<String, Rigid3> =
         truth.iter().map(|(name, pose)| (name.clone(), estimated_from_true.transform_camera_from_world(pose))).collect();
-    for robust in [false, true] {
-        let report = evaluate_poses(&estimated, &truth, PoseEvalOptions { robust }).unwrap();
+    for (robust, centers_only) in [(false, false), (true, false), (false, true), (true, true)] {
+        let report = evaluate_poses(&estimated, &truth, PoseEvalOptions { robust, centers_only }).unwrap();
         assert_eq!((report.registered, report.ground_truth_images, report.missing.len()), (12, 12, 0));
         assert!(report.rotation_error_max_deg < 1e-9, "{report:?}");
         assert!(report.center_error_max_fraction < 1e-12, "{report:?}");
@@ -124,13 +124,44 @@ fn known_perturbation_gives_known_error() {
     estimated.insert(turned.into(), Rigid3::new(rotation, -(rotation * center)));
     // Drop one image: it is reported missing, not compared.
     estimated.remove("cam/07.png");
-    let report = evaluate_poses(&estimated, &truth, PoseEvalOptions::default()).unwrap();
+    // Centres alone fix the similarity, so the turned camera carries its whole error.
+    let centers_only = PoseEvalOptions { centers_only: true, ..PoseEvalOptions::default() };
+    let report = evaluate_poses(&estimated, &truth, centers_only).unwrap();
     assert_eq!((report.registered, report.missing.clone()), (9, vec!["cam/07.png".to_string()]));
     let turned_error = report.per_image.iter().find(|e| e.name == turned).unwrap();
     assert!((turned_error.rotation_error_deg - 2.0).abs() < 1e-9, "{turned_error:?}");
     assert!((report.rotation_error_max_deg - 2.0).abs() < 1e-9);
     assert!(report.rotation_error_median_deg < 1e-9);
     assert!(report.center_error_max_fraction < 1e-12);
+    // Fitted to the orientations, the 2 degrees are shared: 1/9 of them moves the mean.
+    let report = evaluate_poses(&estimated, &truth, PoseEvalOptions::default()).unwrap();
+    let turned_error = report.per_image.iter().find(|e| e.name == turned).unwrap();
+    assert!((turned_error.rotation_error_deg - 2.0 * 8.0 / 9.0).abs() < 1e-3, "{turned_error:?}");
+    assert!((report.rotation_error_median_deg - 2.0 / 9.0).abs() < 1e-3, "{report:?}");
+}
+
+#[test]
+fn orientations_fix_the_rotation_of_cameras_on_a_line() {
+    // Centres on a line (plus noise) leave the rotation about the line free for Umeyama; the
+    // orientations do not.
+    let truth: BTreeMap<String, Rigid3> = (0..8)
+        .map(|i| {
+            let eye = DVec3::new(i as f64, 0.01 * ((i * 7 % 5) as f64 - 2.0), 0.0);
+            (format!("{i}"), Rigid3::camera_from_world_looking_at(eye, eye + DVec3::new(0.0, 0.2, 5.0), DVec3::Y))
+        })
+        .collect();
+    let estimated_from_true = known_similarity().inverse();
+    let mut estimated: BTreeMap<String, Rigid3> =
+        truth.iter().map(|(name, pose)| (name.clone(), estimated_from_true.transform_camera_from_world(pose))).collect();
+    // Nudge every estimated centre by 1 mm: the centres-only rotation about the line swings.
+    for (i, pose) in estimated.values_mut().enumerate() {
+        let c = pose.camera_center_world() + DVec3::new(0.0, if i % 2 == 0 { 0.001 } else { -0.001 }, 0.0);
+        *pose = Rigid3::new(pose.rotation, -(pose.rotation * c));
+    }
+    let by_orientation = evaluate_poses(&estimated, &truth, PoseEvalOptions::default()).unwrap();
+    let by_centres = evaluate_poses(&estimated, &truth, PoseEvalOptions { centers_only: true, ..PoseEvalOptions::default() }).unwrap();
+    assert!(by_orientation.rotation_error_max_deg < 1e-9, "{by_orientation:?}");
+    assert!(by_centres.rotation_error_median_deg > 0.1, "{by_centres:?}");
 }
 
 #[test]
@@ -147,7 +178,7 @@ fn known_centre_offset_is_a_fraction_of_the_scene_size() {
     let pose = truth["4"];
     let offset = DVec3::new(0.0, 0.0, 0.5);
     estimated.insert("4".into(), Rigid3::new(pose.rotation, -(pose.rotation * (pose.camera_center_world() + offset))));
-    let report = evaluate_poses(&estimated, &truth, PoseEvalOptions { robust: true }).unwrap();
+    let report = evaluate_poses(&estimated, &truth, PoseEvalOptions { robust: true, ..PoseEvalOptions::default() }).unwrap();
     assert!((report.scene_size - 5.0).abs() < 1e-12);
     assert_eq!(report.fitted_on, 5);
     let moved = report.per_image.iter().find(|e| e.name == "4").unwrap();
