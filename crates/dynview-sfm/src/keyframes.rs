@@ -111,12 +111,12 @@ pub fn match_all_pairs(
     Ok(verified.into_iter().filter(|(_, _, v)| !v.inliers.is_empty()).collect())
 }
 
-/// Initial intrinsics per camera: the given focal, else self-calibration, else the prior.
+/// Initial intrinsics per camera: the known ones, else self-calibration, else the prior.
 pub fn initial_intrinsics(
     frames: &EventFrames,
     keys: &[Keyframe],
     pairs: &[(usize, usize, TwoView)],
-    focal_hints: &BTreeMap<String, f64>,
+    known: &BTreeMap<String, Intrinsics>,
     match_options: &MatchOptions,
 ) -> (Vec<Intrinsics>, Vec<String>) {
     // Frames of one camera may share no baseline; use pairs of two cameras when there are any,
@@ -141,8 +141,8 @@ pub fn initial_intrinsics(
         .iter()
         .map(|c| {
             let longer = f64::from(c.width.max(c.height));
-            match (focal_hints.get(&c.name), estimated) {
-                (Some(&f), _) => (Intrinsics::centred(f, c.width, c.height), "given".to_string()),
+            match (known.get(&c.name), estimated) {
+                (Some(k), _) => (*k, "given".to_string()),
                 (None, Some(factor)) => {
                     (Intrinsics::centred(factor * longer, c.width, c.height), format!("self-calibrated ({factor:.3} x {longer})"))
                 }
@@ -161,13 +161,13 @@ pub fn reconstruct_keyframes(
     keys: &[Keyframe],
     features: &[Features],
     pairs: &[(usize, usize, TwoView)],
-    focal_hints: &BTreeMap<String, f64>,
+    known: &BTreeMap<String, Intrinsics>,
     match_options: &MatchOptions,
     mapper_options: &MapperOptions,
     progress: Progress,
 ) -> SfmResult<KeyframeModel> {
-    let (intrinsics, mut focal_source) = initial_intrinsics(frames, keys, pairs, focal_hints, match_options);
-    let group = intrinsics_groups(frames, focal_hints, mapper_options.share_intrinsics);
+    let (intrinsics, mut focal_source) = initial_intrinsics(frames, keys, pairs, known, match_options);
+    let group = intrinsics_groups(frames, known, mapper_options.share_intrinsics);
     let group_count = group.iter().max().map_or(0, |g| g + 1);
     let group_intrinsics: Vec<Intrinsics> = (0..group_count).map(|g| intrinsics[group.iter().position(|&x| x == g).unwrap_or(0)]).collect();
     let images: Vec<MapImage> = keys.iter().zip(features).map(|(k, f)| MapImage { camera: group[k.camera], xy: f.xy.clone() }).collect();
@@ -183,9 +183,9 @@ pub fn reconstruct_keyframes(
 }
 
 /// Which intrinsics each camera uses: with `share`, cameras of equal image size without
-/// different given focals share one set (one camera model filmed everything), else one each.
-pub fn intrinsics_groups(frames: &EventFrames, focal_hints: &BTreeMap<String, f64>, share: bool) -> Vec<usize> {
-    let mut keys: Vec<(u32, u32, Option<u64>)> = Vec::new();
+/// different known intrinsics share one set (one camera model filmed everything), else one each.
+pub fn intrinsics_groups(frames: &EventFrames, known: &BTreeMap<String, Intrinsics>, share: bool) -> Vec<usize> {
+    let mut keys: Vec<(u32, u32, Option<[u64; 3]>)> = Vec::new();
     frames
         .cameras
         .iter()
@@ -194,7 +194,7 @@ pub fn intrinsics_groups(frames: &EventFrames, focal_hints: &BTreeMap<String, f6
             if !share {
                 return c;
             }
-            let key = (camera.width, camera.height, focal_hints.get(&camera.name).map(|f| f.to_bits()));
+            let key = (camera.width, camera.height, known.get(&camera.name).map(|k| [k.focal_px, k.cx_px, k.cy_px].map(f64::to_bits)));
             match keys.iter().position(|k| *k == key) {
                 Some(g) => g,
                 None => {

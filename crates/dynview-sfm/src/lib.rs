@@ -13,6 +13,7 @@
 //! Each stage's result is kept in the output's work folder ([`work`]), so a re-run skips what
 //! is finished. Only this crate (and the CLI) depend on OpenCV.
 
+pub mod calibration;
 pub mod error;
 pub mod features;
 pub mod focal;

@@ -12,9 +12,10 @@ use dynview_core::poses::{CameraPoses, EventPoses, FramePose, POSES_FILE};
 use dynview_core::scene::manifest::PoseEntry;
 
 use crate::Progress;
+use crate::calibration::{calibration_for, known_intrinsics, read_poses, undistort_frames};
 use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features};
-use crate::geometry::Pose;
+use crate::geometry::{Intrinsics, Pose};
 use crate::incremental::MapperOptions;
 use crate::input::{EventFrames, decode_frames, discover};
 use crate::keyframes::{KeyframeModel, keyframe_features, keyframes, match_all_pairs, reconstruct_keyframes, to_colmap, write_colmap_text};
@@ -68,6 +69,10 @@ pub struct PrepOptions {
     pub stop_after: Stage,
     /// Known poses (a COLMAP model folder or a `poses.json`): pose estimation is skipped.
     pub poses: Option<PathBuf>,
+    /// Known intrinsics and distortion per camera (a COLMAP model folder or a `poses.json`;
+    /// poses in it are ignored): frames with a distortion are undistorted first, and the
+    /// intrinsics are kept fixed.
+    pub intrinsics: Option<PathBuf>,
 }
 
 impl Default for PrepOptions {
@@ -83,6 +88,7 @@ impl Default for PrepOptions {
             refine: RefineOptions::default(),
             stop_after: Stage::Poses,
             poses: None,
+            intrinsics: None,
         }
     }
 }
@@ -146,7 +152,23 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
     };
 
     let cameras = discover(input)?;
-    let frames = decode_frames(&cameras, &work.join("frames"), options.trim, progress)?;
+    let mut frames = decode_frames(&cameras, &work.join("frames"), options.trim, progress)?;
+    // Known calibration: from --intrinsics, else from --poses.
+    let calibration_file = options.intrinsics.as_ref().or(options.poses.as_ref());
+    let given = calibration_file.map(|p| read_poses(p)).transpose()?;
+    let mut known: BTreeMap<String, Intrinsics> = BTreeMap::new();
+    if let (Some(given), Some(path)) = (&given, calibration_file) {
+        let calibration = calibration_for(given, path, &frames)?;
+        frames = undistort_frames(&frames, &calibration, &work.join("undistorted"), progress, interrupt)?;
+        known = known_intrinsics(&calibration);
+    }
+    for c in &frames.cameras {
+        if !known.contains_key(&c.name)
+            && let Some(f) = options.focal_px.get(&c.name).copied().or(options.focal_px_all)
+        {
+            known.insert(c.name.clone(), Intrinsics::centred(f, c.width, c.height));
+        }
+    }
     work.write_json("frames.json", &frames)?;
     report.cameras = frames.cameras.len();
     report.frames = frames.frame_count();
@@ -155,12 +177,12 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
         return Ok(report);
     }
 
-    if let Some(known) = &options.poses {
-        let event = known_poses(known, &frames)?;
-        let path = out.join(POSES_FILE);
-        event.write(&path)?;
-        report.poses_file = Some(path);
-        report.skipped.push(format!("pose estimation (poses from {})", known.display()));
+    if let (Some(path), Some(given)) = (&options.poses, &given) {
+        let event = known_poses(given, path, &frames)?;
+        let poses_path = out.join(POSES_FILE);
+        event.write(&poses_path)?;
+        report.poses_file = Some(poses_path);
+        report.skipped.push(format!("pose estimation (poses from {})", path.display()));
         lap(&mut report, "poses");
         return Ok(report);
     }
@@ -178,30 +200,17 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
             });
         }
     }
-    let key_stage = (
-        &frames,
-        options.keyframe_interval,
-        &options.features,
-        &options.matching,
-        &options.mapper,
-        &options.focal_px,
-        options.focal_px_all,
-    );
+    let key_stage = (&frames, options.keyframe_interval, &options.features, &options.matching, &options.mapper, &known);
     let model: KeyframeModel = if work.is_done("keyframes", &key_stage) {
         report.skipped.push("keyframes".into());
         work.read_json("keyframes/model.json")?
     } else {
         let pairs = match_all_pairs(&features, &options.matching, progress, interrupt)?;
-        let hints: BTreeMap<String, f64> = frames
-            .cameras
-            .iter()
-            .filter_map(|c| options.focal_px.get(&c.name).copied().or(options.focal_px_all).map(|f| (c.name.clone(), f)))
-            .collect();
         let mut mapper = options.mapper.clone();
-        if hints.len() == frames.cameras.len() {
+        if known.len() == frames.cameras.len() {
             mapper.refine_focal = false;
         }
-        let model = reconstruct_keyframes(&frames, &keys, &features, &pairs, &hints, &options.matching, &mapper, progress)?;
+        let model = reconstruct_keyframes(&frames, &keys, &features, &pairs, &known, &options.matching, &mapper, progress)?;
         work.write_json("keyframes/model.json", &model)?;
         write_colmap_text(&to_colmap(&model, &frames, &features), &work.join("keyframes/model"))?;
         work.mark_done("keyframes", &key_stage)?;
@@ -305,30 +314,14 @@ pub fn event_poses(frames: &EventFrames, model: &KeyframeModel, poses: &[Vec<Pos
     }
 }
 
-/// Reads known poses (a COLMAP model folder or a `poses.json`) and fits them to the input's
+/// Fits known poses (from a COLMAP model folder or a `poses.json` at `path`) to the input's
 /// cameras and frames: every camera must be there with the input's image size, and either one
 /// pose per frame or a single pose (a camera on a tripod or a calibrated rig) for all frames.
-pub fn known_poses(path: &Path, frames: &EventFrames) -> SfmResult<EventPoses> {
-    let given = if path.is_dir() {
-        let model = dynview_core::colmap::ColmapModel::read_dir(path)
-            .map_err(|e| SfmError::Input { path: path.to_path_buf(), problem: e.to_string() })?;
-        EventPoses::from_colmap(&model)?
-    } else {
-        EventPoses::read(path)?
-    };
+/// Frames were undistorted with the given distortion, so the result has none.
+pub fn known_poses(given: &EventPoses, path: &Path, frames: &EventFrames) -> SfmResult<EventPoses> {
     let bad = |problem: String| SfmError::Input { path: path.to_path_buf(), problem };
     let mut cameras = Vec::new();
-    for camera in &frames.cameras {
-        let Some(known) = given.cameras.iter().find(|c| c.name == camera.name) else {
-            let names: Vec<&str> = given.cameras.iter().map(|c| c.name.as_str()).collect();
-            return Err(bad(format!("no poses for camera {} (it has: {})", camera.name, names.join(", "))));
-        };
-        if (known.width, known.height) != (camera.width, camera.height) {
-            return Err(bad(format!(
-                "camera {}: poses are for {}x{} images, its frames are {}x{}",
-                camera.name, known.width, known.height, camera.width, camera.height
-            )));
-        }
+    for (camera, known) in frames.cameras.iter().zip(calibration_for(given, path, frames)?) {
         let n = camera.files.len();
         let poses: Vec<Option<PoseEntry>> = match known.frames.len() {
             1 => vec![known.frames[0].camera_from_world; n],
@@ -343,7 +336,7 @@ pub fn known_poses(path: &Path, frames: &EventFrames) -> SfmResult<EventPoses> {
             width: camera.width,
             height: camera.height,
             intrinsics: known.intrinsics,
-            distortion: known.distortion,
+            distortion: [0.0; 4],
             frames: poses.into_iter().enumerate().map(|(t, p)| FramePose { file: camera.file_name(t), camera_from_world: p }).collect(),
         });
     }

@@ -109,6 +109,8 @@ struct Figures {
 /// Entry from `cargo xtask bench sfm ...`.
 pub fn run(args: &[String]) -> anyhow::Result<()> {
     let options = parse_options(args)?;
+    crate::setup::ensure_packages(crate::setup::DEMO_PACKAGES)?;
+    crate::setup::ensure_packages(crate::setup::BENCH_SFM_PACKAGES)?;
     let bench_dir = workspace_root().join("target/bench/sfm");
     let mut dynview: Option<Result<PathBuf, String>> = None;
     let mut rows = Vec::new();

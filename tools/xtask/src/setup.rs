@@ -19,6 +19,9 @@ pub const DEMO_PACKAGES: Packages = &[
     ("libclang-dev", "the opencv crate generates its bindings with libclang"),
 ];
 
+/// Packages `cargo xtask bench sfm` needs besides the demo's.
+pub const BENCH_SFM_PACKAGES: Packages = &[("colmap", "the reference structure from motion that bench sfm compares with")];
+
 /// Packages of `cargo xtask test`.
 pub const TEST_PACKAGES: Packages = &[
     ("ffmpeg", "synthetic event videos"),

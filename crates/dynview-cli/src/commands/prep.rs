@@ -43,6 +43,10 @@ pub struct Args {
     /// `<camera>/<frame file>`; one pose per frame or one per camera.
     #[arg(long, value_name = "MODEL_DIR|POSES_JSON")]
     poses: Option<PathBuf>,
+    /// Known intrinsics and distortion of every camera, a COLMAP model folder or a poses.json
+    /// (its poses are ignored): frames are undistorted first and the intrinsics kept fixed.
+    #[arg(long, value_name = "MODEL_DIR|POSES_JSON")]
+    intrinsics: Option<PathBuf>,
     /// Refine the radial distortion (k1, k2) in the final bundle adjustment.
     #[arg(long)]
     refine_distortion: bool,
@@ -79,6 +83,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         focal_px_all,
         stop_after: args.stop_after,
         poses: args.poses,
+        intrinsics: args.intrinsics,
         ..PrepOptions::default()
     };
     options.mapper.refine_distortion = args.refine_distortion;

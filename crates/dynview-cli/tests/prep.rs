@@ -1,0 +1,67 @@
+//! `dynview prep` as a user runs it: known poses, clear errors.
+
+use std::path::Path;
+use std::process::Command;
+
+fn dynview(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_dynview")).args(args).output().expect("run dynview");
+    (out.status.success(), format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr)))
+}
+
+fn synth(event: &Path) {
+    let (ok, log) = dynview(&[
+        "synth",
+        "--out",
+        event.to_str().unwrap(),
+        "--cameras",
+        "3",
+        "--frames",
+        "2",
+        "--width",
+        "64",
+        "--height",
+        "36",
+        "--no-video",
+    ]);
+    assert!(ok, "{log}");
+}
+
+#[test]
+fn known_poses_skip_estimation_and_equal_the_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let event = dir.path().join("event");
+    synth(&event);
+    let out = dir.path().join("prep");
+    let input = event.join("input");
+    let model = event.join("colmap");
+    let (ok, log) =
+        dynview(&["prep", "--input", input.to_str().unwrap(), "--out", out.to_str().unwrap(), "--poses", model.to_str().unwrap()]);
+    assert!(ok, "{log}");
+    assert!(log.contains("pose estimation (poses from"), "{log}");
+    let written = dynview_core::poses::EventPoses::read(&out.join("poses.json")).unwrap();
+    let truth = dynview_core::poses::EventPoses::from_colmap(&dynview_core::colmap::ColmapModel::read_dir(&model).unwrap()).unwrap();
+    assert_eq!(written.cameras.len(), 3);
+    for (w, t) in written.cameras.iter().zip(&truth.cameras) {
+        assert_eq!((&w.name, w.frames.len()), (&t.name, t.frames.len()));
+        for (a, b) in w.frames.iter().zip(&t.frames) {
+            assert_eq!(a.camera_from_world, b.camera_from_world);
+        }
+    }
+}
+
+#[test]
+fn bad_inputs_fail_with_the_file_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("prep");
+    let empty = dir.path().join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(!ok && log.contains("no cameras found"), "{log}");
+    std::fs::write(empty.join("cam1.mp4"), b"not a video").unwrap();
+    let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(!ok && log.contains("cam1.mp4") && log.contains("cannot decode"), "{log}");
+    let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap(), "--focal", "wide"]);
+    assert!(!ok && log.contains("--focal"), "{log}");
+    let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap(), "--stop-after", "points"]);
+    assert!(!ok && log.contains("unknown stage"), "{log}");
+}

@@ -1,0 +1,117 @@
+//! Known calibration: intrinsics (and distortion) given by the user as a `poses.json` or a
+//! COLMAP model, and the undistortion of frames when a distortion is given.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+use opencv::calib3d;
+use opencv::core::{Mat, Vector};
+use opencv::imgcodecs;
+use opencv::prelude::*;
+use rayon::prelude::*;
+
+use dynview_core::fsutil::write_atomic;
+use dynview_core::poses::{CameraPoses, EventPoses};
+
+use crate::Progress;
+use crate::error::{SfmError, SfmResult};
+use crate::geometry::Intrinsics;
+use crate::input::{EventFrames, read_bgr};
+
+/// Reads a `poses.json` file or a COLMAP model folder (text or binary).
+pub fn read_poses(path: &Path) -> SfmResult<EventPoses> {
+    if path.is_dir() {
+        let model = dynview_core::colmap::ColmapModel::read_dir(path)
+            .map_err(|e| SfmError::Input { path: path.to_path_buf(), problem: e.to_string() })?;
+        Ok(EventPoses::from_colmap(&model)?)
+    } else {
+        Ok(EventPoses::read(path)?)
+    }
+}
+
+/// The calibration of every input camera in `given`, checked against the frames' sizes.
+pub fn calibration_for<'a>(given: &'a EventPoses, path: &Path, frames: &EventFrames) -> SfmResult<Vec<&'a CameraPoses>> {
+    let bad = |problem: String| SfmError::Input { path: path.to_path_buf(), problem };
+    frames
+        .cameras
+        .iter()
+        .map(|camera| {
+            let Some(known) = given.cameras.iter().find(|c| c.name == camera.name) else {
+                let names: Vec<&str> = given.cameras.iter().map(|c| c.name.as_str()).collect();
+                return Err(bad(format!("no camera {} (it has: {})", camera.name, names.join(", "))));
+            };
+            if (known.width, known.height) != (camera.width, camera.height) {
+                return Err(bad(format!(
+                    "camera {}: calibrated for {}x{} images, its frames are {}x{}",
+                    camera.name, known.width, known.height, camera.width, camera.height
+                )));
+            }
+            Ok(known)
+        })
+        .collect()
+}
+
+/// Known intrinsics by camera name (undistorted: the frames are undistorted first).
+pub fn known_intrinsics(calibration: &[&CameraPoses]) -> BTreeMap<String, Intrinsics> {
+    calibration
+        .iter()
+        .map(|c| {
+            let k = &c.intrinsics;
+            (c.name.clone(), Intrinsics { focal_px: 0.5 * (k.fx + k.fy), cx_px: k.cx, cy_px: k.cy, k1: 0.0, k2: 0.0 })
+        })
+        .collect()
+}
+
+/// Undistorts the frames of every camera whose calibration has a distortion into
+/// `out_dir/<camera>/<t:05>.jpg` (same camera matrix, no distortion); returns the frame list
+/// with those files. Finished frames are not redone.
+pub fn undistort_frames(
+    frames: &EventFrames,
+    calibration: &[&CameraPoses],
+    out_dir: &Path,
+    progress: Progress,
+    interrupt: &AtomicBool,
+) -> SfmResult<EventFrames> {
+    let mut out = frames.clone();
+    for (camera, calib) in out.cameras.iter_mut().zip(calibration) {
+        if calib.distortion.iter().all(|d| *d == 0.0) {
+            continue;
+        }
+        let k = &calib.intrinsics;
+        let matrix = Mat::from_slice_2d(&[[k.fx, 0.0, k.cx], [0.0, k.fy, k.cy], [0.0, 0.0, 1.0]]).map_err(SfmError::cv("camera matrix"))?;
+        let distortion = Mat::from_slice(&calib.distortion).and_then(|m| m.try_clone()).map_err(SfmError::cv("distortion"))?;
+        let dir = out_dir.join(&camera.name);
+        let stamp = serde_json::to_string(&(k, calib.distortion)).unwrap_or_default();
+        let done = AtomicU64::new(0);
+        let label = format!("undistort {}", camera.name);
+        let total = camera.files.len() as u64;
+        let files = camera
+            .files
+            .par_iter()
+            .enumerate()
+            .map(|(t, source)| {
+                if interrupt.load(Ordering::Relaxed) {
+                    return Err(SfmError::Interrupted);
+                }
+                let path = dir.join(format!("{t:05}.jpg"));
+                let stamp_path = dir.join(format!(".{t:05}.calibration"));
+                if !(path.is_file() && std::fs::read_to_string(&stamp_path).is_ok_and(|s| s == stamp)) {
+                    let image = read_bgr(source)?;
+                    let mut undistorted = Mat::default();
+                    calib3d::undistort(&image, &mut undistorted, &matrix, &distortion, &matrix)
+                        .map_err(SfmError::cv("undistorting a frame"))?;
+                    let mut bytes = Vector::<u8>::new();
+                    let params = Vector::<i32>::from_slice(&[imgcodecs::IMWRITE_JPEG_QUALITY, 95]);
+                    imgcodecs::imencode(".jpg", &undistorted, &mut bytes, &params).map_err(SfmError::cv("encoding a frame"))?;
+                    write_atomic(&path, bytes.as_slice()).map_err(SfmError::io(&path))?;
+                    write_atomic(&stamp_path, stamp.as_bytes()).map_err(SfmError::io(&stamp_path))?;
+                }
+                progress(&label, done.fetch_add(1, Ordering::Relaxed) + 1, total);
+                Ok(path)
+            })
+            .collect::<SfmResult<Vec<_>>>()?;
+        camera.files = files;
+    }
+    Ok(out)
+}
