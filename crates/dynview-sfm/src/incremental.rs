@@ -444,6 +444,7 @@ pub fn reconstruct(
     match_options: &MatchOptions,
     options: &MapperOptions,
     progress: Progress,
+    interrupt: &std::sync::atomic::AtomicBool,
 ) -> SfmResult<Reconstruction> {
     let counts: Vec<usize> = images.iter().map(|i| i.xy.len()).collect();
     let matches: Vec<(usize, usize, Vec<[u32; 2]>)> = pairs.iter().map(|(a, b, v)| (*a, *b, v.inliers.clone())).collect();
@@ -498,6 +499,9 @@ pub fn reconstruct(
     let mut failed = vec![false; images.len()];
     let mut last_ba = mapper.registered();
     while let Some(i) = mapper.next_image(&failed) {
+        if interrupt.load(std::sync::atomic::Ordering::Relaxed) {
+            return Err(SfmError::Interrupted);
+        }
         if !mapper.register(i)? {
             failed[i] = true;
             continue;

@@ -5,6 +5,7 @@
 
 use std::fs;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use opencv::core::{Mat, Vector};
 use opencv::prelude::*;
@@ -156,7 +157,7 @@ pub fn read_bgr(path: &Path) -> SfmResult<Mat> {
 
 /// Decodes `video` into `out_dir/<t:05>.jpg`; returns the frame files. A finished camera (its
 /// `done.json` names the same video size) is not decoded again.
-fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: Progress) -> SfmResult<Vec<PathBuf>> {
+fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: Progress, interrupt: &AtomicBool) -> SfmResult<Vec<PathBuf>> {
     let decode = |problem: String| SfmError::Decode { path: video.to_path_buf(), problem };
     let video_bytes = fs::metadata(video).map_err(SfmError::io(video))?.len();
     let done_file = out_dir.join("done.json");
@@ -190,6 +191,9 @@ fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: Progress) 
         if frame.empty() {
             break;
         }
+        if interrupt.load(Ordering::Relaxed) {
+            return Err(SfmError::Interrupted);
+        }
         let this_size = (frame.cols(), frame.rows());
         if *size.get_or_insert(this_size) != this_size {
             return Err(decode(format!("frame {} is {}x{}, earlier frames {:?}", files.len(), this_size.0, this_size.1, size)));
@@ -215,7 +219,13 @@ fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: Progress) 
 /// Makes every camera's frame list: videos are decoded into `frames_dir/<camera>/`, image
 /// folders are listed. Cameras must have equal frame counts unless `trim` keeps the first
 /// `shortest` frames of every camera.
-pub fn decode_frames(cameras: &[DiscoveredCamera], frames_dir: &Path, trim: bool, progress: Progress) -> SfmResult<EventFrames> {
+pub fn decode_frames(
+    cameras: &[DiscoveredCamera],
+    frames_dir: &Path,
+    trim: bool,
+    progress: Progress,
+    interrupt: &AtomicBool,
+) -> SfmResult<EventFrames> {
     let mut out = Vec::new();
     for camera in cameras {
         let files = match &camera.source {
@@ -226,7 +236,7 @@ pub fn decode_frames(cameras: &[DiscoveredCamera], frames_dir: &Path, trim: bool
                 }
                 files
             }
-            CameraSource::Video(video) => decode_video(video, &frames_dir.join(&camera.name), &camera.name, progress)?,
+            CameraSource::Video(video) => decode_video(video, &frames_dir.join(&camera.name), &camera.name, progress, interrupt)?,
         };
         let first = read_bgr(&files[0])?;
         out.push(CameraFrames { name: camera.name.clone(), width: first.cols() as u32, height: first.rows() as u32, files });

@@ -165,13 +165,14 @@ pub fn reconstruct_keyframes(
     match_options: &MatchOptions,
     mapper_options: &MapperOptions,
     progress: Progress,
+    interrupt: &AtomicBool,
 ) -> SfmResult<KeyframeModel> {
     let (intrinsics, mut focal_source) = initial_intrinsics(frames, keys, pairs, known, match_options);
     let group = intrinsics_groups(frames, known, mapper_options.share_intrinsics);
     let group_count = group.iter().max().map_or(0, |g| g + 1);
     let group_intrinsics: Vec<Intrinsics> = (0..group_count).map(|g| intrinsics[group.iter().position(|&x| x == g).unwrap_or(0)]).collect();
     let images: Vec<MapImage> = keys.iter().zip(features).map(|(k, f)| MapImage { camera: group[k.camera], xy: f.xy.clone() }).collect();
-    let mut reconstruction = reconstruct(&images, pairs, group_intrinsics, match_options, mapper_options, progress)?;
+    let mut reconstruction = reconstruct(&images, pairs, group_intrinsics, match_options, mapper_options, progress, interrupt)?;
     reconstruction.intrinsics = group.iter().map(|&g| reconstruction.intrinsics[g]).collect();
     for (c, source) in focal_source.iter_mut().enumerate() {
         let sharing = group.iter().filter(|&&g| g == group[c]).count();

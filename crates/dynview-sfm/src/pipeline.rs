@@ -152,7 +152,7 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
     };
 
     let cameras = discover(input)?;
-    let mut frames = decode_frames(&cameras, &work.join("frames"), options.trim, progress)?;
+    let mut frames = decode_frames(&cameras, &work.join("frames"), options.trim, progress, interrupt)?;
     // Known calibration: from --intrinsics, else from --poses.
     let calibration_file = options.intrinsics.as_ref().or(options.poses.as_ref());
     let given = calibration_file.map(|p| read_poses(p)).transpose()?;
@@ -210,7 +210,7 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
         if known.len() == frames.cameras.len() {
             mapper.refine_focal = false;
         }
-        let model = reconstruct_keyframes(&frames, &keys, &features, &pairs, &known, &options.matching, &mapper, progress)?;
+        let model = reconstruct_keyframes(&frames, &keys, &features, &pairs, &known, &options.matching, &mapper, progress, interrupt)?;
         work.write_json("keyframes/model.json", &model)?;
         write_colmap_text(&to_colmap(&model, &frames, &features), &work.join("keyframes/model"))?;
         work.mark_done("keyframes", &key_stage)?;

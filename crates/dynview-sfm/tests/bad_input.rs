@@ -89,3 +89,15 @@ fn cameras_that_share_nothing_give_a_clear_error() {
     let err = prep(dir.path(), &PrepOptions::default()).expect_err("nothing shared").to_string();
     assert!(err.contains("structure from motion"), "{err}");
 }
+
+#[test]
+fn an_interrupted_run_stops_with_interrupted_and_keeps_finished_stages() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    camera(dir.path(), "a", 2, false);
+    camera(dir.path(), "b", 2, false);
+    let out = tempfile::tempdir().expect("temp dir");
+    let options = PrepOptions { stop_after: Stage::Keyframes, ..PrepOptions::default() };
+    let err = run(dir.path(), out.path(), &options, &|_, _, _| {}, &AtomicBool::new(true)).expect_err("interrupted");
+    assert!(matches!(err, SfmError::Interrupted), "{err}");
+    assert!(out.path().join("work/frames.json").is_file(), "the finished frames stage is kept");
+}

@@ -8,7 +8,8 @@
 //! - mean reprojection error in pixels, *recomputed* from the model (every observation of
 //!   every 3D point projected with its image's pose and camera model, distortion included),
 //!   so both methods are measured the same way whatever their `ERROR` fields hold;
-//! - after a similarity alignment of the camera centres to the ground truth
+//! - after a similarity alignment to the ground truth (rotation from the camera orientations,
+//!   scale and translation from the centres)
 //!   (`dynview_core::align`): median and largest rotation error in degrees, and median and
 //!   largest centre error in percent of the scene size (the diagonal of the bounding box of the
 //!   ground-truth camera centres).
@@ -187,7 +188,8 @@ fn table(rows: &[Row], eval: PoseEvalOptions) -> String {
     let _ = writeln!(
         s,
         "SfM: ours (`dynview prep --stop-after keyframes`) vs COLMAP {} (CPU), {threads} threads. Errors after a {} \
-         similarity alignment of the camera centres to the ground truth; centre errors in % of the scene size \
+         similarity alignment to the ground truth (rotation from the camera orientations, scale and translation \
+         from the centres: `dynview_core::align`); centre errors in % of the scene size \
          (diagonal of the ground-truth camera centres' bounding box); reprojection error recomputed from each model.\n",
         colmap_version().unwrap_or_else(|| "(version unknown)".into()),
         if eval.robust { "robust (best 80%)" } else { "least-squares" },
