@@ -3,7 +3,7 @@
 
 use opencv::calib3d;
 use opencv::core::{DMatch, Mat, Point2f, Vector};
-use opencv::features2d::BFMatcher;
+use opencv::features2d::FlannBasedMatcher;
 use opencv::prelude::*;
 
 use crate::error::{SfmError, SfmResult};
@@ -52,7 +52,7 @@ impl TwoView {
 }
 
 fn knn(query: &Mat, train: &Mat) -> SfmResult<Vector<Vector<DMatch>>> {
-    let matcher = BFMatcher::create(opencv::core::NORM_L2, false).map_err(SfmError::cv("creating a matcher"))?;
+    let matcher = FlannBasedMatcher::create().map_err(SfmError::cv("creating a matcher"))?;
     let mut matches = Vector::new();
     matcher.knn_train_match(query, train, &mut matches, 2, &Mat::default(), false).map_err(SfmError::cv("knn matching"))?;
     Ok(matches)

@@ -189,6 +189,7 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
 
     let keys = keyframes(&frames, options.keyframe_interval);
     let features = keyframe_features(&work, &frames, &keys, &options.features, progress, interrupt)?;
+    lap(&mut report, "keyframe features");
     for (k, f) in keys.iter().zip(&features) {
         if f.len() < options.matching.min_inliers {
             let c = &frames.cameras[k.camera];
@@ -206,6 +207,7 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
         work.read_json("keyframes/model.json")?
     } else {
         let pairs = match_all_pairs(&features, &options.matching, progress, interrupt)?;
+        lap(&mut report, "keyframe matching");
         let mut mapper = options.mapper.clone();
         if known.len() == frames.cameras.len() {
             mapper.refine_focal = false;
@@ -225,7 +227,7 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
     let errors = r.reprojection_errors_px(&images);
     report.keyframe_rms_px = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
     report.focal_source = model.focal_source.clone();
-    lap(&mut report, "keyframes");
+    lap(&mut report, "keyframe reconstruction");
     if options.stop_after == Stage::Keyframes {
         return Ok(report);
     }
