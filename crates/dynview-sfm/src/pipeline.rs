@@ -208,6 +208,17 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
     } else {
         let pairs = match_all_pairs(&features, &options.matching, progress, interrupt)?;
         lap(&mut report, "keyframe matching");
+        // What matched with what, for users wondering why a camera did not register.
+        let summary: Vec<(String, String, usize, usize, usize)> = pairs
+            .iter()
+            .map(|(a, b, v)| {
+                let name = |i: usize| {
+                    format!("{}/{}", frames.cameras[keys[i].camera].name, frames.cameras[keys[i].camera].file_name(keys[i].frame))
+                };
+                (name(*a), name(*b), v.inliers.len(), v.fundamental_inliers, v.homography_inliers)
+            })
+            .collect();
+        work.write_json("keyframes/pairs.json", &summary)?;
         let mut mapper = options.mapper.clone();
         if known.len() == frames.cameras.len() {
             mapper.refine_focal = false;
