@@ -50,6 +50,10 @@ pub struct Args {
     /// Refine the radial distortion (k1, k2) in the final bundle adjustment.
     #[arg(long)]
     refine_distortion: bool,
+    /// Keep principal points at the image centre (by default they are refined in the final
+    /// bundle adjustment when every camera model has at least 8 registered keyframes).
+    #[arg(long)]
+    centred_principal_point: bool,
     /// Give every camera its own intrinsics even when image sizes are equal (by default,
     /// cameras of one image size share them).
     #[arg(long)]
@@ -87,6 +91,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ..PrepOptions::default()
     };
     options.mapper.refine_distortion = args.refine_distortion;
+    options.mapper.refine_principal_point = !args.centred_principal_point;
     options.mapper.share_intrinsics = !args.per_camera_intrinsics;
     options.refine.smoothness = args.smoothness;
     options.features.max_features = args.max_features;
