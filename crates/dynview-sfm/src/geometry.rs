@@ -146,6 +146,34 @@ pub fn triangulate(views: &[(Pose, Vector2<f64>)]) -> Option<Vector3<f64>> {
     point.iter().all(|v| v.is_finite()).then_some(point)
 }
 
+/// One observation for [`triangulate_robust`]: the camera's intrinsics, its pose and the pixel.
+pub type Ray = (Intrinsics, Pose, Vector2<f64>);
+
+/// Triangulates `views`, dropping the worst-fitting observation until every remaining one is
+/// within `max_reprojection_px`; keeps the point when two or more remain and some two of their
+/// rays are at least `min_angle_deg` apart. Returns the point and the indices of the views kept.
+pub fn triangulate_robust(views: &[Ray], max_reprojection_px: f64, min_angle_deg: f64) -> Option<(Vector3<f64>, Vec<usize>)> {
+    let mut kept: Vec<usize> = (0..views.len()).collect();
+    while kept.len() >= 2 {
+        let rays: Vec<(Pose, Vector2<f64>)> = kept.iter().map(|&i| (views[i].1, views[i].0.normalized(views[i].2))).collect();
+        let xyz = triangulate(&rays)?;
+        let errors: Vec<f64> = kept.iter().map(|&i| reprojection_error_px(&views[i].0, &views[i].1, &xyz, &views[i].2)).collect();
+        let (worst, &worst_error) = errors.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+        if worst_error > max_reprojection_px {
+            kept.remove(worst);
+            continue;
+        }
+        let mut max_angle: f64 = 0.0;
+        for a in 0..rays.len() {
+            for b in a + 1..rays.len() {
+                max_angle = max_angle.max(ray_angle_rad(&rays[a].0.center_world, &rays[b].0.center_world, &xyz));
+            }
+        }
+        return (max_angle.to_degrees() >= min_angle_deg).then_some((xyz, kept));
+    }
+    None
+}
+
 /// Angle (rad) between the rays from two camera centres to a point.
 pub fn ray_angle_rad(center_a: &Vector3<f64>, center_b: &Vector3<f64>, point_world: &Vector3<f64>) -> f64 {
     let (a, b) = (point_world - center_a, point_world - center_b);

@@ -8,7 +8,7 @@ use opencv::prelude::*;
 
 use crate::Progress;
 use crate::error::{SfmError, SfmResult};
-use crate::geometry::{Intrinsics, Pose, ray_angle_rad, reprojection_error_px, triangulate};
+use crate::geometry::{Intrinsics, Pose, Ray, ray_angle_rad, reprojection_error_px, triangulate_robust};
 use crate::matching::{MatchOptions, TwoView};
 use crate::tracks::Tracks;
 
@@ -154,37 +154,18 @@ impl Mapper<'_> {
         if self.point_of_track[t].is_some() {
             return false;
         }
-        let mut obs: Vec<(usize, u32)> = self.tracks.tracks[t].iter().copied().filter(|(i, _)| self.poses[*i].is_some()).collect();
-        while obs.len() >= 2 {
-            let views: Vec<(Pose, Vector2<f64>)> = obs
-                .iter()
-                .map(|&(i, f)| {
-                    let k = &self.intrinsics[self.images[i].camera];
-                    (self.poses[i].unwrap_or_else(|| unreachable!()), k.normalized(self.observation(i, f)))
-                })
-                .collect();
-            let Some(xyz) = triangulate(&views) else { return false };
-            let errors: Vec<f64> = obs.iter().map(|&(i, f)| self.error(i, f, &xyz)).collect();
-            let (worst, &worst_error) = errors.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap_or((0, &0.0));
-            if worst_error > self.options.max_reprojection_px {
-                obs.remove(worst);
-                continue;
-            }
-            let centers: Vec<Vector3<f64>> = views.iter().map(|(p, _)| p.center_world).collect();
-            let mut max_angle: f64 = 0.0;
-            for a in 0..centers.len() {
-                for b in a + 1..centers.len() {
-                    max_angle = max_angle.max(ray_angle_rad(&centers[a], &centers[b], &xyz));
-                }
-            }
-            if max_angle.to_degrees() < self.options.min_triangulation_angle_deg {
-                return false;
-            }
-            self.point_of_track[t] = Some(self.points.len());
-            self.points.push(Some(MapPoint { xyz, observations: obs }));
-            return true;
-        }
-        false
+        let obs: Vec<(usize, u32)> = self.tracks.tracks[t].iter().copied().filter(|(i, _)| self.poses[*i].is_some()).collect();
+        let views: Vec<Ray> = obs
+            .iter()
+            .filter_map(|&(i, f)| Some((self.intrinsics[self.images[i].camera], self.poses[i]?, self.observation(i, f))))
+            .collect();
+        let Some((xyz, kept)) = triangulate_robust(&views, self.options.max_reprojection_px, self.options.min_triangulation_angle_deg)
+        else {
+            return false;
+        };
+        self.point_of_track[t] = Some(self.points.len());
+        self.points.push(Some(MapPoint { xyz, observations: kept.iter().map(|&k| obs[k]).collect() }));
+        true
     }
 
     /// Adds image `i`'s features to existing points where they agree, and triangulates the

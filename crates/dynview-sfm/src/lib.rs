@@ -8,7 +8,9 @@
 //!    self-calibration ([`focal`]), incremental reconstruction with bundle adjustment
 //!    ([`incremental`], solved by `dynview-ba`);
 //! 3. [`refine`]: every other frame matched only with its neighbour in time, posed with the
-//!    keyframes fixed and the paper's smoothness priors.
+//!    keyframes fixed and the paper's smoothness priors;
+//! 4. [`points`]: per time step, the frames matched across cameras only and triangulated with
+//!    the poses fixed (the library part of METHOD.md step 3; not yet run by `prep`).
 //!
 //! Each stage's result is kept in the output's work folder ([`work`]), so a re-run skips what
 //! is finished. Only this crate (and the CLI) depend on OpenCV.
@@ -23,6 +25,7 @@ pub mod input;
 pub mod keyframes;
 pub mod matching;
 pub mod pipeline;
+pub mod points;
 pub mod refine;
 pub mod tracks;
 pub mod work;

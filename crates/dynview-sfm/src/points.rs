@@ -1,0 +1,152 @@
+//! Per-timestep points (METHOD.md Part 1 step 3): with the poses fixed, the frames of one time
+//! step are matched across cameras only (never through time, which is what lets moving objects
+//! be reconstructed), matches are checked against the known epipolar geometry, joined into
+//! multi-view tracks, triangulated, filtered by reprojection error, ray angle and cheirality,
+//! and colored from the views that see them.
+
+use nalgebra::{Matrix3, Vector2, Vector3};
+use opencv::core::Mat;
+use opencv::prelude::*;
+
+use crate::error::{SfmError, SfmResult};
+use crate::features::{FeatureOptions, Features, extract_gray};
+use crate::geometry::{Intrinsics, Pose, Ray, triangulate_robust};
+use crate::matching::mutual_matches;
+use crate::tracks::Tracks;
+
+/// How the points of a time step are made.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PointOptions {
+    /// Lowe's ratio for the cross-camera matches.
+    pub ratio: f32,
+    /// Largest distance (px) of a match from its epipolar line under the known poses.
+    pub max_epipolar_px: f64,
+    /// Largest reprojection error (px) of an observation of a point.
+    pub max_reprojection_px: f64,
+    /// Smallest angle (degrees) between two rays of a point.
+    pub min_triangulation_angle_deg: f64,
+}
+
+impl Default for PointOptions {
+    fn default() -> Self {
+        Self { ratio: 0.8, max_epipolar_px: 2.0, max_reprojection_px: 2.0, min_triangulation_angle_deg: 2.0 }
+    }
+}
+
+/// One camera's frame at the time step, with its calibration.
+pub struct TimestepView<'a> {
+    /// Intrinsics (the frame is undistorted: `k1`, `k2` apply as given).
+    pub intrinsics: Intrinsics,
+    /// Pose at this time step.
+    pub pose: Pose,
+    /// The frame, 8-bit BGR.
+    pub image_bgr: &'a Mat,
+}
+
+/// The points of one time step.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TimestepCloud {
+    /// Positions in the world.
+    pub positions_world: Vec<Vector3<f64>>,
+    /// sRGB colors, the mean over the views that see each point.
+    pub colors: Vec<[u8; 3]>,
+    /// Number of views of each point.
+    pub views: Vec<u8>,
+}
+
+fn skew(v: Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
+}
+
+/// The essential matrix `E` with `n_b^T E n_a = 0` for normalized points of poses `a` and `b`.
+pub fn essential_between(a: &Pose, b: &Pose) -> Matrix3<f64> {
+    let rotation = b.rotation * a.rotation.transpose();
+    let translation = b.translation() - rotation * a.translation();
+    skew(translation) * rotation
+}
+
+/// Symmetric epipolar distance (px at the two focal lengths) of a normalized match.
+fn epipolar_distance_px(e: &Matrix3<f64>, na: Vector2<f64>, nb: Vector2<f64>, focal_a: f64, focal_b: f64) -> f64 {
+    let (xa, xb) = (Vector3::new(na.x, na.y, 1.0), Vector3::new(nb.x, nb.y, 1.0));
+    let (line_b, line_a) = (e * xa, e.transpose() * xb);
+    let residual = xb.dot(&line_b).abs();
+    let db = residual / line_b.fixed_rows::<2>(0).norm().max(1e-300) * focal_b;
+    let da = residual / line_a.fixed_rows::<2>(0).norm().max(1e-300) * focal_a;
+    da.max(db)
+}
+
+fn color_at(image: &Mat, pixel: Vector2<f64>) -> Option<[f64; 3]> {
+    let (x, y) = (pixel.x.round() as i32, pixel.y.round() as i32);
+    if x < 0 || y < 0 || x >= image.cols() || y >= image.rows() {
+        return None;
+    }
+    let bgr = image.at_2d::<opencv::core::Vec3b>(y, x).ok()?;
+    Some([f64::from(bgr[2]), f64::from(bgr[1]), f64::from(bgr[0])])
+}
+
+/// Triangulates the points of one time step from its views.
+pub fn timestep_points(views: &[TimestepView], features: &FeatureOptions, options: &PointOptions) -> SfmResult<TimestepCloud> {
+    let extracted: Vec<Features> = views
+        .iter()
+        .map(|v| {
+            let mut gray = Mat::default();
+            opencv::imgproc::cvt_color(v.image_bgr, &mut gray, opencv::imgproc::COLOR_BGR2GRAY, 0).map_err(SfmError::cv("grayscale"))?;
+            extract_gray(&gray, features)
+        })
+        .collect::<SfmResult<_>>()?;
+    let mats = extracted.iter().map(Features::descriptor_mat).collect::<SfmResult<Vec<_>>>()?;
+    let pixel = |v: usize, f: u32| {
+        let xy = extracted[v].xy[f as usize];
+        Vector2::new(f64::from(xy[0]), f64::from(xy[1]))
+    };
+    let mut pairs = Vec::new();
+    for a in 0..views.len() {
+        for b in a + 1..views.len() {
+            let e = essential_between(&views[a].pose, &views[b].pose);
+            let (ka, kb) = (&views[a].intrinsics, &views[b].intrinsics);
+            let matches: Vec<[u32; 2]> = mutual_matches(&mats[a], &mats[b], options.ratio)?
+                .into_iter()
+                .filter(|m| {
+                    let (na, nb) = (ka.normalized(pixel(a, m[0])), kb.normalized(pixel(b, m[1])));
+                    epipolar_distance_px(&e, na, nb, ka.focal_px, kb.focal_px) <= options.max_epipolar_px
+                })
+                .collect();
+            pairs.push((a, b, matches));
+        }
+    }
+    let counts: Vec<usize> = extracted.iter().map(Features::len).collect();
+    let tracks = Tracks::build(&counts, &pairs);
+    let mut cloud = TimestepCloud::default();
+    for track in &tracks.tracks {
+        let rays: Vec<Ray> = track.iter().map(|&(v, f)| (views[v].intrinsics, views[v].pose, pixel(v, f))).collect();
+        let Some((xyz, kept)) = triangulate_robust(&rays, options.max_reprojection_px, options.min_triangulation_angle_deg) else {
+            continue;
+        };
+        let samples: Vec<[f64; 3]> = kept.iter().filter_map(|&k| color_at(views[track[k].0].image_bgr, rays[k].2)).collect();
+        if samples.is_empty() {
+            continue;
+        }
+        let mean = |c: usize| (samples.iter().map(|s| s[c]).sum::<f64>() / samples.len() as f64).round().clamp(0.0, 255.0) as u8;
+        cloud.positions_world.push(xyz);
+        cloud.colors.push([mean(0), mean(1), mean(2)]);
+        cloud.views.push(kept.len().min(255) as u8);
+    }
+    Ok(cloud)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_essential_matrix_of_two_poses_holds_for_their_points() {
+        let a = Pose::from_angle_axis(Vector3::new(0.0, 0.2, 0.0), Vector3::new(-1.0, 0.0, 0.0));
+        let b = Pose::from_angle_axis(Vector3::new(0.05, -0.2, 0.0), Vector3::new(1.0, 0.2, 0.1));
+        let e = essential_between(&a, &b);
+        for p in [Vector3::new(0.3, 0.1, 5.0), Vector3::new(-0.5, 0.4, 7.0)] {
+            let (na, nb) = (a.project_normalized(&p).unwrap(), b.project_normalized(&p).unwrap());
+            assert!(epipolar_distance_px(&e, na, nb, 500.0, 500.0) < 1e-9);
+            assert!(epipolar_distance_px(&e, na, nb + Vector2::new(0.0, 0.01), 500.0, 500.0) > 1.0);
+        }
+    }
+}
