@@ -1,7 +1,7 @@
 //! Incremental structure from motion on keyframes: initial pair, registration by PnP,
 //! triangulation of tracks, bundle adjustment with a robust loss, outlier filtering.
 
-use nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
+use nalgebra::{Matrix3, Vector2, Vector3};
 use opencv::calib3d;
 use opencv::core::{Mat, Point2d, Point3d, Vector};
 use opencv::prelude::*;
@@ -10,6 +10,7 @@ use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 use crate::geometry::{Intrinsics, Pose, Ray, ray_angle_rad, reprojection_error_px, triangulate_robust};
 use crate::matching::{MatchOptions, TwoView};
+use crate::pnp::pnp_ransac;
 use crate::tracks::Tracks;
 
 /// How the keyframe reconstruction runs.
@@ -271,34 +272,12 @@ impl Mapper<'_> {
             return Ok(false);
         }
         let k = self.intrinsics[self.images[i].camera];
-        let camera_matrix = Mat::from_slice_2d(&[[k.focal_px, 0.0, k.cx_px], [0.0, k.focal_px, k.cy_px], [0.0, 0.0, 1.0]])
-            .map_err(SfmError::cv("camera matrix"))?;
-        let distortion = Mat::from_slice(&[k.k1, k.k2, 0.0, 0.0]).and_then(|m| m.try_clone()).map_err(SfmError::cv("distortion"))?;
-        let (mut rvec, mut tvec, mut inliers) = (Mat::default(), Mat::default(), Mat::default());
-        let ok = calib3d::solve_pnp_ransac(
-            &object,
-            &image,
-            &camera_matrix,
-            &distortion,
-            &mut rvec,
-            &mut tvec,
-            false,
-            2000,
-            self.options.max_reprojection_px as f32,
-            0.9999,
-            &mut inliers,
-            calib3d::SOLVEPNP_EPNP,
-        )
-        .map_err(SfmError::cv("PnP"))?;
-        if !ok || (inliers.rows() as usize) < self.options.min_registration_inliers {
+        let Some((pose, inliers)) = pnp_ransac(&k, &object, &image, self.options.max_reprojection_px, 2000, 0.9999)? else {
+            return Ok(false);
+        };
+        if inliers < self.options.min_registration_inliers {
             return Ok(false);
         }
-        let read = |m: &Mat| Vector3::from_fn(|r, _| m.at::<f64>(r as i32).copied().unwrap_or(f64::NAN));
-        let (aa, t) = (read(&rvec), read(&tvec));
-        if !aa.iter().chain(t.iter()).all(|v| v.is_finite()) {
-            return Ok(false);
-        }
-        let pose = Pose::from_rt(Rotation3::from_scaled_axis(aa).into_inner(), t);
         // PnP can return a mirrored pose with the points behind the camera: count the inliers
         // by our own model (cheirality included), then refine the pose alone on them.
         let mut correspondences: Vec<([f64; 3], [f64; 2])> = Vec::new();

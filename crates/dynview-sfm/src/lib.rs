@@ -25,6 +25,7 @@ pub mod input;
 pub mod keyframes;
 pub mod matching;
 pub mod pipeline;
+pub mod pnp;
 pub mod points;
 pub mod refine;
 pub mod tracks;

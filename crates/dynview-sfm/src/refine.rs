@@ -7,10 +7,8 @@
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
-use nalgebra::{Rotation3, UnitQuaternion, Vector2, Vector3};
-use opencv::calib3d;
-use opencv::core::{Mat, Point2d, Point3d, Vector};
-use opencv::prelude::*;
+use nalgebra::{UnitQuaternion, Vector2, Vector3};
+use opencv::core::{Point2d, Point3d, Vector};
 use rayon::prelude::*;
 
 use crate::Progress;
@@ -18,6 +16,7 @@ use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features};
 use crate::geometry::{Intrinsics, Pose, reprojection_error_px};
 use crate::matching::{MatchOptions, mutual_matches, verify};
+use crate::pnp::pnp_ransac;
 
 /// How frames are refined.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -125,35 +124,7 @@ fn pnp(
     if object.len() < 12 {
         return Ok(None);
     }
-    let k = intrinsics;
-    let camera_matrix = Mat::from_slice_2d(&[[k.focal_px, 0.0, k.cx_px], [0.0, k.focal_px, k.cy_px], [0.0, 0.0, 1.0]])
-        .map_err(SfmError::cv("camera matrix"))?;
-    let distortion = Mat::from_slice(&[k.k1, k.k2, 0.0, 0.0]).and_then(|m| m.try_clone()).map_err(SfmError::cv("distortion"))?;
-    let (mut rvec, mut tvec, mut inliers) = (Mat::default(), Mat::default(), Mat::default());
-    let ok = calib3d::solve_pnp_ransac(
-        &object,
-        &image,
-        &camera_matrix,
-        &distortion,
-        &mut rvec,
-        &mut tvec,
-        false,
-        1000,
-        max_px as f32,
-        0.999,
-        &mut inliers,
-        calib3d::SOLVEPNP_EPNP,
-    )
-    .map_err(SfmError::cv("PnP"))?;
-    if !ok || inliers.rows() < 12 {
-        return Ok(None);
-    }
-    let read = |m: &Mat| Vector3::from_fn(|r, _| m.at::<f64>(r as i32).copied().unwrap_or(f64::NAN));
-    let (aa, t) = (read(&rvec), read(&tvec));
-    if !aa.iter().chain(t.iter()).all(|v| v.is_finite()) {
-        return Ok(None);
-    }
-    Ok(Some(Pose::from_rt(Rotation3::from_scaled_axis(aa).into_inner(), t)))
+    Ok(pnp_ransac(intrinsics, &object, &image, max_px, 1000, 0.999)?.filter(|(_, inliers)| *inliers >= 12).map(|(pose, _)| pose))
 }
 
 /// Fills missing poses by interpolating (slerp and lerp) between the nearest posed frames.
