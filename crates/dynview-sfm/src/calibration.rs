@@ -91,9 +91,7 @@ pub fn undistort_frames(
             .par_iter()
             .enumerate()
             .map(|(t, source)| {
-                if interrupt.load(Ordering::Relaxed) {
-                    return Err(SfmError::Interrupted);
-                }
+                SfmError::check_interrupt(interrupt)?;
                 let path = dir.join(format!("{t:05}.jpg"));
                 let stamp_path = dir.join(format!(".{t:05}.calibration"));
                 if !(path.is_file() && std::fs::read_to_string(&stamp_path).is_ok_and(|s| s == stamp)) {

@@ -103,6 +103,11 @@ impl SfmError {
         move |source| Self::Io { path: path.to_path_buf(), source }
     }
 
+    /// `Err(Interrupted)` once `interrupt` is set (Ctrl-C), else `Ok`.
+    pub fn check_interrupt(interrupt: &std::sync::atomic::AtomicBool) -> SfmResult<()> {
+        if interrupt.load(std::sync::atomic::Ordering::Relaxed) { Err(Self::Interrupted) } else { Ok(()) }
+    }
+
     /// A closure wrapping an OpenCV error with what was being done.
     pub fn cv(context: impl Into<String>) -> impl FnOnce(opencv::Error) -> Self {
         let context = context.into();

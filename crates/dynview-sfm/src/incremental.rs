@@ -107,19 +107,22 @@ impl Reconstruction {
         out
     }
 
+    /// Reprojection errors (px) of a point's observations in registered images.
+    pub fn point_errors_px(&self, images: &[MapImage], point: &MapPoint) -> Vec<f64> {
+        point
+            .observations
+            .iter()
+            .filter_map(|&(image, f)| {
+                let pose = self.poses[image].as_ref()?;
+                let xy = images[image].xy[f as usize];
+                Some(reprojection_error_px(&self.intrinsics[images[image].camera], pose, &point.xyz, &pixel(xy)))
+            })
+            .collect()
+    }
+
     /// Reprojection error (px) of every observation.
     pub fn reprojection_errors_px(&self, images: &[MapImage]) -> Vec<f64> {
-        let mut out = Vec::new();
-        for point in &self.points {
-            for &(image, f) in &point.observations {
-                if let Some(pose) = &self.poses[image] {
-                    let xy = images[image].xy[f as usize];
-                    let k = &self.intrinsics[images[image].camera];
-                    out.push(reprojection_error_px(k, pose, &point.xyz, &Vector2::new(f64::from(xy[0]), f64::from(xy[1]))));
-                }
-            }
-        }
-        out
+        self.points.iter().flat_map(|point| self.point_errors_px(images, point)).collect()
     }
 }
 
@@ -476,9 +479,7 @@ pub fn reconstruct(
     let mut failed = vec![false; images.len()];
     let mut last_ba = mapper.registered();
     while let Some(i) = mapper.next_image(&failed) {
-        if interrupt.load(std::sync::atomic::Ordering::Relaxed) {
-            return Err(SfmError::Interrupted);
-        }
+        SfmError::check_interrupt(interrupt)?;
         if !mapper.register(i)? {
             failed[i] = true;
             continue;

@@ -5,7 +5,7 @@
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 use opencv::core::{Mat, Vector};
 use opencv::prelude::*;
@@ -191,9 +191,7 @@ fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: Progress, 
         if frame.empty() {
             break;
         }
-        if interrupt.load(Ordering::Relaxed) {
-            return Err(SfmError::Interrupted);
-        }
+        SfmError::check_interrupt(interrupt)?;
         let this_size = (frame.cols(), frame.rows());
         if *size.get_or_insert(this_size) != this_size {
             return Err(decode(format!("frame {} is {}x{}, earlier frames {:?}", files.len(), this_size.0, this_size.1, size)));

@@ -40,6 +40,13 @@ pub struct KeyframeModel {
     pub focal_source: Vec<String>,
 }
 
+impl KeyframeModel {
+    /// The keyframes as the reconstruction's images (physical camera and feature positions).
+    pub fn map_images(&self, features: &[Features]) -> Vec<MapImage> {
+        self.keyframes.iter().zip(features).map(|(k, f)| MapImage { camera: k.camera, xy: f.xy.clone() }).collect()
+    }
+}
+
 /// The frames every `interval` frames, in camera-then-time order.
 pub fn keyframes(frames: &EventFrames, interval: usize) -> Vec<Keyframe> {
     let n = frames.frame_count();
@@ -50,10 +57,6 @@ pub fn keyframes(frames: &EventFrames, interval: usize) -> Vec<Keyframe> {
 pub fn feature_path(work: &WorkDir, frames: &EventFrames, k: Keyframe) -> std::path::PathBuf {
     let c = &frames.cameras[k.camera];
     work.join(format!("features/{}/{}.sift", c.name, c.file_name(k.frame)))
-}
-
-fn check_interrupt(interrupt: &AtomicBool) -> SfmResult<()> {
-    if interrupt.load(Ordering::Relaxed) { Err(SfmError::Interrupted) } else { Ok(()) }
 }
 
 /// Extracts (or loads) the features of `keys`.
@@ -69,7 +72,7 @@ pub fn keyframe_features(
     let stamp = serde_json::to_string(options).unwrap_or_default();
     keys.par_iter()
         .map(|&k| {
-            check_interrupt(interrupt)?;
+            SfmError::check_interrupt(interrupt)?;
             let path = feature_path(work, frames, k);
             let stamp_path = path.with_extension("sift.options");
             let cached = std::fs::read_to_string(&stamp_path).is_ok_and(|s| s == stamp);
@@ -101,7 +104,7 @@ pub fn match_all_pairs(
     let verified: Vec<(usize, usize, TwoView)> = pairs
         .par_iter()
         .map(|&(a, b)| {
-            check_interrupt(interrupt)?;
+            SfmError::check_interrupt(interrupt)?;
             let matches = mutual_matches(&mats[a], &mats[b], options.ratio)?;
             let two_view = verify(&features[a].xy, &features[b].xy, &matches, options)?;
             progress("matching", done.fetch_add(1, Ordering::Relaxed) + 1, pairs.len() as u64);
@@ -186,29 +189,20 @@ pub fn reconstruct_keyframes(
 /// Which intrinsics each camera uses: with `share`, cameras of equal image size without
 /// different known intrinsics share one set (one camera model filmed everything), else one each.
 pub fn intrinsics_groups(frames: &EventFrames, known: &BTreeMap<String, Intrinsics>, share: bool) -> Vec<usize> {
+    if !share {
+        return (0..frames.cameras.len()).collect();
+    }
+    // Groups are numbered in order of first appearance.
     let mut keys: Vec<(u32, u32, Option<[u64; 3]>)> = Vec::new();
     frames
         .cameras
         .iter()
-        .enumerate()
-        .map(|(c, camera)| {
-            if !share {
-                return c;
-            }
+        .map(|camera| {
             let key = (camera.width, camera.height, known.get(&camera.name).map(|k| [k.focal_px, k.cx_px, k.cy_px].map(f64::to_bits)));
-            match keys.iter().position(|k| *k == key) {
-                Some(g) => g,
-                None => {
-                    keys.push(key);
-                    keys.len() - 1
-                }
-            }
-        })
-        .collect::<Vec<_>>()
-        .into_iter()
-        .scan(std::collections::BTreeMap::new(), |renumber: &mut BTreeMap<usize, usize>, g| {
-            let n = renumber.len();
-            Some(*renumber.entry(g).or_insert(n))
+            keys.iter().position(|k| *k == key).unwrap_or_else(|| {
+                keys.push(key);
+                keys.len() - 1
+            })
         })
         .collect()
 }
@@ -251,23 +245,9 @@ pub fn to_colmap(model: &KeyframeModel, frames: &EventFrames, features: &[Featur
             },
         );
     }
-    let images: Vec<MapImage> =
-        model.keyframes.iter().zip(features).map(|(k, f)| MapImage { camera: k.camera, xy: f.xy.clone() }).collect();
+    let images = model.map_images(features);
     for (p, point) in r.points.iter().enumerate() {
-        let errors: Vec<f64> = point
-            .observations
-            .iter()
-            .filter_map(|&(i, f)| {
-                let pose = r.poses[i].as_ref()?;
-                let xy = images[i].xy[f as usize];
-                Some(crate::geometry::reprojection_error_px(
-                    &r.intrinsics[images[i].camera],
-                    pose,
-                    &point.xyz,
-                    &nalgebra::Vector2::new(f64::from(xy[0]), f64::from(xy[1])),
-                ))
-            })
-            .collect();
+        let errors = r.point_errors_px(&images, point);
         let error = errors.iter().sum::<f64>() / errors.len().max(1) as f64;
         out.points3d.insert(
             p as u64 + 1,

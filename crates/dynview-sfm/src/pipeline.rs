@@ -233,9 +233,7 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
     report.keyframes = keys.len();
     report.keyframes_registered = r.poses.iter().flatten().count();
     report.keyframe_points = r.points.len();
-    let images: Vec<crate::incremental::MapImage> =
-        keys.iter().zip(&features).map(|(k, f)| crate::incremental::MapImage { camera: k.camera, xy: f.xy.clone() }).collect();
-    let errors = r.reprojection_errors_px(&images);
+    let errors = r.reprojection_errors_px(&model.map_images(&features));
     report.keyframe_rms_px = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
     report.focal_source = model.focal_source.clone();
     lap(&mut report, "keyframe reconstruction");

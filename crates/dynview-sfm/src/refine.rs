@@ -72,10 +72,6 @@ pub struct RefineReport {
     pub rms_px: f64,
 }
 
-fn check_interrupt(interrupt: &AtomicBool) -> SfmResult<()> {
-    if interrupt.load(Ordering::Relaxed) { Err(SfmError::Interrupted) } else { Ok(()) }
-}
-
 /// Carries point ids along the consecutive-frame `matches`, forward then backward, never
 /// overwriting a keyframe's own assignment or an earlier one.
 pub fn propagate(point_at: &mut [Vec<Option<u32>>], matches: &[Vec<[u32; 2]>], is_keyframe: &[bool]) {
@@ -183,7 +179,7 @@ pub fn refine_camera(
     let owned: Vec<Option<Features>> = (0..n)
         .into_par_iter()
         .map(|t| {
-            check_interrupt(interrupt)?;
+            SfmError::check_interrupt(interrupt)?;
             let f =
                 if camera.keyframes[t].is_some() { None } else { Some(crate::features::extract_file(&camera.files[t], feature_options)?) };
             progress(&label, done.fetch_add(1, Ordering::Relaxed) + 1, total);
@@ -195,7 +191,7 @@ pub fn refine_camera(
     let matches: Vec<Vec<[u32; 2]>> = (0..n.saturating_sub(1))
         .into_par_iter()
         .map(|t| {
-            check_interrupt(interrupt)?;
+            SfmError::check_interrupt(interrupt)?;
             let (a, b) = (features[t].descriptor_mat()?, features[t + 1].descriptor_mat()?);
             let m = mutual_matches(&a, &b, match_options.ratio)?;
             let v = verify(&features[t].xy, &features[t + 1].xy, &m, match_options)?;
