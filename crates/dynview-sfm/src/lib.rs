@@ -10,12 +10,15 @@
 //! 3. [`refine`]: every other frame matched only with its neighbour in time, posed with the
 //!    keyframes fixed and the paper's smoothness priors;
 //! 4. [`points`]: per time step, the frames matched across cameras only and triangulated with
-//!    the poses fixed (the library part of METHOD.md step 3; not yet run by `prep`).
+//!    the poses fixed (the library part of METHOD.md step 3; not yet run by `prep`);
+//! 5. [`densify`]: PatchMatch stereo grows those points into a denser cloud (METHOD.md step 4;
+//!    library only).
 //!
 //! Each stage's result is kept in the output's work folder ([`work`]), so a re-run skips what
 //! is finished. Only this crate (and the CLI) depend on OpenCV.
 
 pub mod calibration;
+pub mod densify;
 pub mod error;
 pub mod features;
 pub mod focal;
