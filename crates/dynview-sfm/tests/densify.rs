@@ -31,11 +31,8 @@ impl Event {
         dynview_synth::generate(&config, &event, &|_, _, _| {}).expect("synth");
         let poses = EventPoses::from_colmap(&ColmapModel::read_dir(&event.join("colmap")).expect("model")).expect("poses");
         let t = 5;
-        let images = poses
-            .cameras
-            .iter()
-            .map(|c| read_bgr(&event.join("input").join(&c.name).join(&c.frames[t].file)).expect("frame"))
-            .collect();
+        let images =
+            poses.cameras.iter().map(|c| read_bgr(&event.join("input").join(&c.name).join(&c.frames[t].file)).expect("frame")).collect();
         let intrinsics = poses
             .cameras
             .iter()
