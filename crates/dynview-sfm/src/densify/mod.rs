@@ -60,8 +60,8 @@ impl Default for DensifyOptions {
     fn default() -> Self {
         Self {
             target_points: 16_000,
-            max_side_px: 320,
-            iterations: 3,
+            max_side_px: 256,
+            iterations: 2,
             window_radius: 2,
             window_stride: 2,
             source_views: 2,
@@ -92,10 +92,8 @@ pub fn densify(views: &[TimestepView], sparse: &TimestepCloud, options: &Densify
     }
     let work: Vec<Option<view::WorkView>> =
         views.par_iter().map(|v| view::WorkView::from_view(v, options.max_side_px)).collect::<SfmResult<_>>()?;
-    let maps: Vec<Option<patchmatch::DepthMap>> = (0..work.len())
-        .into_par_iter()
-        .map(|r| patchmatch::depth_map(r, &work, &sparse.positions_world, options))
-        .collect();
+    let maps: Vec<Option<patchmatch::DepthMap>> =
+        (0..work.len()).into_par_iter().map(|r| patchmatch::depth_map(r, &work, &sparse.positions_world, options)).collect();
     let (candidates, voxel_m) = fuse::candidates(&work, &maps, options);
     Ok(fuse::reduce(&sparse, candidates, voxel_m, options.target_points))
 }

@@ -328,7 +328,7 @@ pub(super) fn depth_map(
             let (x, y) = (index % w, index / w);
             let ray_p = ray(x, y);
             let (mut best_d, mut best_n, mut best_c) = (depth[index], normal[index], cost[index]);
-            let neighbours: [(isize, isize); 3] = if forward { [(-1, 0), (0, -1), (1, -1)] } else { [(1, 0), (0, 1), (-1, 1)] };
+            let neighbours: [(isize, isize); 2] = if forward { [(-1, 0), (0, -1)] } else { [(1, 0), (0, 1)] };
             for (ox, oy) in neighbours {
                 let (nx, ny) = (x as isize + ox, y as isize + oy);
                 if nx < 0 || ny < 0 || nx >= w as isize || ny >= h as isize {
@@ -351,16 +351,13 @@ pub(super) fn depth_map(
                     (best_d, best_n, best_c) = (d, n, c);
                 }
             }
+            // Random refinement: depth and normal perturbed together.
             let rand = |k| random(seed, reference, index, sweep + 1, k);
             let d = best_d * (1.0 + DEPTH_PERTURBATION * scale * (2.0 * rand(0) - 1.0));
-            let c = matcher.cost(x, y, d, best_n);
-            if c < best_c {
-                (best_d, best_c) = (d, c);
-            }
             if let Some(n) = perturbed(best_n, ray_p, NORMAL_PERTURBATION * scale, [rand(1), rand(2), rand(3)]) {
-                let c = matcher.cost(x, y, best_d, n);
+                let c = matcher.cost(x, y, d, n);
                 if c < best_c {
-                    (best_n, best_c) = (n, c);
+                    (best_d, best_n, best_c) = (d, n, c);
                 }
             }
             (depth[index], normal[index], cost[index]) = (best_d, best_n, best_c);

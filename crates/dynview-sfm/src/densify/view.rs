@@ -41,8 +41,7 @@ impl WorkView {
         }
         let (width, height) = (image.cols() as usize, image.rows() as usize);
         let scale = (max_side_px.max(8) as f64 / width.max(height) as f64).min(1.0);
-        let (new_width, new_height) =
-            (((width as f64 * scale).round() as usize).max(1), ((height as f64 * scale).round() as usize).max(1));
+        let (new_width, new_height) = (((width as f64 * scale).round() as usize).max(1), ((height as f64 * scale).round() as usize).max(1));
         let mut small = Mat::default();
         let source = if (new_width, new_height) == (width, height) {
             image
@@ -61,10 +60,7 @@ impl WorkView {
         };
         let bytes = source.data_bytes().map_err(SfmError::cv("densify: pixels"))?;
         let rgb: Vec<[u8; 3]> = bytes.chunks_exact(3).map(|p| [p[2], p[1], p[0]]).collect();
-        let gray = rgb
-            .iter()
-            .map(|p| (0.299 * f32::from(p[0]) + 0.587 * f32::from(p[1]) + 0.114 * f32::from(p[2])) / 255.0)
-            .collect();
+        let gray = rgb.iter().map(|p| (0.299 * f32::from(p[0]) + 0.587 * f32::from(p[1]) + 0.114 * f32::from(p[2])) / 255.0).collect();
         let (sx, sy) = (new_width as f64 / width as f64, new_height as f64 / height as f64);
         Ok(Some(Self {
             width: new_width,
@@ -93,8 +89,7 @@ impl WorkView {
     /// The nearest pixel's index of a pixel position inside the image.
     pub fn index_of(&self, pixel: &Vector2<f64>) -> Option<usize> {
         let (x, y) = (pixel.x.round(), pixel.y.round());
-        (x >= 0.0 && y >= 0.0 && x < self.width as f64 && y < self.height as f64)
-            .then(|| y as usize * self.width + x as usize)
+        (x >= 0.0 && y >= 0.0 && x < self.width as f64 && y < self.height as f64).then(|| y as usize * self.width + x as usize)
     }
 
     /// World point at `depth_m` along the ray through `(x, y)`.
