@@ -34,11 +34,11 @@ pub struct DensifyOptions {
     pub max_side_px: usize,
     /// PatchMatch iterations; each is a forward and a backward raster sweep.
     pub iterations: usize,
-    /// Half-size of the matching window, in samples (window of `2 r + 1` squared samples).
+    /// Half-size of the matching window, in samples (window of `2 r + 1` squared samples; 1 to 7).
     pub window_radius: usize,
-    /// Pixels between two samples of the matching window.
+    /// Pixels between two samples of the matching window (1 to 8).
     pub window_stride: usize,
-    /// Source views matched against each reference view (closest optical axes first).
+    /// Source views matched against each reference view (closest optical axes first; at most 8).
     pub source_views: usize,
     /// The cost of a hypothesis is the mean of the best this many source views' costs.
     pub best_sources: usize,
