@@ -1,7 +1,8 @@
 //! Times per-timestep points and densification on a synthetic event (6 cameras, 960x540 by
 //! default) and measures the points' depth errors against the true surfaces.
 //!
-//! `cargo run --release -p dynview-sfm --example densify_speed [max_side_px] [iterations] [cameras]`
+//! `cargo run --release -p dynview-sfm --example densify_speed [cameras=6] [option=value ...]`, where
+//! `option` is a field of `DensifyOptions` (e.g. `max_side_px=320 iterations=3`).
 
 use std::time::Instant;
 
@@ -59,14 +60,17 @@ fn cpu_ms() -> f64 {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<usize> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
-    let defaults = DensifyOptions::default();
-    let options = DensifyOptions {
-        max_side_px: args.first().copied().unwrap_or(defaults.max_side_px),
-        iterations: args.get(1).copied().unwrap_or(defaults.iterations),
-        ..defaults
-    };
-    let cameras = args.get(2).copied().unwrap_or(6);
+    let mut options = serde_json::to_value(DensifyOptions::default())?;
+    let mut cameras = 6;
+    for arg in std::env::args().skip(1) {
+        let (key, value) = arg.split_once('=').ok_or("arguments are option=value")?;
+        if key == "cameras" {
+            cameras = value.parse()?;
+        } else {
+            options[key] = serde_json::from_str(value)?;
+        }
+    }
+    let options: DensifyOptions = serde_json::from_value(options)?;
     let dir = tempfile::tempdir()?;
     let event = dir.path().join("event");
     let config = SynthConfig { cameras, frames: 4, width: 960, height: 540, videos: false, ..SynthConfig::default() };

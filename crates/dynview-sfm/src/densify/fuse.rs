@@ -48,6 +48,8 @@ pub(super) fn candidates(work: &[Option<WorkView>], maps: &[Option<DepthMap>], o
     let max_cost = 1.0 - options.min_ncc;
     let tolerance = f64::from(options.max_relative_depth_difference);
     let kept = |map: &DepthMap, index: usize| map.depth_m[index] > 0.0 && map.cost[index] <= max_cost;
+    // With few depth maps, every other one must agree.
+    let required = options.min_consistent_views.min(maps.iter().flatten().count().saturating_sub(1));
     let per_view: Vec<Vec<(Candidate, f64)>> = (0..work.len())
         .into_par_iter()
         .map(|r| {
@@ -76,7 +78,7 @@ pub(super) fn candidates(work: &[Option<WorkView>], maps: &[Option<DepthMap>], o
                         count += 1;
                     }
                 }
-                if (count - 1) as usize >= options.min_consistent_views {
+                if (count - 1) as usize >= required {
                     let mean = |c: u32| ((c + count / 2) / count).min(255) as u8;
                     let candidate = Candidate {
                         position_world: sum / f64::from(count),
