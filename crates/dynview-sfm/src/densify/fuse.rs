@@ -48,6 +48,8 @@ pub(super) fn candidates(work: &[Option<WorkView>], maps: &[Option<DepthMap>], o
     let max_cost = 1.0 - options.min_ncc;
     let tolerance = f64::from(options.max_relative_depth_difference);
     let kept = |map: &DepthMap, index: usize| map.depth_m[index] > 0.0 && map.cost[index] <= max_cost;
+    // With few depth maps, every other one must agree.
+    let required = options.min_consistent_views.min(maps.iter().flatten().count().saturating_sub(1));
     let per_view: Vec<Vec<(Candidate, f64)>> = (0..work.len())
         .into_par_iter()
         .map(|r| {
@@ -76,7 +78,7 @@ pub(super) fn candidates(work: &[Option<WorkView>], maps: &[Option<DepthMap>], o
                         count += 1;
                     }
                 }
-                if (count - 1) as usize >= options.min_consistent_views {
+                if (count - 1) as usize >= required {
                     let mean = |c: u32| ((c + count / 2) / count).min(255) as u8;
                     let candidate = Candidate {
                         position_world: sum / f64::from(count),
@@ -146,4 +148,38 @@ pub(super) fn reduce(sparse: &TimestepCloud, candidates: Vec<Candidate>, voxel_m
         out.views.push(dense[i].views);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn candidate(x: f64, views: u8, cost: f32) -> Candidate {
+        Candidate { position_world: Vector3::new(x, 0.0, 0.0), color: [views; 3], views, cost }
+    }
+
+    #[test]
+    fn even_indices_cover_the_range() {
+        assert_eq!(even(10, 5).collect::<Vec<_>>(), [0, 2, 4, 6, 8]);
+        assert_eq!(even(3, 5).collect::<Vec<_>>(), [0, 1, 2]);
+        assert_eq!(even(0, 5).count(), 0);
+    }
+
+    #[test]
+    fn reduce_keeps_sparse_points_and_one_dense_point_per_voxel() {
+        let sparse = TimestepCloud { positions_world: vec![Vector3::new(0.05, 0.0, 0.0)], colors: vec![[9; 3]], views: vec![3] };
+        let candidates = vec![
+            candidate(0.02, 5, 0.1), // in the sparse point's voxel: dropped
+            candidate(1.01, 2, 0.3),
+            candidate(1.02, 3, 0.4), // same voxel, more views: replaces the one before
+            candidate(2.5, 2, 0.2),
+        ];
+        let cloud = reduce(&sparse, candidates, 0.1, 10);
+        assert_eq!(cloud.positions_world.len(), 3);
+        assert_eq!(cloud.views, [3, 3, 2]);
+        assert_eq!(cloud.positions_world[1].x, 1.02);
+        let thin = reduce(&sparse, vec![candidate(1.0, 2, 0.1), candidate(2.0, 2, 0.1)], 0.1, 2);
+        assert_eq!(thin.positions_world.len(), 2);
+        assert_eq!(thin.colors[0], [9; 3], "sparse points first");
+    }
 }

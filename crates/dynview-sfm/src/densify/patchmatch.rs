@@ -20,6 +20,10 @@ const DEPTH_PERTURBATION: f32 = 0.1;
 const NORMAL_PERTURBATION: f32 = 0.5;
 /// Relative depth below which a neighbour's plane is the pixel's own (not scored again).
 const SAME_PLANE_RELATIVE_DEPTH: f32 = 1e-5;
+/// Largest window half-size (samples) used, whatever the options say.
+const MAX_WINDOW_RADIUS: usize = 7;
+/// Largest window stride (px) used, whatever the options say.
+const MAX_WINDOW_STRIDE: usize = 8;
 /// Most source views per reference.
 const MAX_SOURCES: usize = 8;
 
@@ -69,7 +73,7 @@ fn normalized(a: [f32; 3]) -> Option<[f32; 3]> {
 
 impl<'a> Matcher<'a> {
     fn new(reference: &'a WorkView, sources: Vec<Source<'a>>, options: &DensifyOptions) -> Self {
-        let (radius, stride) = (options.window_radius.max(1), options.window_stride.max(1));
+        let (radius, stride) = (options.window_radius.clamp(1, MAX_WINDOW_RADIUS), options.window_stride.clamp(1, MAX_WINDOW_STRIDE));
         let (w, h) = (reference.width, reference.height);
         let samples = (2 * radius + 1) * (2 * radius + 1);
         let mut windows = vec![0.0; w * h * samples];
@@ -108,7 +112,7 @@ impl<'a> Matcher<'a> {
         let (f, cx, cy) = (r.focal_px as f32, r.cx_px as f32, r.cy_px as f32);
         let ray = [(x as f32 - cx) / f, (y as f32 - cy) / f, 1.0];
         let plane = depth_m * dot(normal, ray);
-        if !(plane.abs() > 1e-9) || !(depth_m > 0.0) {
+        if !(plane.is_finite() && depth_m.is_finite()) || plane.abs() <= 1e-9 || depth_m <= 0.0 {
             return INVALID_COST;
         }
         let mut costs = [INVALID_COST; MAX_SOURCES];
@@ -159,7 +163,7 @@ impl<'a> Matcher<'a> {
             let jf = j as f32;
             let mut q = [base[0] + jf * dy[0], base[1] + jf * dy[1], base[2] + jf * dy[2]];
             for _ in 0..=2 * radius {
-                if !(q[2] > 1e-9) {
+                if q[2].is_nan() || q[2] <= 1e-9 {
                     return None;
                 }
                 let inverse = 1.0 / q[2];
@@ -182,7 +186,7 @@ impl<'a> Matcher<'a> {
             }
         }
         let variance_s = sum_ss - sum_s * sum_s / self.samples as f32;
-        if !(variance_s > 1e-9) {
+        if variance_s.is_nan() || variance_s <= 1e-9 {
             return Some(1.0);
         }
         // The reference samples have zero mean and unit sum of squares.
@@ -328,7 +332,7 @@ pub(super) fn depth_map(
             let (x, y) = (index % w, index / w);
             let ray_p = ray(x, y);
             let (mut best_d, mut best_n, mut best_c) = (depth[index], normal[index], cost[index]);
-            let neighbours: [(isize, isize); 3] = if forward { [(-1, 0), (0, -1), (1, -1)] } else { [(1, 0), (0, 1), (-1, 1)] };
+            let neighbours: [(isize, isize); 2] = if forward { [(-1, 0), (0, -1)] } else { [(1, 0), (0, 1)] };
             for (ox, oy) in neighbours {
                 let (nx, ny) = (x as isize + ox, y as isize + oy);
                 if nx < 0 || ny < 0 || nx >= w as isize || ny >= h as isize {
@@ -351,16 +355,13 @@ pub(super) fn depth_map(
                     (best_d, best_n, best_c) = (d, n, c);
                 }
             }
+            // Random refinement: depth and normal perturbed together.
             let rand = |k| random(seed, reference, index, sweep + 1, k);
             let d = best_d * (1.0 + DEPTH_PERTURBATION * scale * (2.0 * rand(0) - 1.0));
-            let c = matcher.cost(x, y, d, best_n);
-            if c < best_c {
-                (best_d, best_c) = (d, c);
-            }
             if let Some(n) = perturbed(best_n, ray_p, NORMAL_PERTURBATION * scale, [rand(1), rand(2), rand(3)]) {
-                let c = matcher.cost(x, y, best_d, n);
+                let c = matcher.cost(x, y, d, n);
                 if c < best_c {
-                    (best_n, best_c) = (n, c);
+                    (best_d, best_n, best_c) = (d, n, c);
                 }
             }
             (depth[index], normal[index], cost[index]) = (best_d, best_n, best_c);
