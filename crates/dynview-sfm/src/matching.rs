@@ -56,11 +56,19 @@ impl TwoView {
 static FLANN_BUILD: std::sync::Mutex<()> = std::sync::Mutex::new(());
 /// The seed of every FLANN index: the same descriptors always give the same matches, whatever
 /// ran before on whichever thread (range runs must reproduce a whole run exactly).
-const FLANN_SEED: u32 = 0x5eed;
+pub const FLANN_SEED: u32 = 0x5eed;
 
-fn knn(query: &Mat, train: &Mat) -> SfmResult<Vector<Vector<DMatch>>> {
-    let mut matcher = FlannBasedMatcher::create().map_err(SfmError::cv("creating a matcher"))?;
-    {
+/// A FLANN kd-tree index over one image's descriptors, built once and queried by any number
+/// of other images.
+pub struct DescriptorIndex {
+    matcher: opencv::core::Ptr<FlannBasedMatcher>,
+    len: usize,
+}
+
+impl DescriptorIndex {
+    /// Builds the index of `train` (rows of descriptors), from [`FLANN_SEED`].
+    pub fn build(train: &Mat) -> SfmResult<Self> {
+        let mut matcher = FlannBasedMatcher::create().map_err(SfmError::cv("creating a matcher"))?;
         let _guard = FLANN_BUILD.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         // SAFETY: `srand` only sets the C library's random state; the lock keeps every index
         // build, the only user of that state here, from interleaving with another.
@@ -74,10 +82,37 @@ fn knn(query: &Mat, train: &Mat) -> SfmResult<Vector<Vector<DMatch>>> {
         trains.push(train.clone());
         opencv::prelude::FlannBasedMatcherTrait::add(&mut matcher, &trains).map_err(SfmError::cv("adding descriptors to a matcher"))?;
         opencv::prelude::FlannBasedMatcherTrait::train(&mut matcher).map_err(SfmError::cv("building a FLANN index"))?;
+        Ok(Self { matcher, len: train.rows().max(0) as usize })
     }
-    let mut matches = Vector::new();
-    matcher.knn_match(query, &mut matches, 2, &Mat::default(), false).map_err(SfmError::cv("knn matching"))?;
-    Ok(matches)
+
+    /// For each row of `query`, the index of its nearest neighbour here when it passes Lowe's
+    /// ratio test against the second nearest.
+    pub fn nearest_passing_ratio(&mut self, query: &Mat, ratio: f32) -> SfmResult<Vec<Option<u32>>> {
+        if query.rows() < 1 || self.len < 2 {
+            return Ok(vec![None; query.rows().max(0) as usize]);
+        }
+        let mut matches = Vector::new();
+        self.matcher.knn_match(query, &mut matches, 2, &Mat::default(), false).map_err(SfmError::cv("knn matching"))?;
+        Ok(best_passing_ratio(&matches, ratio, self.len))
+    }
+}
+
+/// Mutual nearest neighbours of two images whose indices are built, passing the ratio test both
+/// ways: pairs `[row of a, row of b]`.
+pub fn mutual_matches_indexed(a: (&Mat, &mut DescriptorIndex), b: (&Mat, &mut DescriptorIndex), ratio: f32) -> SfmResult<Vec<[u32; 2]>> {
+    let ab = b.1.nearest_passing_ratio(a.0, ratio)?;
+    let ba = a.1.nearest_passing_ratio(b.0, ratio)?;
+    Ok(mutual(&ab, &ba))
+}
+
+fn mutual(ab: &[Option<u32>], ba: &[Option<u32>]) -> Vec<[u32; 2]> {
+    ab.iter()
+        .enumerate()
+        .filter_map(|(i, j)| {
+            let j = (*j)?;
+            (ba.get(j as usize).copied().flatten() == Some(i as u32)).then_some([i as u32, j])
+        })
+        .collect()
 }
 
 fn best_passing_ratio(matches: &Vector<Vector<DMatch>>, ratio: f32, train_len: usize) -> Vec<Option<u32>> {
@@ -99,16 +134,8 @@ pub fn mutual_matches(a: &Mat, b: &Mat, ratio: f32) -> SfmResult<Vec<[u32; 2]>> 
     if a.rows() < 2 || b.rows() < 2 {
         return Ok(Vec::new());
     }
-    let ab = best_passing_ratio(&knn(a, b)?, ratio, b.rows() as usize);
-    let ba = best_passing_ratio(&knn(b, a)?, ratio, a.rows() as usize);
-    Ok(ab
-        .iter()
-        .enumerate()
-        .filter_map(|(i, j)| {
-            let j = (*j)?;
-            (ba.get(j as usize).copied().flatten() == Some(i as u32)).then_some([i as u32, j])
-        })
-        .collect())
+    let (mut index_a, mut index_b) = (DescriptorIndex::build(a)?, DescriptorIndex::build(b)?);
+    mutual_matches_indexed((a, &mut index_a), (b, &mut index_b), ratio)
 }
 
 fn points(xy: &[[f32; 2]], matches: &[[u32; 2]], side: usize) -> Vector<Point2f> {

@@ -232,7 +232,7 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
             problem: format!("{:?} starts past the {steps} time steps of the event", options.frames.clone().unwrap_or_default()),
         });
     }
-    let settings = StepSettings { options: options.steps.clone(), features: options.features.clone(), fps };
+    let settings = StepSettings { options: options.steps.clone(), fps };
     report.steps = Some(run_steps(&work, &frames, &event, range, &settings, progress, interrupt)?);
     lap(&mut report, "time steps");
     if options.stop_after == Stage::Points || options.frames.is_some() {
@@ -253,7 +253,9 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
 pub const DEFAULT_FPS: f64 = 30.0;
 
 fn finish(out: &Path, report: PrepReport) -> SfmResult<PrepReport> {
-    WorkDir::new(out).write_json(&format!("../{REPORT_FILE}"), &report)?;
+    let path = out.join(REPORT_FILE);
+    let text = serde_json::to_vec_pretty(&report).map_err(|e| SfmError::WorkFile { path: path.clone(), problem: e.to_string() })?;
+    dynview_core::fsutil::write_atomic(&path, &text).map_err(SfmError::io(&path))?;
     Ok(report)
 }
 

@@ -7,11 +7,12 @@
 use nalgebra::{Matrix3, Vector2, Vector3};
 use opencv::core::Mat;
 use opencv::prelude::*;
+use rayon::prelude::*;
 
 use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features, extract_gray};
 use crate::geometry::{Intrinsics, Pose, Ray, triangulate_robust};
-use crate::matching::mutual_matches;
+use crate::matching::{DescriptorIndex, mutual_matches_indexed};
 use crate::tracks::Tracks;
 
 /// How the points of a time step are made.
@@ -87,7 +88,7 @@ fn color_at(image: &Mat, pixel: Vector2<f64>) -> Option<[f64; 3]> {
 /// Triangulates the points of one time step from its views.
 pub fn timestep_points(views: &[TimestepView], features: &FeatureOptions, options: &PointOptions) -> SfmResult<TimestepCloud> {
     let extracted: Vec<Features> = views
-        .iter()
+        .par_iter()
         .map(|v| {
             let mut gray = Mat::default();
             opencv::imgproc::cvt_color(v.image_bgr, &mut gray, opencv::imgproc::COLOR_BGR2GRAY, 0).map_err(SfmError::cv("grayscale"))?;
@@ -95,6 +96,7 @@ pub fn timestep_points(views: &[TimestepView], features: &FeatureOptions, option
         })
         .collect::<SfmResult<_>>()?;
     let mats = extracted.iter().map(Features::descriptor_mat).collect::<SfmResult<Vec<_>>>()?;
+    let mut indices = mats.iter().map(DescriptorIndex::build).collect::<SfmResult<Vec<_>>>()?;
     let pixel = |v: usize, f: u32| {
         let xy = extracted[v].xy[f as usize];
         Vector2::new(f64::from(xy[0]), f64::from(xy[1]))
@@ -104,7 +106,8 @@ pub fn timestep_points(views: &[TimestepView], features: &FeatureOptions, option
         for b in a + 1..views.len() {
             let e = essential_between(&views[a].pose, &views[b].pose);
             let (ka, kb) = (&views[a].intrinsics, &views[b].intrinsics);
-            let matches: Vec<[u32; 2]> = mutual_matches(&mats[a], &mats[b], options.ratio)?
+            let (left, right) = indices.split_at_mut(b);
+            let matches: Vec<[u32; 2]> = mutual_matches_indexed((&mats[a], &mut left[a]), (&mats[b], &mut right[0]), options.ratio)?
                 .into_iter()
                 .filter(|m| {
                     let (na, nb) = (ka.normalized(pixel(a, m[0])), kb.normalized(pixel(b, m[1])));

@@ -41,6 +41,9 @@ pub const FRAME_JPEG_QUALITY: i32 = dynview_core::scene::frame::JPEG_QUALITY as 
 pub struct StepOptions {
     /// Package frames are downscaled so that their width is at most this (px); never upscaled.
     pub working_width: u32,
+    /// Features of the cross-camera matching (fewer and from smaller images than the
+    /// keyframes': densification fills in, and every time step pays for them).
+    pub features: FeatureOptions,
     /// The cross-camera points.
     pub points: PointOptions,
     /// Densification; `None` keeps the triangulated points only.
@@ -49,17 +52,29 @@ pub struct StepOptions {
 
 impl Default for StepOptions {
     fn default() -> Self {
-        Self { working_width: 960, points: PointOptions::default(), densify: Some(DensifyOptions::default()) }
+        Self {
+            working_width: 960,
+            features: FeatureOptions {
+                max_features: STEP_MAX_FEATURES,
+                max_image_size_px: STEP_MAX_IMAGE_SIZE_PX,
+                ..FeatureOptions::default()
+            },
+            points: PointOptions::default(),
+            densify: Some(DensifyOptions::default()),
+        }
     }
 }
+
+/// Most features per frame of a time step.
+pub const STEP_MAX_FEATURES: usize = 2048;
+/// Frames of a time step larger than this (longer side, px) are reduced for feature extraction.
+pub const STEP_MAX_IMAGE_SIZE_PX: u32 = 640;
 
 /// What the steps of an output were made with; equal in every output that `merge` joins.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StepSettings {
     /// The step options.
     pub options: StepOptions,
-    /// Feature extraction of the cross-camera matching.
-    pub features: FeatureOptions,
     /// Frames per second of the capture.
     pub fps: f64,
 }
@@ -244,7 +259,7 @@ fn run_step(work: &WorkDir, files: &[&[PathBuf]], event: &EventPoses, settings: 
         let intrinsics = Intrinsics { focal_px: 0.5 * (k.fx + k.fy), cx_px: k.cx, cy_px: k.cy, k1: 0.0, k2: 0.0 };
         views.push(TimestepView { intrinsics, pose: Pose::from_rigid(&rigid), image_bgr: image });
     }
-    let sparse = timestep_points(&views, &settings.features, &settings.options.points)?;
+    let sparse = timestep_points(&views, &settings.options.features, &settings.options.points)?;
     let points_seconds = lap();
     let dense = match &settings.options.densify {
         Some(options) => densify(&views, &sparse, options)?,
