@@ -17,7 +17,7 @@ use crate::focal::{PRIOR_FOCAL_FACTOR, PairGeometry, estimate_focal_factor};
 use crate::geometry::Intrinsics;
 use crate::incremental::{MapImage, MapperOptions, Reconstruction, reconstruct};
 use crate::input::EventFrames;
-use crate::matching::{MatchOptions, TwoView, mutual_matches, verify};
+use crate::matching::{MatchOptions, TwoView, build_indices, mutual_matches_shared, verify};
 use crate::work::WorkDir;
 
 /// A keyframe: camera index and frame index.
@@ -99,13 +99,14 @@ pub fn match_all_pairs(
     interrupt: &AtomicBool,
 ) -> SfmResult<Vec<(usize, usize, TwoView)>> {
     let mats = features.iter().map(Features::descriptor_mat).collect::<SfmResult<Vec<_>>>()?;
+    let indices = build_indices(&mats)?;
     let pairs: Vec<(usize, usize)> = (0..features.len()).flat_map(|a| (a + 1..features.len()).map(move |b| (a, b))).collect();
     let done = AtomicU64::new(0);
     let verified: Vec<(usize, usize, TwoView)> = pairs
         .par_iter()
         .map(|&(a, b)| {
             SfmError::check_interrupt(interrupt)?;
-            let matches = mutual_matches(&mats[a], &mats[b], options.ratio)?;
+            let matches = mutual_matches_shared(&mats, &indices, a, b, options.ratio)?;
             let two_view = verify(&features[a].xy, &features[b].xy, &matches, options)?;
             progress("matching", done.fetch_add(1, Ordering::Relaxed) + 1, pairs.len() as u64);
             Ok((a, b, two_view))

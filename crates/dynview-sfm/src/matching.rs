@@ -105,6 +105,27 @@ pub fn mutual_matches_indexed(a: (&Mat, &mut DescriptorIndex), b: (&Mat, &mut De
     Ok(mutual(&ab, &ba))
 }
 
+/// One index per descriptor matrix (built in parallel, serialised only where FLANN draws random
+/// numbers), each behind a lock so that the pairs an image is in can share it across threads.
+pub fn build_indices(mats: &[Mat]) -> SfmResult<Vec<std::sync::Mutex<DescriptorIndex>>> {
+    use rayon::prelude::*;
+    mats.par_iter().map(|m| DescriptorIndex::build(m).map(std::sync::Mutex::new)).collect()
+}
+
+/// [`mutual_matches_indexed`] with shared indices: images `a` and `b` of `mats` and `indices`.
+pub fn mutual_matches_shared(
+    mats: &[Mat],
+    indices: &[std::sync::Mutex<DescriptorIndex>],
+    a: usize,
+    b: usize,
+    ratio: f32,
+) -> SfmResult<Vec<[u32; 2]>> {
+    let lock = |i: usize| indices[i].lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let ab = lock(b).nearest_passing_ratio(&mats[a], ratio)?;
+    let ba = lock(a).nearest_passing_ratio(&mats[b], ratio)?;
+    Ok(mutual(&ab, &ba))
+}
+
 fn mutual(ab: &[Option<u32>], ba: &[Option<u32>]) -> Vec<[u32; 2]> {
     ab.iter()
         .enumerate()

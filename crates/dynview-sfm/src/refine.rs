@@ -15,7 +15,7 @@ use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features};
 use crate::geometry::{Intrinsics, Pose, reprojection_error_px};
-use crate::matching::{MatchOptions, mutual_matches, verify};
+use crate::matching::{MatchOptions, build_indices, mutual_matches_shared, verify};
 use crate::pnp::pnp_ransac;
 
 /// How frames are refined.
@@ -156,6 +156,9 @@ pub fn prior_weight(options: &RefineOptions, dt: usize) -> f64 {
     (-((dt * dt) as f64) / (2.0 * options.sigma_frames * options.sigma_frames)).exp()
 }
 
+/// Frames whose matching indices are in memory at once.
+const REFINE_CHUNK_FRAMES: usize = 32;
+
 /// Poses every frame of one camera.
 pub fn refine_camera(
     camera: &CameraTrack,
@@ -188,17 +191,25 @@ pub fn refine_camera(
         .collect::<SfmResult<Vec<_>>>()?;
     let features: Vec<&Features> =
         (0..n).map(|t| camera.keyframes[t].as_ref().map_or_else(|| owned[t].as_ref().unwrap_or_else(|| unreachable!()), |k| k.1)).collect();
-    let matches: Vec<Vec<[u32; 2]>> = (0..n.saturating_sub(1))
-        .into_par_iter()
-        .map(|t| {
-            SfmError::check_interrupt(interrupt)?;
-            let (a, b) = (features[t].descriptor_mat()?, features[t + 1].descriptor_mat()?);
-            let m = mutual_matches(&a, &b, match_options.ratio)?;
-            let v = verify(&features[t].xy, &features[t + 1].xy, &m, match_options)?;
-            progress(&label, done.fetch_add(1, Ordering::Relaxed) + 1, total);
-            Ok(v.inliers)
-        })
-        .collect::<SfmResult<Vec<_>>>()?;
+    // Frames in chunks sharing their last frame: each frame's index serves both of its pairs,
+    // and only a chunk's indices are in memory at once.
+    let mut matches: Vec<Vec<[u32; 2]>> = Vec::with_capacity(n);
+    for first in (0..n.saturating_sub(1)).step_by(REFINE_CHUNK_FRAMES) {
+        let last = (first + REFINE_CHUNK_FRAMES).min(n - 1);
+        let mats = (first..=last).map(|t| features[t].descriptor_mat()).collect::<SfmResult<Vec<_>>>()?;
+        let indices = build_indices(&mats)?;
+        let chunk = (first..last)
+            .into_par_iter()
+            .map(|t| {
+                SfmError::check_interrupt(interrupt)?;
+                let m = mutual_matches_shared(&mats, &indices, t - first, t + 1 - first, match_options.ratio)?;
+                let v = verify(&features[t].xy, &features[t + 1].xy, &m, match_options)?;
+                progress(&label, done.fetch_add(1, Ordering::Relaxed) + 1, total);
+                Ok(v.inliers)
+            })
+            .collect::<SfmResult<Vec<_>>>()?;
+        matches.extend(chunk);
+    }
     let mut point_at: Vec<Vec<Option<u32>>> =
         (0..n).map(|t| camera.keyframes[t].as_ref().map_or_else(|| vec![None; features[t].len()], |k| k.2.clone())).collect();
     propagate(&mut point_at, &matches, &is_keyframe);
