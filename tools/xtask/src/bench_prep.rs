@@ -29,14 +29,16 @@ fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg").ok().and_then(|s| s.split_whitespace().next().map(str::to_owned)).unwrap_or_else(|| "?".into())
 }
 
-/// Entry from `cargo xtask bench prep [--out DIR]`.
+/// Entry from `cargo xtask bench prep [--out DIR] [--event-only]`.
 pub fn run(args: &[String]) -> anyhow::Result<()> {
     let mut out_dir = workspace_root().join("docs/results");
+    let mut event_only = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
             "--out" => out_dir = PathBuf::from(it.next().context("--out needs a folder")?),
-            other => bail!("unknown option {other:?} for xtask bench prep (known: --out DIR)"),
+            "--event-only" => event_only = true,
+            other => bail!("unknown option {other:?} for xtask bench prep (known: --out DIR, --event-only)"),
         }
     }
     let root = workspace_root().join("target/bench/prep");
@@ -53,6 +55,10 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
         if !report.videos_written {
             bail!("the benchmark needs the event's videos: install ffmpeg");
         }
+    }
+    if event_only {
+        println!("event ready in {}", event.display());
+        return Ok(());
     }
     let dynview = dynview_binary()?;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());

@@ -55,10 +55,11 @@ commands:
                  our keyframe SfM (dynview prep) vs COLMAP on the synthetic event, the
                  Middlebury temple ring and Pose2Sim: time, registered images, reprojection
                  and pose errors against ground truth (target/bench/sfm/results.md)
-  bench prep [--out DIR]
+  bench prep [--out DIR] [--event-only]
                  the whole dynview prep (release) on a 6-camera, 100-frame, 960x540
                  hand-held synthetic event's videos: wall time, stage times, package size,
-                 points, pose accuracy (docs/results/prep.md)
+                 points, pose accuracy (docs/results/prep.md); --event-only makes the
+                 event (once) and stops
   bench-web      the viewer in headless Chromium on the demo event: time to first frame,
                  CPU-path ms per frame at 480x270 and 960x540, wasm package size
   eval [--frames N] [--methods a,b] [--params FILE] [--out DIR] [--no-pipeline] [--fresh]
