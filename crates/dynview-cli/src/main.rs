@@ -21,9 +21,13 @@ enum Command {
     Synth(commands::synth::Args),
     /// Check a scene package and print its cameras, time steps, points and size.
     Info(commands::info::Args),
-    /// Camera poses of every frame from one video or image folder per camera (structure from
-    /// motion on keyframes, then frame-to-frame refinement).
+    /// A scene package from one video or image folder per camera: camera poses (structure from
+    /// motion on keyframes, frame-to-frame refinement), per-timestep points, densification.
     Prep(commands::prep::Args),
+    /// Join the outputs of range runs (`prep --frames A..B`) into one scene package.
+    Merge(commands::package::MergeArgs),
+    /// Write one time step's cloud of a scene package as a PLY file.
+    ExportPly(commands::package::PlyArgs),
     /// Render a camera path (nerfstudio camera_path.json or dynview path) through a scene.
     Render(commands::render::Args),
     /// Convert a COLMAP model (text or binary) into poses.json.
@@ -41,6 +45,8 @@ fn main() -> std::process::ExitCode {
         Command::ImportColmap(args) => commands::colmap::run_import(args),
         Command::ExportColmap(args) => commands::colmap::run_export(args),
         Command::Prep(args) => commands::prep::run(args),
+        Command::Merge(args) => commands::package::run_merge(args),
+        Command::ExportPly(args) => commands::package::run_ply(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

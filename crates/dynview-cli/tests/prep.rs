@@ -62,6 +62,6 @@ fn bad_inputs_fail_with_the_file_named() {
     assert!(!ok && log.contains("cam1.mp4") && log.contains("cannot decode"), "{log}");
     let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap(), "--focal", "wide"]);
     assert!(!ok && log.contains("--focal"), "{log}");
-    let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap(), "--stop-after", "points"]);
+    let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap(), "--stop-after", "meshes"]);
     assert!(!ok && log.contains("unknown stage"), "{log}");
 }

@@ -271,6 +271,11 @@ impl EventPoses {
         self.cameras.iter().map(|c| c.frames.len()).sum()
     }
 
+    /// Number of time steps: the frames of the camera with the fewest (0 without cameras).
+    pub fn time_step_count(&self) -> usize {
+        self.cameras.iter().map(|c| c.frames.len()).min().unwrap_or(0)
+    }
+
     /// Number of frames with a pose, over all cameras.
     pub fn registered_frame_count(&self) -> usize {
         self.cameras.iter().flat_map(|c| &c.frames).filter(|f| f.camera_from_world.is_some()).count()

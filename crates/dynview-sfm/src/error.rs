@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-/// Errors of `dynview prep`'s pose stages.
+/// Errors of `dynview prep`.
 #[derive(Debug, thiserror::Error)]
 pub enum SfmError {
     /// The input folder has a problem (no cameras, bad names, ...).
@@ -14,9 +14,9 @@ pub enum SfmError {
         /// What is wrong.
         problem: String,
     },
-    /// Cameras have different frame counts and `--trim` was not given.
+    /// Cameras have different frame counts and `--strict-frame-counts` was given.
     #[error(
-        "cameras have different frame counts ({counts}); frames are assumed synchronized, so pass --trim to keep the first {shortest} frames of every camera"
+        "cameras have different frame counts ({counts}); frames are assumed synchronized, so run without --strict-frame-counts to keep the first {shortest} frames of every camera"
     )]
     FrameCounts {
         /// `camera: count` for every camera.
@@ -89,6 +89,9 @@ pub enum SfmError {
     /// Reading or converting poses failed.
     #[error(transparent)]
     Poses(#[from] dynview_core::poses::PosesError),
+    /// Reading or writing the scene package failed.
+    #[error(transparent)]
+    Scene(#[from] dynview_core::scene::SceneError),
     /// The run was interrupted (Ctrl-C); finished stages are kept.
     #[error("interrupted; finished stages are kept in the work folder")]
     Interrupted,

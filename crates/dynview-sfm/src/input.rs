@@ -142,6 +142,18 @@ pub fn discover(input: &Path) -> SfmResult<Vec<DiscoveredCamera>> {
     Ok(cameras)
 }
 
+/// Frames per second of the first camera that is a video and says, if any.
+pub fn video_fps(cameras: &[DiscoveredCamera]) -> Option<f64> {
+    cameras.iter().find_map(|c| match &c.source {
+        CameraSource::Video(path) => {
+            let capture = videoio::VideoCapture::from_file(path, videoio::CAP_FFMPEG).ok()?;
+            let fps = capture.get(videoio::CAP_PROP_FPS).ok()?;
+            (fps.is_finite() && fps > 0.0 && fps <= 1000.0).then_some(fps)
+        }
+        CameraSource::Images(_) => None,
+    })
+}
+
 /// Reads an image as 8-bit BGR, with an error naming the file.
 pub fn read_bgr(path: &Path) -> SfmResult<Mat> {
     let decode = |problem: String| SfmError::Decode { path: path.to_path_buf(), problem };
@@ -216,14 +228,14 @@ fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: Progress, 
 
 /// Makes every camera's frame list: videos are decoded into `frames_dir/<camera>/`, image
 /// folders are listed. Cameras must have equal frame counts unless `trim` keeps the first
-/// `shortest` frames of every camera.
+/// `shortest` frames of every camera; then the second value lists the counts before the cut.
 pub fn decode_frames(
     cameras: &[DiscoveredCamera],
     frames_dir: &Path,
     trim: bool,
     progress: Progress,
     interrupt: &AtomicBool,
-) -> SfmResult<EventFrames> {
+) -> SfmResult<(EventFrames, Option<String>)> {
     let mut out = Vec::new();
     for camera in cameras {
         let files = match &camera.source {
@@ -240,14 +252,16 @@ pub fn decode_frames(
         out.push(CameraFrames { name: camera.name.clone(), width: first.cols() as u32, height: first.rows() as u32, files });
     }
     let shortest = out.iter().map(|c| c.files.len()).min().unwrap_or(0);
+    let mut trimmed = None;
     if out.iter().any(|c| c.files.len() != shortest) {
+        let counts = out.iter().map(|c| format!("{}: {}", c.name, c.files.len())).collect::<Vec<_>>().join(", ");
         if !trim {
-            let counts = out.iter().map(|c| format!("{}: {}", c.name, c.files.len())).collect::<Vec<_>>().join(", ");
             return Err(SfmError::FrameCounts { counts, shortest });
         }
         for c in &mut out {
             c.files.truncate(shortest);
         }
+        trimmed = Some(counts);
     }
-    Ok(EventFrames { cameras: out })
+    Ok((EventFrames { cameras: out }, trimmed))
 }

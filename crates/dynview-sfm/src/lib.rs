@@ -1,7 +1,7 @@
-//! dynview's preprocessing, part 1: camera poses from raw videos.
+//! dynview's preprocessing (`dynview prep`): a scene package from raw videos.
 //!
 //! [`pipeline::run`] takes a folder with one video (or one image folder) per camera and
-//! writes every frame's pose:
+//! writes a scene package:
 //! 1. [`input`]: cameras and frames (videos decoded by OpenCV);
 //! 2. [`keyframes`]: SIFT ([`features`]) on every `kappa`-th frame, exhaustive matching with
 //!    the ratio test and cross-check and MAGSAC++ verification ([`matching`]), focal lengths by
@@ -9,14 +9,19 @@
 //!    ([`incremental`], solved by `dynview-ba`);
 //! 3. [`refine`]: every other frame matched only with its neighbour in time, posed with the
 //!    keyframes fixed and the paper's smoothness priors;
-//! 4. [`points`]: per time step, the frames matched across cameras only and triangulated with
-//!    the poses fixed (the library part of METHOD.md step 3; not yet run by `prep`).
+//! 4. [`steps`]: per time step, the frames matched across cameras only and triangulated with
+//!    the poses fixed ([`points`], METHOD.md step 3), PatchMatch stereo grows those points into
+//!    a denser cloud ([`densify`], step 4), frames reduced to the working size;
+//! 5. [`export`]: the scene package from the prepared steps of one run or of several range
+//!    runs (`dynview merge`).
 //!
 //! Each stage's result is kept in the output's work folder ([`work`]), so a re-run skips what
 //! is finished. Only this crate (and the CLI) depend on OpenCV.
 
 pub mod calibration;
+pub mod densify;
 pub mod error;
+pub mod export;
 pub mod features;
 pub mod focal;
 pub mod geometry;
@@ -28,6 +33,7 @@ pub mod pipeline;
 pub mod pnp;
 pub mod points;
 pub mod refine;
+pub mod steps;
 pub mod tracks;
 pub mod work;
 

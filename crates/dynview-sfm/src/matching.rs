@@ -51,10 +51,32 @@ impl TwoView {
     }
 }
 
+/// Serialises the building of FLANN indices, which draw from the C library's global `rand()`
+/// (and OpenCV's per-thread generator).
+static FLANN_BUILD: std::sync::Mutex<()> = std::sync::Mutex::new(());
+/// The seed of every FLANN index: the same descriptors always give the same matches, whatever
+/// ran before on whichever thread (range runs must reproduce a whole run exactly).
+const FLANN_SEED: u32 = 0x5eed;
+
 fn knn(query: &Mat, train: &Mat) -> SfmResult<Vector<Vector<DMatch>>> {
-    let matcher = FlannBasedMatcher::create().map_err(SfmError::cv("creating a matcher"))?;
+    let mut matcher = FlannBasedMatcher::create().map_err(SfmError::cv("creating a matcher"))?;
+    {
+        let _guard = FLANN_BUILD.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        // SAFETY: `srand` only sets the C library's random state; the lock keeps every index
+        // build, the only user of that state here, from interleaving with another.
+        #[allow(unsafe_code)]
+        unsafe {
+            libc::srand(FLANN_SEED)
+        };
+        // OpenCV's own generator (per thread) too, in case its FLANN draws from it.
+        opencv::core::set_rng_seed(FLANN_SEED as i32).map_err(SfmError::cv("seeding OpenCV's generator"))?;
+        let mut trains = Vector::<Mat>::new();
+        trains.push(train.clone());
+        opencv::prelude::FlannBasedMatcherTrait::add(&mut matcher, &trains).map_err(SfmError::cv("adding descriptors to a matcher"))?;
+        opencv::prelude::FlannBasedMatcherTrait::train(&mut matcher).map_err(SfmError::cv("building a FLANN index"))?;
+    }
     let mut matches = Vector::new();
-    matcher.knn_train_match(query, train, &mut matches, 2, &Mat::default(), false).map_err(SfmError::cv("knn matching"))?;
+    matcher.knn_match(query, &mut matches, 2, &Mat::default(), false).map_err(SfmError::cv("knn matching"))?;
     Ok(matches)
 }
 

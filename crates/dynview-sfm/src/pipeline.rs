@@ -2,6 +2,7 @@
 //! refinement; each saved in the work folder and skipped on a re-run with the same inputs.
 
 use std::collections::BTreeMap;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
@@ -14,13 +15,17 @@ use dynview_core::scene::manifest::PoseEntry;
 use crate::Progress;
 use crate::calibration::{calibration_for, known_intrinsics, read_poses, undistort_frames};
 use crate::error::{SfmError, SfmResult};
+use crate::export::{ExportReport, export_package, usable_poses};
 use crate::features::{FeatureOptions, Features};
 use crate::geometry::{Intrinsics, Pose};
 use crate::incremental::MapperOptions;
-use crate::input::{EventFrames, decode_frames, discover};
-use crate::keyframes::{KeyframeModel, keyframe_features, keyframes, match_all_pairs, reconstruct_keyframes, to_colmap, write_colmap_text};
+use crate::input::{EventFrames, decode_frames, discover, video_fps};
+use crate::keyframes::{
+    Keyframe, KeyframeModel, keyframe_features, keyframes, match_all_pairs, reconstruct_keyframes, to_colmap, write_colmap_text,
+};
 use crate::matching::MatchOptions;
 use crate::refine::{CameraTrack, RefineOptions, RefineReport, refine_camera};
+use crate::steps::{StepOptions, StepSettings, StepsReport, run_steps};
 use crate::work::WorkDir;
 
 /// The stages, in order.
@@ -32,6 +37,10 @@ pub enum Stage {
     Keyframes,
     /// Every frame posed.
     Poses,
+    /// Every time step's points (and densification) and package frames.
+    Points,
+    /// The scene package.
+    Package,
 }
 
 impl std::str::FromStr for Stage {
@@ -41,7 +50,9 @@ impl std::str::FromStr for Stage {
             "frames" => Ok(Self::Frames),
             "keyframes" => Ok(Self::Keyframes),
             "poses" => Ok(Self::Poses),
-            other => Err(format!("unknown stage {other:?} (expected frames, keyframes or poses)")),
+            "points" => Ok(Self::Points),
+            "package" => Ok(Self::Package),
+            other => Err(format!("unknown stage {other:?} (expected frames, keyframes, poses, points or package)")),
         }
     }
 }
@@ -51,7 +62,8 @@ impl std::str::FromStr for Stage {
 pub struct PrepOptions {
     /// Every `keyframe_interval`-th frame of every camera is a keyframe (the paper's kappa).
     pub keyframe_interval: usize,
-    /// Keep the first N frames of every camera when counts differ, N the shortest.
+    /// Keep the first N frames of every camera when counts differ, N the shortest (with a
+    /// warning); `false` makes differing counts an error.
     pub trim: bool,
     /// Focal lengths (px) known per camera name; others are estimated.
     pub focal_px: BTreeMap<String, f64>,
@@ -73,22 +85,32 @@ pub struct PrepOptions {
     /// poses in it are ignored): frames with a distortion are undistorted first, and the
     /// intrinsics are kept fixed.
     pub intrinsics: Option<PathBuf>,
+    /// The per-timestep stage.
+    pub steps: StepOptions,
+    /// Only these time steps (half-open, cut at the event's end) after the pose stage, and no
+    /// package: a range job whose output `dynview merge` joins with the others.
+    pub frames: Option<Range<usize>>,
+    /// Frames per second of the capture; by default the first video's, else 30.
+    pub fps: Option<f64>,
 }
 
 impl Default for PrepOptions {
     fn default() -> Self {
         Self {
             keyframe_interval: 20,
-            trim: false,
+            trim: true,
             focal_px: BTreeMap::new(),
             focal_px_all: None,
             features: FeatureOptions::default(),
             matching: MatchOptions::default(),
             mapper: MapperOptions::default(),
             refine: RefineOptions::default(),
-            stop_after: Stage::Poses,
+            stop_after: Stage::Package,
             poses: None,
             intrinsics: None,
+            steps: StepOptions::default(),
+            frames: None,
+            fps: None,
         }
     }
 }
@@ -107,6 +129,27 @@ impl PrepOptions {
         }
         if !(self.refine.smoothness.is_finite() && self.refine.smoothness >= 0.0) {
             return bad("smoothness", format!("must be >= 0, found {}", self.refine.smoothness));
+        }
+        if !(16..=8192).contains(&self.steps.working_width) {
+            return bad("working-width", format!("must be in 16..=8192 px, found {}", self.steps.working_width));
+        }
+        if let Some(d) = &self.steps.densify
+            && !(1..=dynview_core::scene::limits::MAX_POINTS_PER_STEP as usize).contains(&d.target_points)
+        {
+            return bad(
+                "target-points",
+                format!("must be in 1..={}, found {}", dynview_core::scene::limits::MAX_POINTS_PER_STEP, d.target_points),
+            );
+        }
+        if let Some(r) = &self.frames
+            && r.start >= r.end
+        {
+            return bad("frames", format!("{}..{} is empty (give A..B with A < B, B excluded)", r.start, r.end));
+        }
+        if let Some(fps) = self.fps
+            && !(fps.is_finite() && fps > 0.0 && fps <= 1000.0)
+        {
+            return bad("fps", format!("must be in (0, 1000], found {fps}"));
         }
         Ok(())
     }
@@ -137,9 +180,23 @@ pub struct PrepReport {
     pub stage_seconds: Vec<(String, f64)>,
     /// Where `poses.json` was written, when the pose stage ran.
     pub poses_file: Option<PathBuf>,
+    /// Problems worked around: cameras left out, frames trimmed, poses filled in.
+    pub warnings: Vec<String>,
+    /// The time steps, when they ran.
+    pub steps: Option<StepsReport>,
+    /// The package, when it was written.
+    pub package: Option<ExportReport>,
+    /// Where the package was written.
+    pub package_dir: Option<PathBuf>,
 }
 
-/// Runs the pose stages from `input` into `out` (work files under `out/work`).
+/// The report's file in the output folder.
+pub const REPORT_FILE: &str = "report.json";
+/// The package's folder in the output folder.
+pub const SCENE_DIR: &str = "scene";
+
+/// Runs `prep` from `input` into `out`: the pose stages, the time steps, the package
+/// (`out/scene`) and the report (`out/report.json`); work files under `out/work`.
 pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, interrupt: &AtomicBool) -> SfmResult<PrepReport> {
     options.validate()?;
     let work = WorkDir::new(out);
@@ -150,9 +207,94 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
         report.stage_seconds.push((name.to_string(), timer.elapsed().as_secs_f64()));
         timer = std::time::Instant::now();
     };
-
     let cameras = discover(input)?;
-    let mut frames = decode_frames(&cameras, &work.join("frames"), options.trim, progress, interrupt)?;
+    let fps = options.fps.or_else(|| video_fps(&cameras)).unwrap_or(DEFAULT_FPS);
+    let Some((frames, event)) = pose_stages(&work, out, &cameras, options, &mut report, &mut lap, progress, interrupt)? else {
+        return finish(out, report);
+    };
+    if options.stop_after == Stage::Poses {
+        return finish(out, report);
+    }
+
+    let (event, warnings) = usable_poses(&event);
+    report.warnings.extend(warnings);
+    if event.cameras.len() < 2 {
+        return Err(SfmError::Reconstruction(format!("only {} camera has poses; at least 2 are needed for points", event.cameras.len())));
+    }
+    let frames = undistorted_for(&work, &frames, &event, progress, interrupt)?;
+    let event = EventPoses { cameras: event.cameras.into_iter().map(|c| CameraPoses { distortion: [0.0; 4], ..c }).collect() };
+    let steps = event.time_step_count();
+    // A range past the end is cut there, so array jobs of equal ranges need not know the length.
+    let range = options.frames.clone().map_or(0..steps, |r| r.start..r.end.min(steps));
+    if range.is_empty() {
+        return Err(SfmError::Option {
+            option: "frames",
+            problem: format!("{:?} starts past the {steps} time steps of the event", options.frames.clone().unwrap_or_default()),
+        });
+    }
+    let settings = StepSettings { options: options.steps.clone(), features: options.features.clone(), fps };
+    report.steps = Some(run_steps(&work, &frames, &event, range, &settings, progress, interrupt)?);
+    lap(&mut report, "time steps");
+    if options.stop_after == Stage::Points || options.frames.is_some() {
+        return finish(out, report);
+    }
+
+    let scene = out.join(SCENE_DIR);
+    let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "event".into());
+    let package = export_package(&[out.to_path_buf()], &scene, &name, progress)?;
+    report.warnings.extend(package.warnings.iter().filter(|w| !report.warnings.contains(w)).cloned().collect::<Vec<_>>());
+    report.package = Some(package);
+    report.package_dir = Some(scene);
+    lap(&mut report, "package");
+    finish(out, report)
+}
+
+/// Frames per second when neither `--fps` nor a video says.
+pub const DEFAULT_FPS: f64 = 30.0;
+
+fn finish(out: &Path, report: PrepReport) -> SfmResult<PrepReport> {
+    WorkDir::new(out).write_json(&format!("../{REPORT_FILE}"), &report)?;
+    Ok(report)
+}
+
+/// The frames the time steps read: undistorted when the poses carry a distortion.
+fn undistorted_for(
+    work: &WorkDir,
+    frames: &EventFrames,
+    event: &EventPoses,
+    progress: Progress,
+    interrupt: &AtomicBool,
+) -> SfmResult<EventFrames> {
+    let mut kept =
+        EventFrames { cameras: event.cameras.iter().filter_map(|c| frames.cameras.iter().find(|f| f.name == c.name).cloned()).collect() };
+    if event.cameras.iter().any(|c| c.distortion.iter().any(|d| *d != 0.0)) {
+        let calibration: Vec<&CameraPoses> = event.cameras.iter().collect();
+        kept = undistort_frames(&kept, &calibration, &work.join("undistorted"), progress, interrupt)?;
+    }
+    Ok(kept)
+}
+
+type Lap<'a> = dyn FnMut(&mut PrepReport, &str) + 'a;
+
+/// The frames and pose stages; `None` when `stop_after` ended the run before poses.
+#[allow(clippy::too_many_arguments)]
+fn pose_stages(
+    work: &WorkDir,
+    out: &Path,
+    cameras: &[crate::input::DiscoveredCamera],
+    options: &PrepOptions,
+    report: &mut PrepReport,
+    lap: &mut Lap,
+    progress: Progress,
+    interrupt: &AtomicBool,
+) -> SfmResult<Option<(EventFrames, EventPoses)>> {
+    let (mut frames, trimmed) = decode_frames(cameras, &work.join("frames"), options.trim, progress, interrupt)?;
+    if let Some(counts) = trimmed {
+        report.warnings.push(format!(
+            "cameras have different frame counts ({counts}); frames are assumed synchronized from the first, so every camera was cut to its first {}",
+            frames.frame_count()
+        ));
+    }
     // Known calibration: from --intrinsics, else from --poses.
     let calibration_file = options.intrinsics.as_ref().or(options.poses.as_ref());
     let given = calibration_file.map(|p| read_poses(p)).transpose()?;
@@ -172,9 +314,9 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
     work.write_json("frames.json", &frames)?;
     report.cameras = frames.cameras.len();
     report.frames = frames.frame_count();
-    lap(&mut report, "frames");
+    lap(report, "frames");
     if options.stop_after == Stage::Frames {
-        return Ok(report);
+        return Ok(None);
     }
 
     if let (Some(path), Some(given)) = (&options.poses, &given) {
@@ -183,31 +325,33 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
         event.write(&poses_path)?;
         report.poses_file = Some(poses_path);
         report.skipped.push(format!("pose estimation (poses from {})", path.display()));
-        lap(&mut report, "poses");
-        return Ok(report);
+        lap(report, "poses");
+        return Ok(Some((frames, event)));
     }
 
-    let keys = keyframes(&frames, options.keyframe_interval);
-    let features = keyframe_features(&work, &frames, &keys, &options.features, progress, interrupt)?;
-    lap(&mut report, "keyframe features");
-    for (k, f) in keys.iter().zip(&features) {
-        if f.len() < options.matching.min_inliers {
-            let c = &frames.cameras[k.camera];
-            return Err(SfmError::TooFewFeatures {
-                camera: c.name.clone(),
-                file: c.file_name(k.frame),
-                found: f.len(),
-                needed: options.matching.min_inliers,
-            });
+    let mut keys = keyframes(&frames, options.keyframe_interval);
+    let mut features = keyframe_features(work, &frames, &keys, &options.features, progress, interrupt)?;
+    let unusable = textureless_cameras(&frames, &keys, &features, options.matching.min_inliers);
+    if !unusable.is_empty() {
+        if frames.cameras.len() - unusable.len() < 2 {
+            return Err(unusable.into_iter().next().map(|(_, e)| e).unwrap_or(SfmError::Reconstruction("no cameras".into())));
         }
+        for (_, error) in &unusable {
+            report.warnings.push(format!("{error}: camera left out"));
+        }
+        let names: Vec<String> = unusable.iter().map(|(c, _)| frames.cameras[*c].name.clone()).collect();
+        frames.cameras.retain(|c| !names.contains(&c.name));
+        keys = keyframes(&frames, options.keyframe_interval);
+        features = keyframe_features(work, &frames, &keys, &options.features, progress, interrupt)?;
     }
+    lap(report, "keyframe features");
     let key_stage = (&frames, options.keyframe_interval, &options.features, &options.matching, &options.mapper, &known);
     let model: KeyframeModel = if work.is_done("keyframes", &key_stage) {
         report.skipped.push("keyframes".into());
         work.read_json("keyframes/model.json")?
     } else {
         let pairs = match_all_pairs(&features, &options.matching, progress, interrupt)?;
-        lap(&mut report, "keyframe matching");
+        lap(report, "keyframe matching");
         // What matched with what, for users wondering why a camera did not register.
         let summary: Vec<(String, String, usize, usize, usize)> = pairs
             .iter()
@@ -236,19 +380,32 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, 
     let errors = r.reprojection_errors_px(&model.map_images(&features));
     report.keyframe_rms_px = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
     report.focal_source = model.focal_source.clone();
-    lap(&mut report, "keyframe reconstruction");
+    lap(report, "keyframe reconstruction");
     if options.stop_after == Stage::Keyframes {
-        return Ok(report);
+        return Ok(None);
     }
 
-    let poses = refine_all(&work, &frames, &model, &features, options, &key_stage, &mut report, progress, interrupt)?;
+    let poses = refine_all(work, &frames, &model, &features, options, &key_stage, report, progress, interrupt)?;
     let event = event_poses(&frames, &model, &poses);
     event.validate()?;
     let path = out.join(POSES_FILE);
     event.write(&path)?;
     report.poses_file = Some(path);
-    lap(&mut report, "poses");
-    Ok(report)
+    lap(report, "poses");
+    Ok(Some((frames, event)))
+}
+
+/// Cameras with a keyframe too poor in features to be matched (a black, textureless or
+/// out-of-focus video), each with the error that names its worst frame.
+fn textureless_cameras(frames: &EventFrames, keys: &[Keyframe], features: &[Features], needed: usize) -> Vec<(usize, SfmError)> {
+    let mut out: Vec<(usize, SfmError)> = Vec::new();
+    for (k, f) in keys.iter().zip(features) {
+        if f.len() < needed && !out.iter().any(|(c, _)| *c == k.camera) {
+            let c = &frames.cameras[k.camera];
+            out.push((k.camera, SfmError::TooFewFeatures { camera: c.name.clone(), file: c.file_name(k.frame), found: f.len(), needed }));
+        }
+    }
+    out
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -285,6 +442,14 @@ fn refine_all<K: Serialize>(
             {
                 keyframes[k.frame] = Some((pose, &features[i], point_of[i].clone()));
             }
+        }
+        if keyframes.iter().all(Option::is_none) {
+            report.warnings.push(format!(
+                "camera {}: none of its keyframes could be registered (it shares too few features with the other cameras)",
+                camera.name
+            ));
+            out.push(Vec::new());
+            continue;
         }
         let track =
             CameraTrack { name: &camera.name, files: &camera.files, intrinsics: r.intrinsics[c], keyframes, points_world: &points_world };

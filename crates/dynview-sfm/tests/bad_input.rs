@@ -34,15 +34,16 @@ fn prep(input: &Path, options: &PrepOptions) -> Result<dynview_sfm::PrepReport, 
 }
 
 #[test]
-fn different_frame_counts_need_trim() {
+fn different_frame_counts_are_cut_to_the_shortest_with_a_warning_or_refused_when_strict() {
     let dir = tempfile::tempdir().expect("temp dir");
     camera(dir.path(), "a", 3, false);
     camera(dir.path(), "b", 2, false);
     let frames_only = PrepOptions { stop_after: Stage::Frames, ..PrepOptions::default() };
-    let err = prep(dir.path(), &frames_only).expect_err("counts differ").to_string();
-    assert!(err.contains("a: 3") && err.contains("b: 2") && err.contains("--trim"), "{err}");
-    let report = prep(dir.path(), &PrepOptions { trim: true, ..frames_only }).expect("trimmed");
+    let report = prep(dir.path(), &frames_only).expect("trimmed");
     assert_eq!(report.frames, 2);
+    assert!(report.warnings.iter().any(|w| w.contains("a: 3") && w.contains("b: 2")), "{:?}", report.warnings);
+    let err = prep(dir.path(), &PrepOptions { trim: false, ..frames_only }).expect_err("counts differ").to_string();
+    assert!(err.contains("a: 3") && err.contains("b: 2") && err.contains("--strict-frame-counts"), "{err}");
 }
 
 #[test]
@@ -100,4 +101,41 @@ fn an_interrupted_run_stops_with_interrupted_and_keeps_finished_stages() {
     let err = run(dir.path(), out.path(), &options, &|_, _, _| {}, &AtomicBool::new(true)).expect_err("interrupted");
     assert!(matches!(err, SfmError::Interrupted), "{err}");
     assert!(out.path().join("work/frames.json").is_file(), "the finished frames stage is kept");
+}
+
+/// A synthetic event's cameras plus a black camera, a camera of an unrelated scene and a short
+/// video: the three are reported and the package is made from what is usable.
+#[test]
+fn a_black_camera_an_unrelated_camera_and_a_short_video_give_warnings_and_a_package_of_the_rest() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let event = dir.path().join("event");
+    let config = dynview_synth::SynthConfig { cameras: 4, frames: 3, width: 480, height: 270, videos: false, ..Default::default() };
+    dynview_synth::generate(&config, &event, &|_, _, _| {}).expect("synth");
+    let input = event.join("input");
+    // The last synthetic camera lost its final frame; two more cameras film nothing useful.
+    std::fs::remove_file(input.join("cam03/00002.png")).expect("shorten cam03");
+    camera(&input, "black", 3, true);
+    let unrelated = input.join("unrelated");
+    std::fs::create_dir_all(&unrelated).expect("mkdir");
+    for t in 0..3 {
+        textured(&unrelated.join(format!("{t:05}.png")), 7_000 + t);
+    }
+    let out = dir.path().join("prep");
+    let options = PrepOptions {
+        keyframe_interval: 2,
+        steps: dynview_sfm::steps::StepOptions { working_width: 240, densify: None, ..Default::default() },
+        ..PrepOptions::default()
+    };
+    let report = run(&input, &out, &options, &|_, _, _| {}, &AtomicBool::new(false)).expect("a package from the usable cameras");
+    let warnings = report.warnings.join("\n");
+    assert!(warnings.contains("cam03: 2"), "the short video is reported: {warnings}");
+    assert!(warnings.contains("camera black") && warnings.contains("textureless"), "the black camera is reported: {warnings}");
+    assert!(warnings.contains("camera unrelated"), "the unrelated camera is reported: {warnings}");
+    let package = dynview_core::scene::ScenePackage::open(out.join("scene")).expect("package");
+    let names: Vec<&str> = package.manifest().cameras.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["cam00", "cam01", "cam02", "cam03"]);
+    assert_eq!(package.time_step_count(), 2);
+    assert_eq!((package.manifest().cameras[0].width, package.manifest().cameras[0].height), (240, 135));
+    package.verify(|_| {}).expect("every cloud and frame is readable");
+    assert!(package.read_cloud(1).expect("cloud").len() > 100, "points at the last time step");
 }

@@ -11,7 +11,7 @@ use dynview_core::Rigid3;
 use dynview_core::align::{PoseEvalOptions, evaluate_poses};
 use dynview_core::colmap::ColmapModel;
 use dynview_core::poses::EventPoses;
-use dynview_sfm::{PrepOptions, run};
+use dynview_sfm::{PrepOptions, Stage, run};
 use dynview_synth::SynthConfig;
 
 const FRAMES: u32 = 25;
@@ -81,7 +81,7 @@ fn jitter(estimated: &BTreeMap<String, Rigid3>, truth: &BTreeMap<String, Rigid3>
 #[test]
 fn every_frame_is_posed_accurately_and_the_priors_reduce_jitter() {
     let out = tempfile::tempdir().expect("temp dir");
-    let options = PrepOptions { keyframe_interval: KEYFRAME_INTERVAL, ..PrepOptions::default() };
+    let options = PrepOptions { keyframe_interval: KEYFRAME_INTERVAL, stop_after: Stage::Poses, ..PrepOptions::default() };
     let stop = AtomicBool::new(false);
     let report = run(&input(), out.path(), &options, &|_, _, _| {}, &stop).expect("prep with priors");
     assert_eq!((report.cameras, report.frames), (4, FRAMES as usize));

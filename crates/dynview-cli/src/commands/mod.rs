@@ -2,6 +2,7 @@
 
 pub mod colmap;
 pub mod info;
+pub mod package;
 pub mod prep;
 pub mod render;
 pub mod synth;

@@ -1,4 +1,4 @@
-//! `dynview prep`: camera poses (and, later, clouds) from one video or image folder per camera.
+//! `dynview prep`: a scene package from one video or image folder per camera.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -6,6 +6,10 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, bail};
+use std::ops::Range;
+
+use dynview_sfm::densify::DensifyOptions;
+use dynview_sfm::steps::StepOptions;
 use dynview_sfm::{PrepOptions, Stage};
 
 use crate::progress::StageBars;
@@ -17,17 +21,17 @@ pub struct Args {
     /// come from the file or folder names; frames are assumed synchronized.
     #[arg(long)]
     input: PathBuf,
-    /// Output folder: `poses.json`, and `work/` with every stage's result (a re-run skips
-    /// finished stages).
+    /// Output folder: `scene/` (the scene package), `poses.json`, `report.json`, and `work/`
+    /// with every stage's result (a re-run skips finished stages).
     #[arg(long)]
     out: PathBuf,
     /// Every N-th frame of every camera is a keyframe of the structure from motion (kappa).
     #[arg(long, default_value_t = PrepOptions::default().keyframe_interval)]
     keyframe_interval: usize,
-    /// When cameras have different frame counts, keep the first frames of every camera up to
-    /// the shortest.
+    /// Make different frame counts an error (by default every camera is cut to the shortest,
+    /// with a warning).
     #[arg(long)]
-    trim: bool,
+    strict_frame_counts: bool,
     /// Known focal length in pixels: `PX` for every camera or `CAMERA=PX` for one (repeatable).
     /// Focal lengths not given are estimated.
     #[arg(long, value_name = "PX|CAMERA=PX")]
@@ -58,9 +62,31 @@ pub struct Args {
     /// cameras of one image size share them).
     #[arg(long)]
     per_camera_intrinsics: bool,
-    /// The last stage to run: frames, keyframes or poses.
-    #[arg(long, default_value = "poses")]
+    /// The last stage to run: frames, keyframes, poses, points or package.
+    #[arg(long, default_value = "package")]
     stop_after: Stage,
+    /// Package frames are downscaled to at most this width (px).
+    #[arg(long, default_value_t = StepOptions::default().working_width)]
+    working_width: u32,
+    /// Points per time step after densification (fewer: a smaller package).
+    #[arg(long, default_value_t = DensifyOptions::default().target_points)]
+    target_points: usize,
+    /// Keep only the triangulated points (no densification).
+    #[arg(long)]
+    no_densify: bool,
+    /// Only time steps A..B (B excluded, from 0) after the pose stage, and no package: a range
+    /// job of a scheduler array; `dynview merge` joins the ranges into the package.
+    #[arg(long, value_name = "A..B", value_parser = parse_range)]
+    frames: Option<Range<usize>>,
+    /// Frames per second of the capture (default: the first video's, else 30).
+    #[arg(long)]
+    fps: Option<f64>,
+}
+
+fn parse_range(text: &str) -> Result<Range<usize>, String> {
+    let (a, b) = text.split_once("..").ok_or_else(|| format!("{text:?}: expected A..B, e.g. 0..100"))?;
+    let parse = |s: &str| s.trim().parse::<usize>().map_err(|_| format!("{text:?}: {s:?} is not a frame number"));
+    Ok(parse(a)?..parse(b)?)
 }
 
 fn parse_focal(values: &[String]) -> anyhow::Result<(BTreeMap<String, f64>, Option<f64>)> {
@@ -82,14 +108,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (focal_px, focal_px_all) = parse_focal(&args.focal)?;
     let mut options = PrepOptions {
         keyframe_interval: args.keyframe_interval,
-        trim: args.trim,
+        trim: !args.strict_frame_counts,
         focal_px,
         focal_px_all,
         stop_after: args.stop_after,
         poses: args.poses,
         intrinsics: args.intrinsics,
+        frames: args.frames,
+        fps: args.fps,
         ..PrepOptions::default()
     };
+    options.steps.working_width = args.working_width;
+    options.steps.densify = (!args.no_densify).then(|| DensifyOptions { target_points: args.target_points, ..DensifyOptions::default() });
     options.mapper.refine_distortion = args.refine_distortion;
     options.mapper.refine_principal_point = !args.centred_principal_point;
     options.mapper.share_intrinsics = !args.per_camera_intrinsics;
@@ -132,11 +162,36 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             r.frames_with_pnp, r.frames_interpolated, r.observations, r.rms_px
         );
     }
+    if let Some(steps) = &report.steps {
+        let mean = |v: &[usize]| v.iter().sum::<usize>() as f64 / v.len().max(1) as f64;
+        println!(
+            "time steps: {} computed, {} reused; {:.0} points per step triangulated, {:.0} after densification",
+            steps.computed,
+            steps.skipped,
+            mean(&steps.sparse_points),
+            mean(&steps.points)
+        );
+    }
     for (stage, secs) in &report.stage_seconds {
-        println!("  {stage:<10} {secs:>8.1} s");
+        println!("  {stage:<24} {secs:>8.1} s");
     }
     if let Some(path) = &report.poses_file {
         println!("wrote {}", path.display());
+    }
+    if let (Some(dir), Some(package)) = (&report.package_dir, &report.package) {
+        println!(
+            "wrote {} ({} cameras x {} time steps, {} points, {:.1} MB)",
+            dir.display(),
+            package.cameras,
+            package.time_steps,
+            package.points,
+            package.bytes as f64 / 1e6
+        );
+    } else if report.steps.is_some() {
+        println!("time steps written to {}; join ranges with `dynview merge`", args.out.join("work/steps").display());
+    }
+    for warning in &report.warnings {
+        eprintln!("warning: {warning}");
     }
     println!("total {:.1} s", started.elapsed().as_secs_f64());
     Ok(())

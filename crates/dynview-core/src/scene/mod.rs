@@ -8,6 +8,7 @@ pub mod limits;
 pub mod manifest;
 #[cfg(not(target_family = "wasm"))]
 pub mod package;
+pub mod ply;
 pub mod summary;
 
 pub use cloud::{CloudIndex, PointCloud};
@@ -16,6 +17,7 @@ pub use frame::{decode_frame, encode_frame};
 pub use manifest::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, PoseEntry, StartView};
 #[cfg(not(target_family = "wasm"))]
 pub use package::{ScenePackage, SceneWriter};
+pub use ply::encode_ply;
 pub use summary::SceneSummary;
 
 #[cfg(test)]

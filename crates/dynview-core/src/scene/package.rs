@@ -244,6 +244,25 @@ impl SceneWriter {
         fs::write(&path, bytes).map_err(|e| SceneError::io(&path, e))
     }
 
+    /// Writes an already encoded frame of `camera` at time step `t` as is, after checking
+    /// from its header that it is an image of the package's format and size.
+    pub fn write_encoded_frame(&self, camera: usize, t: u32, bytes: &[u8]) -> SceneResult<()> {
+        let rel = self.checked_frame_path(camera, t)?;
+        let entry = &self.manifest.cameras[camera];
+        let format = match self.manifest.frame_format {
+            super::manifest::FrameFormat::Jpeg => image::ImageFormat::Jpeg,
+            super::manifest::FrameFormat::Png => image::ImageFormat::Png,
+            super::manifest::FrameFormat::Webp => image::ImageFormat::WebP,
+        };
+        let reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
+        let size = reader.into_dimensions().map_err(|source| SceneError::Image { file: rel.clone(), source })?;
+        if size != (entry.width, entry.height) {
+            return Err(SceneError::invalid(rel, "(image size)", format!("{size:?}, expected {}x{}", entry.width, entry.height)));
+        }
+        let path = self.staging_dir.join(&rel);
+        fs::write(&path, bytes).map_err(|e| SceneError::io(&path, e))
+    }
+
     fn checked_frame_path(&self, camera: usize, t: u32) -> SceneResult<String> {
         if camera >= self.manifest.cameras.len() || t >= self.manifest.time_step_count {
             return Err(SceneError::invalid(MANIFEST_FILE, "cameras", format!("frame ({camera}, {t}) out of range")));

@@ -1,0 +1,106 @@
+//! Times per-timestep points and densification on a synthetic event (6 cameras, 960x540 by
+//! default) and measures the points' depth errors against the true surfaces.
+//!
+//! `cargo run --release -p dynview-sfm --example densify_speed [max_side_px] [iterations] [cameras]`
+
+use std::time::Instant;
+
+use dynview_core::colmap::ColmapModel;
+use dynview_core::poses::EventPoses;
+use dynview_sfm::densify::{DensifyOptions, densify};
+use dynview_sfm::features::FeatureOptions;
+use dynview_sfm::geometry::{Intrinsics, Pose};
+use dynview_sfm::input::read_bgr;
+use dynview_sfm::points::{PointOptions, TimestepCloud, TimestepView, timestep_points};
+use dynview_synth::SynthConfig;
+use dynview_synth::scene::{Frame, default_objects};
+use glam::DVec3;
+
+/// Median and 90th percentile of the relative depth errors from `origin`, share over 5%, and
+/// points within 1% on moving objects.
+fn accuracy(config: &SynthConfig, t: usize, origin: DVec3, cloud: &TimestepCloud) -> (f64, f64, f64, usize) {
+    let objects = default_objects(config.seed);
+    let frame = Frame::at(&objects, config.time_s(t as u32));
+    let mut errors = Vec::new();
+    let mut on_moving = 0;
+    for p in &cloud.positions_world {
+        let point = DVec3::new(p.x, p.y, p.z);
+        let distance = (point - origin).length();
+        let error = frame.trace(origin, (point - origin) / distance).map_or(f64::INFINITY, |hit| {
+            let error = (hit.t - distance).abs() / distance;
+            if objects[hit.object].motion.is_dynamic() && error < 0.01 {
+                on_moving += 1;
+            }
+            error
+        });
+        errors.push(error);
+    }
+    if errors.is_empty() {
+        return (f64::NAN, f64::NAN, f64::NAN, 0);
+    }
+    errors.sort_by(f64::total_cmp);
+    let q = |q: f64| errors[((errors.len() - 1) as f64 * q) as usize];
+    let off = errors.iter().filter(|&&e| e > 0.05).count() as f64 / errors.len() as f64;
+    (q(0.5), q(0.9), off, on_moving)
+}
+
+/// CPU time (ms) of this process so far, user and system (Linux; 0 elsewhere).
+fn cpu_ms() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let fields: Vec<&str> = stat.rsplit(')').next().unwrap_or("").split_whitespace().collect();
+    let ticks = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok()).unwrap_or(0.0);
+    (ticks(11) + ticks(12)) * 10.0
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<usize> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
+    let defaults = DensifyOptions::default();
+    let options = DensifyOptions {
+        max_side_px: args.first().copied().unwrap_or(defaults.max_side_px),
+        iterations: args.get(1).copied().unwrap_or(defaults.iterations),
+        ..defaults
+    };
+    let cameras = args.get(2).copied().unwrap_or(6);
+    let dir = tempfile::tempdir()?;
+    let event = dir.path().join("event");
+    let config = SynthConfig { cameras, frames: 4, width: 960, height: 540, videos: false, ..SynthConfig::default() };
+    dynview_synth::generate(&config, &event, &|_, _, _| {})?;
+    let poses = EventPoses::from_colmap(&ColmapModel::read_dir(&event.join("colmap"))?)?;
+    println!("{cameras} cameras 960x540, {options:?}, {} rayon threads", rayon::current_num_threads());
+    for t in [1, 3] {
+        let images = poses
+            .cameras
+            .iter()
+            .map(|c| read_bgr(&event.join("input").join(&c.name).join(&c.frames[t].file)))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut views = Vec::new();
+        for (c, (camera, image)) in poses.cameras.iter().zip(&images).enumerate() {
+            let k = &camera.intrinsics;
+            views.push(TimestepView {
+                intrinsics: Intrinsics { focal_px: k.fx, cx_px: k.cx, cy_px: k.cy, k1: 0.0, k2: 0.0 },
+                pose: Pose::from_rigid(&poses.camera_from_world(c, t).ok_or("no pose")?),
+                image_bgr: image,
+            });
+        }
+        let center = views[0].pose.center_world;
+        let origin = DVec3::new(center.x, center.y, center.z);
+        let start = Instant::now();
+        let sparse = timestep_points(&views, &FeatureOptions::default(), &PointOptions::default())?;
+        let points_ms = start.elapsed().as_secs_f64() * 1e3;
+        let (start, cpu_start) = (Instant::now(), cpu_ms());
+        let dense = densify(&views, &sparse, &options)?;
+        let densify_ms = start.elapsed().as_secs_f64() * 1e3;
+        println!("t={t} densify: {densify_ms:.1} ms wall, {:.1} ms CPU (all threads)", cpu_ms() - cpu_start);
+        for (name, cloud, ms) in [("sparse", &sparse, points_ms), ("dense", &dense, densify_ms)] {
+            let (median, p90, off, moving) = accuracy(&config, t, origin, cloud);
+            println!(
+                "t={t} {name:>6}: {:6} points in {ms:7.1} ms; depth error median {:.3}% p90 {:.3}%, {:.2}% over 5%, {moving} on moving objects",
+                cloud.positions_world.len(),
+                100.0 * median,
+                100.0 * p90,
+                100.0 * off
+            );
+        }
+    }
+    Ok(())
+}

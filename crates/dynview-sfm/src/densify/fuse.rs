@@ -1,0 +1,149 @@
+//! From depth maps to points: the cost threshold, the geometric consistency between views, fusion
+//! of the agreeing views, the merge with the sparse points on a voxel grid and the even thinning.
+
+use std::collections::HashMap;
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use super::DensifyOptions;
+use super::patchmatch::DepthMap;
+use super::view::WorkView;
+use crate::points::TimestepCloud;
+
+/// A dense point before the merge.
+pub(super) struct Candidate {
+    position_world: Vector3<f64>,
+    color: [u8; 3],
+    /// Views agreeing on it, its reference included.
+    views: u8,
+    cost: f32,
+}
+
+/// The sparse points with finite coordinates.
+pub(super) fn finite_sparse(sparse: &TimestepCloud) -> TimestepCloud {
+    let mut out = TimestepCloud::default();
+    for (i, p) in sparse.positions_world.iter().enumerate() {
+        if p.iter().all(|v| v.is_finite()) {
+            out.positions_world.push(*p);
+            out.colors.push(sparse.colors.get(i).copied().unwrap_or([0; 3]));
+            out.views.push(sparse.views.get(i).copied().unwrap_or(0));
+        }
+    }
+    out
+}
+
+/// Depth (m) along the ray through `pixel` of `view` of the plane at the nearest pixel `index`.
+fn plane_depth_m(view: &WorkView, map: &DepthMap, index: usize, pixel: (f64, f64)) -> f64 {
+    let n = map.normal_camera[index].map(f64::from);
+    let n = Vector3::new(n[0], n[1], n[2]);
+    let centre = view.ray_camera((index % view.width) as f64, (index / view.width) as f64) * f64::from(map.depth_m[index]);
+    let depth = n.dot(&centre) / n.dot(&view.ray_camera(pixel.0, pixel.1));
+    if depth.is_finite() && depth > 0.0 { depth } else { f64::from(map.depth_m[index]) }
+}
+
+/// The points of every depth map that pass the cost threshold and agree with enough other views,
+/// in view and raster order, and the voxel edge (m) that merges duplicates.
+pub(super) fn candidates(work: &[Option<WorkView>], maps: &[Option<DepthMap>], options: &DensifyOptions) -> (Vec<Candidate>, f64) {
+    let max_cost = 1.0 - options.min_ncc;
+    let tolerance = f64::from(options.max_relative_depth_difference);
+    let kept = |map: &DepthMap, index: usize| map.depth_m[index] > 0.0 && map.cost[index] <= max_cost;
+    let per_view: Vec<Vec<(Candidate, f64)>> = (0..work.len())
+        .into_par_iter()
+        .map(|r| {
+            let (Some(view), Some(map)) = (&work[r], &maps[r]) else { return Vec::new() };
+            let mut out = Vec::new();
+            for index in 0..map.depth_m.len() {
+                if !kept(map, index) {
+                    continue;
+                }
+                let (x, y) = ((index % view.width) as f64, (index / view.width) as f64);
+                let depth = f64::from(map.depth_m[index]);
+                let point = view.world_at(x, y, depth);
+                let (mut sum, mut color, mut count) = (point, view.rgb[index].map(u32::from), 1u32);
+                for (j, (other, other_map)) in work.iter().zip(maps).enumerate() {
+                    let (Some(other), Some(other_map)) = (other, other_map) else { continue };
+                    if j == r {
+                        continue;
+                    }
+                    let Some((pixel, z)) = other.project(&point) else { continue };
+                    let Some(at) = other.index_of(&pixel).filter(|&at| kept(other_map, at)) else { continue };
+                    let z_other = plane_depth_m(other, other_map, at, (pixel.x, pixel.y));
+                    if (z_other - z).abs() <= tolerance * z {
+                        sum += other.world_at(pixel.x, pixel.y, z_other);
+                        let c = other.rgb[at];
+                        color = [color[0] + u32::from(c[0]), color[1] + u32::from(c[1]), color[2] + u32::from(c[2])];
+                        count += 1;
+                    }
+                }
+                if (count - 1) as usize >= options.min_consistent_views {
+                    let mean = |c: u32| ((c + count / 2) / count).min(255) as u8;
+                    let candidate = Candidate {
+                        position_world: sum / f64::from(count),
+                        color: [mean(color[0]), mean(color[1]), mean(color[2])],
+                        views: count.min(255) as u8,
+                        cost: map.cost[index],
+                    };
+                    out.push((candidate, depth / view.focal_px));
+                }
+            }
+            out
+        })
+        .collect();
+    let mut footprints: Vec<f64> = per_view.iter().flatten().map(|(_, f)| *f).collect();
+    let voxel_m = if footprints.is_empty() {
+        1.0
+    } else {
+        let middle = footprints.len() / 2;
+        *footprints.select_nth_unstable_by(middle, f64::total_cmp).1 * options.voxel_px
+    };
+    (per_view.into_iter().flatten().map(|(c, _)| c).collect(), voxel_m)
+}
+
+/// `count` indices spread evenly over `0..len`.
+fn even(len: usize, count: usize) -> impl Iterator<Item = usize> {
+    let count = count.min(len);
+    (0..count).map(move |i| (i as u128 * len as u128 / count as u128) as usize)
+}
+
+/// The sparse points (all of them when they fit) and the dense candidates not in a sparse point's
+/// voxel, one per voxel (most agreeing views, then lowest cost), thinned evenly to `target` in all.
+pub(super) fn reduce(sparse: &TimestepCloud, candidates: Vec<Candidate>, voxel_m: f64, target: usize) -> TimestepCloud {
+    let mut out = TimestepCloud::default();
+    let n_sparse = sparse.positions_world.len();
+    for i in even(n_sparse, target) {
+        out.positions_world.push(sparse.positions_world[i]);
+        out.colors.push(sparse.colors[i]);
+        out.views.push(sparse.views[i]);
+    }
+    let remaining = target.saturating_sub(out.positions_world.len());
+    if remaining == 0 || candidates.is_empty() {
+        return out;
+    }
+    let voxel_m = if voxel_m.is_finite() && voxel_m > 0.0 { voxel_m } else { 1.0 };
+    let key = |p: &Vector3<f64>| [(p.x / voxel_m).floor() as i64, (p.y / voxel_m).floor() as i64, (p.z / voxel_m).floor() as i64];
+    // Value: `None` for a sparse point's voxel, else the index of the voxel's dense point.
+    let mut voxels: HashMap<[i64; 3], Option<usize>> = sparse.positions_world.iter().map(|p| (key(p), None)).collect();
+    let mut dense: Vec<Candidate> = Vec::new();
+    for c in candidates {
+        match voxels.get(&key(&c.position_world)) {
+            Some(None) => {}
+            Some(Some(i)) => {
+                let held = &dense[*i];
+                if c.views > held.views || (c.views == held.views && c.cost < held.cost) {
+                    dense[*i] = c;
+                }
+            }
+            None => {
+                voxels.insert(key(&c.position_world), Some(dense.len()));
+                dense.push(c);
+            }
+        }
+    }
+    for i in even(dense.len(), remaining) {
+        out.positions_world.push(dense[i].position_world);
+        out.colors.push(dense[i].color);
+        out.views.push(dense[i].views);
+    }
+    out
+}

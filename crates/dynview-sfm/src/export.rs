@@ -1,0 +1,239 @@
+//! The scene package from prepared time steps (METHOD.md Part 1 step 5): `prep` writes it at
+//! the end of a whole run, and `dynview merge` from the outputs of several range runs
+//! (`prep --frames A..B`), which must share the pose stage. The package is the same either way:
+//! bounds come from the points of every step, frames are copied byte for byte.
+
+use std::path::{Path, PathBuf};
+
+use dynview_core::poses::{EventPoses, POSES_FILE};
+use dynview_core::scene::manifest::{FORMAT_NAME, FORMAT_VERSION};
+use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, PointCloud, SceneWriter, StartView};
+
+use crate::Progress;
+use crate::error::{SfmError, SfmResult};
+use crate::steps::{SETTINGS_FILE, StepSettings, cloud_path, frame_path, is_step_done, read_cloud, resized_intrinsics, working_size};
+use crate::work::WorkDir;
+
+/// Share of points cut at each end of each axis when the quantisation box is chosen, so that a
+/// few stray points do not coarsen the 16-bit grid of all the others.
+pub const BOUNDS_TAIL_FRACTION: f64 = 0.001;
+/// Margin added on each side of the box, as a share of its extent.
+pub const BOUNDS_MARGIN_FRACTION: f64 = 0.02;
+/// Most coordinates sampled per axis to choose the box.
+const BOUNDS_SAMPLES: usize = 4_000_000;
+
+/// What an export wrote.
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+pub struct ExportReport {
+    /// Time steps.
+    pub time_steps: usize,
+    /// Cameras in the package.
+    pub cameras: usize,
+    /// Points over all steps (after the bounds cut).
+    pub points: usize,
+    /// Points dropped outside the bounds.
+    pub points_outside_bounds: usize,
+    /// Size of the package in bytes.
+    pub bytes: u64,
+    /// Problems worked around (cameras dropped, poses filled in).
+    pub warnings: Vec<String>,
+}
+
+/// The cameras of `event` that the package can use: frames without a pose take the pose of the
+/// nearest posed frame of the same camera, and a camera with no pose at all is left out. Returns
+/// the usable event and a warning per change.
+pub fn usable_poses(event: &EventPoses) -> (EventPoses, Vec<String>) {
+    let mut warnings = Vec::new();
+    let mut cameras = Vec::new();
+    for camera in &event.cameras {
+        let posed: Vec<usize> = (0..camera.frames.len()).filter(|&t| camera.frames[t].camera_from_world.is_some()).collect();
+        if posed.is_empty() {
+            warnings.push(format!("camera {} has no pose at any frame (it shares too little with the others): left out", camera.name));
+            continue;
+        }
+        let mut camera = camera.clone();
+        let missing = camera.frames.len() - posed.len();
+        if missing > 0 {
+            for t in 0..camera.frames.len() {
+                if camera.frames[t].camera_from_world.is_none() {
+                    let nearest = *posed.iter().min_by_key(|&&p| p.abs_diff(t)).unwrap_or(&posed[0]);
+                    camera.frames[t].camera_from_world = camera.frames[nearest].camera_from_world;
+                }
+            }
+            warnings.push(format!("camera {}: {missing} frames without a pose take the pose of the nearest posed frame", camera.name));
+        }
+        cameras.push(camera);
+    }
+    (EventPoses { cameras }, warnings)
+}
+
+/// One prepared output folder: its poses and step settings.
+struct Source {
+    root: PathBuf,
+    work: WorkDir,
+    event: EventPoses,
+    settings: StepSettings,
+}
+
+fn open_source(root: &Path) -> SfmResult<Source> {
+    let event = EventPoses::read(&root.join(POSES_FILE))?;
+    let work = WorkDir::new(root);
+    if !work.join(SETTINGS_FILE).is_file() {
+        return Err(SfmError::Input {
+            path: root.to_path_buf(),
+            problem: format!("no {} here: run `dynview prep` (with --frames for a range) into this folder first", SETTINGS_FILE),
+        });
+    }
+    let settings: StepSettings = work.read_json(SETTINGS_FILE)?;
+    Ok(Source { root: root.to_path_buf(), work, event, settings })
+}
+
+/// Writes the scene package `scene_dir` (named `name`) from the prepared steps of `sources`
+/// (prep output folders of one event: equal `poses.json` and step settings, every time step
+/// prepared in at least one of them).
+pub fn export_package(sources: &[PathBuf], scene_dir: &Path, name: &str, progress: Progress) -> SfmResult<ExportReport> {
+    let Some(first) = sources.first() else {
+        return Err(SfmError::Input { path: scene_dir.to_path_buf(), problem: "no prep output folders to join".into() });
+    };
+    let opened = sources.iter().map(|s| open_source(s)).collect::<SfmResult<Vec<_>>>()?;
+    for s in &opened[1..] {
+        let differs = |what: &str| SfmError::Input {
+            path: s.root.clone(),
+            problem: format!(
+                "its {what} differs from {}'s: range outputs of one event must come from the same pose stage and options",
+                first.display()
+            ),
+        };
+        if s.event != opened[0].event {
+            return Err(differs(POSES_FILE));
+        }
+        if s.settings != opened[0].settings {
+            return Err(differs(SETTINGS_FILE));
+        }
+    }
+    let (event, warnings) = usable_poses(&opened[0].event);
+    let settings = &opened[0].settings;
+    if event.cameras.is_empty() {
+        return Err(SfmError::Input { path: first.join(POSES_FILE), problem: "no camera has a pose".into() });
+    }
+    let steps = event.time_step_count();
+    let mut source_of = Vec::with_capacity(steps);
+    for t in 0..steps {
+        let Some(s) = opened.iter().find(|s| is_step_done(&s.work, &event, settings, t) && cloud_path(&s.work, t).is_file()) else {
+            let list = sources.iter().map(|s| s.display().to_string()).collect::<Vec<_>>().join(", ");
+            return Err(SfmError::Input {
+                path: first.clone(),
+                problem: format!(
+                    "time step {t} of {steps} is not prepared (or is out of date) in {list}: run `dynview prep --frames {t}..{}` into one of them",
+                    t + 1
+                ),
+            });
+        };
+        source_of.push(s);
+    }
+
+    let bounds = choose_bounds(&source_of, &event)?;
+    let manifest = manifest(&event, settings, bounds, name);
+    let mut writer = SceneWriter::create(scene_dir, manifest)?;
+    let mut report = ExportReport { time_steps: steps, cameras: event.cameras.len(), warnings, ..ExportReport::default() };
+    let (lo, hi) = (bounds.min.map(|v| v as f32), bounds.max.map(|v| v as f32));
+    for (t, s) in source_of.iter().enumerate() {
+        for (c, camera) in event.cameras.iter().enumerate() {
+            let path = frame_path(&s.work, &camera.name, t);
+            let bytes = std::fs::read(&path).map_err(SfmError::io(&path))?;
+            writer.write_encoded_frame(c, t as u32, &bytes)?;
+        }
+        let cloud = read_cloud(&cloud_path(&s.work, t))?;
+        let inside = |p: &[f32; 3]| (0..3).all(|i| p[i] >= lo[i] && p[i] <= hi[i]);
+        let kept: Vec<usize> = (0..cloud.len()).filter(|&i| inside(&cloud.positions_world[i])).collect();
+        report.points += kept.len();
+        report.points_outside_bounds += cloud.len() - kept.len();
+        writer.push_cloud(&PointCloud {
+            positions_world: kept.iter().map(|&i| cloud.positions_world[i]).collect(),
+            colors: kept.iter().map(|&i| cloud.colors[i]).collect(),
+        })?;
+        progress("package", t as u64 + 1, steps as u64);
+    }
+    writer.finish()?;
+    report.bytes = dynview_core::scene::ScenePackage::open(scene_dir)?.size_on_disk()?;
+    Ok(report)
+}
+
+/// The quantisation box: per axis the [`BOUNDS_TAIL_FRACTION`] quantiles of every step's
+/// points, widened by [`BOUNDS_MARGIN_FRACTION`]; the camera centres' box when there are no
+/// points.
+fn choose_bounds(source_of: &[&Source], event: &EventPoses) -> SfmResult<Bounds> {
+    let mut counts = Vec::new();
+    for (t, s) in source_of.iter().enumerate() {
+        counts.push(read_cloud(&cloud_path(&s.work, t))?.len());
+    }
+    let total: usize = counts.iter().sum();
+    let stride = total.div_ceil(BOUNDS_SAMPLES).max(1);
+    let mut axes: [Vec<f32>; 3] = Default::default();
+    for (t, s) in source_of.iter().enumerate() {
+        for p in read_cloud(&cloud_path(&s.work, t))?.positions_world.iter().step_by(stride) {
+            (0..3).for_each(|i| axes[i].push(p[i]));
+        }
+    }
+    if axes[0].is_empty() {
+        for c in 0..event.cameras.len() {
+            for t in 0..event.time_step_count() {
+                if let Some(pose) = event.camera_from_world(c, t) {
+                    let center = pose.camera_center_world();
+                    (0..3).for_each(|i| axes[i].push(center[i] as f32));
+                }
+            }
+        }
+    }
+    let mut bounds = Bounds { min: [0.0; 3], max: [0.0; 3] };
+    for (i, values) in axes.iter_mut().enumerate() {
+        values.sort_by(f32::total_cmp);
+        let n = values.len();
+        let cut = ((n as f64 * BOUNDS_TAIL_FRACTION) as usize).min(n.saturating_sub(1) / 2);
+        let (lo, hi) = (f64::from(values[cut]), f64::from(values[n - 1 - cut]));
+        let margin = ((hi - lo) * BOUNDS_MARGIN_FRACTION).max(1e-3);
+        bounds.min[i] = lo - margin;
+        bounds.max[i] = hi + margin;
+    }
+    Ok(bounds)
+}
+
+/// The manifest: cameras at their working size, poses per step, a start view from the camera
+/// nearest the middle of the rig.
+fn manifest(event: &EventPoses, settings: &StepSettings, bounds: Bounds, name: &str) -> Manifest {
+    let steps = event.time_step_count();
+    let cameras: Vec<CameraEntry> = event
+        .cameras
+        .iter()
+        .map(|c| {
+            let (width, height) = working_size(c.width, c.height, settings.options.working_width);
+            CameraEntry {
+                name: c.name.clone(),
+                width,
+                height,
+                intrinsics: resized_intrinsics(&c.intrinsics, (c.width, c.height), (width, height)),
+                poses: c.frames.iter().map(|f| f.camera_from_world.unwrap_or(dynview_core::Rigid3::IDENTITY.into())).collect(),
+            }
+        })
+        .collect();
+    let centers: Vec<glam::DVec3> = cameras.iter().map(|c| c.poses[0].camera_from_world().camera_center_world()).collect();
+    let mean = centers.iter().copied().sum::<glam::DVec3>() / centers.len().max(1) as f64;
+    let start = (0..cameras.len()).min_by(|&a, &b| centers[a].distance(mean).total_cmp(&centers[b].distance(mean))).unwrap_or(0);
+    let start_camera = &cameras[start];
+    Manifest {
+        format: FORMAT_NAME.into(),
+        version: FORMAT_VERSION,
+        name: name.chars().take(256).collect(),
+        fps: settings.fps,
+        time_step_count: steps as u32,
+        bounds,
+        clouds: CloudsEntry { file: "clouds.bin".into(), byte_length: 0 },
+        frame_format: FrameFormat::Jpeg,
+        start_view: StartView {
+            time_step: 0,
+            pose: start_camera.poses[0],
+            vertical_fov_deg: start_camera.intrinsics.vertical_fov_rad(start_camera.height).to_degrees(),
+        },
+        cameras,
+    }
+}

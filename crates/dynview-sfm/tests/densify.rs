@@ -1,0 +1,141 @@
+//! Densification on a synthetic event with known poses: many more points than the sparse cloud,
+//! on the true surfaces (moving objects included), deterministic, within the target count, and no
+//! panic on degenerate input.
+
+use dynview_core::colmap::ColmapModel;
+use dynview_core::poses::EventPoses;
+use dynview_sfm::densify::{DensifyOptions, densify};
+use dynview_sfm::features::FeatureOptions;
+use dynview_sfm::geometry::{Intrinsics, Pose};
+use dynview_sfm::input::read_bgr;
+use dynview_sfm::points::{PointOptions, TimestepCloud, TimestepView, timestep_points};
+use dynview_synth::SynthConfig;
+use dynview_synth::scene::{Frame, default_objects};
+use glam::DVec3;
+use opencv::core::Mat;
+
+/// The frames and poses of time step `t` of a small synthetic event.
+struct Event {
+    config: SynthConfig,
+    t: usize,
+    images: Vec<Mat>,
+    intrinsics: Vec<Intrinsics>,
+    poses: Vec<Pose>,
+}
+
+impl Event {
+    fn generate() -> Self {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let event = dir.path().join("event");
+        let config = SynthConfig { cameras: 4, frames: 6, width: 480, height: 270, videos: false, ..SynthConfig::default() };
+        dynview_synth::generate(&config, &event, &|_, _, _| {}).expect("synth");
+        let poses = EventPoses::from_colmap(&ColmapModel::read_dir(&event.join("colmap")).expect("model")).expect("poses");
+        let t = 5;
+        let images =
+            poses.cameras.iter().map(|c| read_bgr(&event.join("input").join(&c.name).join(&c.frames[t].file)).expect("frame")).collect();
+        let intrinsics = poses
+            .cameras
+            .iter()
+            .map(|c| Intrinsics { focal_px: c.intrinsics.fx, cx_px: c.intrinsics.cx, cy_px: c.intrinsics.cy, k1: 0.0, k2: 0.0 })
+            .collect();
+        let poses = (0..poses.cameras.len()).map(|c| Pose::from_rigid(&poses.camera_from_world(c, t).expect("pose"))).collect();
+        Self { config, t, images, intrinsics, poses }
+    }
+
+    fn views(&self) -> Vec<TimestepView<'_>> {
+        self.images
+            .iter()
+            .zip(self.intrinsics.iter().zip(&self.poses))
+            .map(|(image, (k, pose))| TimestepView { intrinsics: *k, pose: *pose, image_bgr: image })
+            .collect()
+    }
+
+    /// Relative depth errors (from camera 0's centre, against the true surfaces) and the number of
+    /// points within 1% on moving objects.
+    fn errors(&self, cloud: &TimestepCloud) -> (Vec<f64>, usize) {
+        let objects = default_objects(self.config.seed);
+        let frame = Frame::at(&objects, self.config.time_s(self.t as u32));
+        let center = self.poses[0].center_world;
+        let origin = DVec3::new(center.x, center.y, center.z);
+        let mut errors = Vec::new();
+        let mut on_moving = 0;
+        for p in &cloud.positions_world {
+            let point = DVec3::new(p.x, p.y, p.z);
+            let distance = (point - origin).length();
+            if let Some(hit) = frame.trace(origin, (point - origin) / distance) {
+                let error = (hit.t - distance).abs() / distance;
+                errors.push(error);
+                if objects[hit.object].motion.is_dynamic() && error < 0.01 {
+                    on_moving += 1;
+                }
+            } else {
+                errors.push(f64::INFINITY);
+            }
+        }
+        errors.sort_by(f64::total_cmp);
+        (errors, on_moving)
+    }
+}
+
+#[test]
+fn densify_grows_the_sparse_points_on_the_true_surfaces() {
+    let event = Event::generate();
+    let views = event.views();
+    let sparse = timestep_points(&views, &FeatureOptions::default(), &PointOptions::default()).expect("points");
+    let options = DensifyOptions::default();
+    let start = std::time::Instant::now();
+    let dense = densify(&views, &sparse, &options).expect("densify");
+    let elapsed = start.elapsed();
+    let (errors, on_moving) = event.errors(&dense);
+    let quantile = |q: f64| errors[((errors.len() - 1) as f64 * q) as usize];
+    let off = errors.iter().filter(|&&e| e > 0.05).count() as f64 / errors.len() as f64;
+    println!(
+        "{} sparse -> {} dense points in {elapsed:?}; depth error median {:.3}%, p90 {:.3}%, {:.2}% off by > 5%, {on_moving} on moving objects",
+        sparse.positions_world.len(),
+        dense.positions_world.len(),
+        100.0 * quantile(0.5),
+        100.0 * quantile(0.9),
+        100.0 * off
+    );
+    assert!(dense.positions_world.len() >= 3 * sparse.positions_world.len(), "{} points", dense.positions_world.len());
+    assert!(dense.positions_world.len() <= options.target_points);
+    assert!(dense.colors.len() == dense.positions_world.len() && dense.views.len() == dense.positions_world.len());
+    assert!(quantile(0.5) < 0.01, "median relative depth error {}", quantile(0.5));
+    assert!(off < 0.05, "share of points off by more than 5%: {off}");
+    assert!(on_moving >= 100, "moving objects get points: {on_moving}");
+
+    let again = densify(&views, &sparse, &options).expect("densify");
+    assert_eq!(again, dense, "two runs give the same cloud");
+
+    let fewer = densify(&views, &sparse, &DensifyOptions { target_points: 2000, ..options.clone() }).expect("densify");
+    assert!(fewer.positions_world.len() <= 2000 && fewer.positions_world.len() >= 1500, "{}", fewer.positions_world.len());
+    let below_sparse = densify(&views, &sparse, &DensifyOptions { target_points: 100, ..options }).expect("densify");
+    assert_eq!(below_sparse.positions_world.len(), 100);
+}
+
+#[test]
+fn densify_handles_degenerate_input() {
+    let event = Event::generate();
+    let views = event.views();
+    let options = DensifyOptions { max_side_px: 160, iterations: 1, ..DensifyOptions::default() };
+    let sparse = timestep_points(&views, &FeatureOptions::default(), &PointOptions::default()).expect("points");
+
+    let one = densify(&views[..1], &sparse, &options).expect("one view");
+    assert_eq!(one, sparse, "one view keeps the sparse cloud");
+    let empty = densify(&views, &TimestepCloud::default(), &options).expect("no sparse points");
+    assert!(empty.positions_world.is_empty());
+    let none = densify(&[], &sparse, &options).expect("no views");
+    assert_eq!(none.positions_world.len(), sparse.positions_world.len());
+
+    let mut broken = event.views();
+    broken[1].pose.rotation[(0, 0)] = f64::NAN;
+    broken[2].pose.center_world.x = f64::NAN;
+    let mut with_nan = sparse.clone();
+    with_nan.positions_world[0].x = f64::NAN;
+    let cloud = densify(&broken, &with_nan, &options).expect("NaN pose");
+    assert!(cloud.positions_world.iter().all(|p| p.iter().all(|v| v.is_finite())));
+    let blank = Mat::default();
+    let mut blank_views = event.views();
+    blank_views[0].image_bgr = &blank;
+    densify(&blank_views, &sparse, &options).expect("empty frame");
+}
