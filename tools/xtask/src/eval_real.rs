@@ -72,7 +72,7 @@ pub fn run_release(args: &[String]) -> anyhow::Result<()> {
     extract_first_frames(&frames_dir, options.frames)?;
     let cameras: Vec<String> = calibration()?.into_iter().map(|c| c.serial).collect();
     let dynview = dynview_binary()?;
-    let width = vec!["--working-width".to_string(), WORKING_WIDTH_PX.to_string()];
+    let width = ["--working-width".to_string(), WORKING_WIDTH_PX.to_string()];
 
     let all_poses = root.join("poses_all.json");
     write_calibrated_poses(&all_poses, None)?;
