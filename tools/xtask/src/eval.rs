@@ -25,12 +25,22 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
     Ok(())
 }
 
-struct Options {
-    frames: Option<usize>,
-    methods: Vec<Method>,
-    verbose: bool,
-    params: RenderParams,
-    out: PathBuf,
+/// Options of `cargo xtask eval`.
+pub struct Options {
+    /// Time steps used (all when `None`).
+    pub frames: Option<usize>,
+    /// Methods compared.
+    pub methods: Vec<Method>,
+    /// Per-frame PSNR printed.
+    pub verbose: bool,
+    /// Render parameters (method overridden per row).
+    pub params: RenderParams,
+    /// Folder of the written results.
+    pub out: PathBuf,
+    /// Also evaluate the full pipeline (`dynview prep` on the event's videos).
+    pub pipeline: bool,
+    /// Redo the pipeline's prep runs even when their packages exist.
+    pub fresh: bool,
 }
 
 fn parse_options(args: &[String]) -> anyhow::Result<Options> {
@@ -40,6 +50,8 @@ fn parse_options(args: &[String]) -> anyhow::Result<Options> {
         verbose: false,
         params: RenderParams::default(),
         out: workspace_root().join("docs/results"),
+        pipeline: true,
+        fresh: false,
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -62,8 +74,13 @@ fn parse_options(args: &[String]) -> anyhow::Result<Options> {
                     .collect::<anyhow::Result<_>>()?;
             }
             "--verbose" => options.verbose = true,
+            "--no-pipeline" => options.pipeline = false,
+            "--fresh" => options.fresh = true,
             other => {
-                bail!("unknown option {other:?} for xtask eval (known: --frames N, --methods a,b, --params FILE, --out DIR, --verbose)")
+                bail!(
+                    "unknown option {other:?} for xtask eval (known: --frames N, --methods a,b, --params FILE, --out DIR, --verbose, \
+                     --no-pipeline, --fresh, --real)"
+                )
             }
         }
     }
@@ -71,23 +88,40 @@ fn parse_options(args: &[String]) -> anyhow::Result<Options> {
 }
 
 /// One row of the table.
-struct Row {
-    method: Method,
-    psnr_moving: f64,
-    ssim_moving: f64,
-    psnr_static: f64,
-    flicker_static: f64,
-    ms_per_frame: f64,
+pub struct Row {
+    /// The method.
+    pub method: Method,
+    /// Mean PSNR on the moving held-out camera, dB.
+    pub psnr_moving: f64,
+    /// Mean SSIM on the moving held-out camera.
+    pub ssim_moving: f64,
+    /// Mean PSNR on the static held-out camera, dB.
+    pub psnr_static: f64,
+    /// Flicker on the static held-out camera (see the table's caption).
+    pub flicker_static: f64,
+    /// Milliseconds per frame of the moving sequence.
+    pub ms_per_frame: f64,
 }
 
 /// The evaluation itself (release build).
 pub fn run_release(args: &[String]) -> anyhow::Result<()> {
+    if args.first().is_some_and(|a| a == "--real") {
+        return crate::eval_real::run_release(&args[1..]);
+    }
     let options = parse_options(args)?;
     let event = workspace_root().join("target/eval/event");
     let config = SynthConfig::default();
-    if !event.join(dynview_synth::SYNTH_MARKER).is_file() {
-        println!("making the synthetic event in {} ...", event.display());
-        dynview_synth::generate(&SynthConfig { videos: false, ..config.clone() }, &event, &|_, _, _| {})?;
+    // The full pipeline starts from the videos: an event made without them is made again
+    // (same seed, same ground truth).
+    if !event.join(dynview_synth::SYNTH_MARKER).is_file() || (options.pipeline && !event.join(VIDEOS_DIR).is_dir()) {
+        if event.exists() {
+            fs::remove_dir_all(&event).with_context(|| format!("cannot remove {}", event.display()))?;
+        }
+        println!("making the synthetic event (with videos) in {} ...", event.display());
+        let summary = dynview_synth::generate(&config, &event, &|_, _, _| {})?;
+        if options.pipeline && !summary.videos_written {
+            bail!("the full-pipeline evaluation needs the event's videos: install ffmpeg, or pass --no-pipeline");
+        }
     }
     let package = ScenePackage::open(event.join("scene"))?;
     let frames = options.frames.unwrap_or(package.time_step_count() as usize).min(package.time_step_count() as usize);
@@ -100,43 +134,21 @@ pub fn run_release(args: &[String]) -> anyhow::Result<()> {
     let mut strips: Vec<(Method, RgbRaster, ScalarRaster)> = Vec::new();
     let strip_frame = frames / 2;
     for &method in &options.methods {
-        let params = RenderParams { method, ..options.params.clone() };
-        let (moving_out, ms) = render_sequence(&params, &moving.0, &inputs)?;
-        let (static_out, _) = render_sequence(&params, &still.0, &inputs)?;
-        let mean = |v: Vec<f64>| v.iter().sum::<f64>() / v.len() as f64;
-        if options.verbose {
-            let per_frame = |out: &[(RgbRaster, ScalarRaster)], truth: &[RgbRaster]| {
-                out.iter().zip(truth).map(|((c, _), gt)| format!("{:.1}", psnr(c, gt))).collect::<Vec<_>>().join(" ")
-            };
-            println!("{} moving: {}", method.label(), per_frame(&moving_out, &moving.1));
-            println!("{} static: {}", method.label(), per_frame(&static_out, &still.1));
-        }
-        let colors: Vec<RgbRaster> = static_out.iter().map(|(c, _)| c.clone()).collect();
-        let row = Row {
-            method,
-            psnr_moving: mean(moving_out.iter().zip(&moving.1).map(|((c, _), gt)| psnr(c, gt)).collect()),
-            ssim_moving: mean(moving_out.iter().zip(&moving.1).map(|((c, _), gt)| ssim(c, gt)).collect()),
-            psnr_static: mean(static_out.iter().zip(&still.1).map(|((c, _), gt)| psnr(c, gt)).collect()),
-            flicker_static: flicker(&colors, &still.1).unwrap_or(f64::NAN),
-            ms_per_frame: ms,
-        };
-        println!(
-            "{:<12} PSNR {:.2} dB  SSIM {:.4}  static PSNR {:.2} dB  flicker {:.5}  {:.0} ms/frame",
-            method.label(),
-            row.psnr_moving,
-            row.ssim_moving,
-            row.psnr_static,
-            row.flicker_static,
-            row.ms_per_frame
-        );
+        let (row, moving_out) = evaluate_method(method, &options, &moving, &still, &inputs)?;
         rows.push(row);
         let (c, d) = &moving_out[strip_frame];
         strips.push((method, c.clone(), d.clone()));
     }
+    drop(inputs);
+    let pipeline =
+        if options.pipeline { Some(crate::eval_pipeline::run(&event, &package, &options, &moving, &still, frames)?) } else { None };
     if options.methods.len() != Method::ALL.len() {
         return Ok(());
     }
-    let table = markdown_table(&rows, frames, &config);
+    let mut table = markdown_table(&rows, frames, &config);
+    if let Some(variants) = &pipeline {
+        table.push_str(&crate::eval_pipeline::markdown_section(variants, &rows, frames));
+    }
     println!("\n{table}");
     fs::create_dir_all(&options.out)?;
     dynview_core::fsutil::write_atomic(&options.out.join("eval.md"), table.as_bytes())?;
@@ -145,7 +157,52 @@ pub fn run_release(args: &[String]) -> anyhow::Result<()> {
     Ok(())
 }
 
-type Sequence = (Vec<PathFrame>, Vec<RgbRaster>);
+/// A held-out camera path and its ground-truth images.
+pub type Sequence = (Vec<PathFrame>, Vec<RgbRaster>);
+
+/// Subfolder of a synthetic event with its videos.
+pub const VIDEOS_DIR: &str = "videos";
+
+/// Renders both held-out sequences with `method` and scores them; returns the row and the
+/// moving sequence's outputs (color, depth).
+pub fn evaluate_method(
+    method: Method,
+    options: &Options,
+    moving: &Sequence,
+    still: &Sequence,
+    inputs: &[TimeStepInputs],
+) -> anyhow::Result<(Row, Vec<(RgbRaster, ScalarRaster)>)> {
+    let params = RenderParams { method, ..options.params.clone() };
+    let (moving_out, ms) = render_sequence(&params, &moving.0, inputs)?;
+    let (static_out, _) = render_sequence(&params, &still.0, inputs)?;
+    let mean = |v: Vec<f64>| v.iter().sum::<f64>() / v.len() as f64;
+    if options.verbose {
+        let per_frame = |out: &[(RgbRaster, ScalarRaster)], truth: &[RgbRaster]| {
+            out.iter().zip(truth).map(|((c, _), gt)| format!("{:.1}", psnr(c, gt))).collect::<Vec<_>>().join(" ")
+        };
+        println!("{} moving: {}", method.label(), per_frame(&moving_out, &moving.1));
+        println!("{} static: {}", method.label(), per_frame(&static_out, &still.1));
+    }
+    let colors: Vec<RgbRaster> = static_out.iter().map(|(c, _)| c.clone()).collect();
+    let row = Row {
+        method,
+        psnr_moving: mean(moving_out.iter().zip(&moving.1).map(|((c, _), gt)| psnr(c, gt)).collect()),
+        ssim_moving: mean(moving_out.iter().zip(&moving.1).map(|((c, _), gt)| ssim(c, gt)).collect()),
+        psnr_static: mean(static_out.iter().zip(&still.1).map(|((c, _), gt)| psnr(c, gt)).collect()),
+        flicker_static: flicker(&colors, &still.1).unwrap_or(f64::NAN),
+        ms_per_frame: ms,
+    };
+    println!(
+        "{:<12} PSNR {:.2} dB  SSIM {:.4}  static PSNR {:.2} dB  flicker {:.5}  {:.0} ms/frame",
+        method.label(),
+        row.psnr_moving,
+        row.ssim_moving,
+        row.psnr_static,
+        row.flicker_static,
+        row.ms_per_frame
+    );
+    Ok((row, moving_out))
+}
 
 fn load_sequence(event: &Path, path_file: &str, folder: &str, frames: usize) -> anyhow::Result<Sequence> {
     let path = parse_path(&fs::read(event.join(path_file))?, path_file, None)?;
@@ -159,7 +216,9 @@ fn load_sequence(event: &Path, path_file: &str, folder: &str, frames: usize) -> 
     Ok((path.into_iter().take(frames).collect(), truth))
 }
 
-fn render_sequence(
+/// Renders `path` frame by frame (time step = index) with a streaming renderer; returns the
+/// outputs and the mean milliseconds per frame.
+pub fn render_sequence(
     params: &RenderParams,
     path: &[PathFrame],
     inputs: &[TimeStepInputs],

@@ -41,7 +41,7 @@ pub struct Dataset {
 }
 
 /// The shared data folder (`../shared/data` beside the checkout).
-fn shared_data() -> PathBuf {
+pub fn shared_data() -> PathBuf {
     workspace_root().join("../shared/data")
 }
 

@@ -8,7 +8,10 @@
 //! - intrinsics: `fx = focalLengthU / 64`, `fy = focalLengthV / 64`,
 //!   `cx = centerPointU / 64 - fov_video.left`, `cy = centerPointV / 64 - fov_video.top`
 //!   (taken as dynview's principal point, pixel centres at integers); the image is the
-//!   `fov_video` rectangle (`right - left + 1` by `bottom - top + 1`).
+//!   `fov_video` rectangle (`right - left + 1` by `bottom - top + 1`);
+//! - distortion: OpenCV `k1, k2, p1, p2` = `radialDistortion1`, `radialDistortion2`,
+//!   `tangentalDistortion1`, `tangentalDistortion2`, each divided by 64 as Pose2Sim does
+//!   (`radialDistortion3` is zero in the files we have and OpenCV's 4-term model has no k3).
 //!
 //! The XML is read by a small tag scanner: the file is machine-written, flat and small.
 
@@ -26,8 +29,10 @@ const MM_PER_M: f64 = 1000.0;
 pub struct QualisysCamera {
     /// The camera's `serial` attribute (Pose2Sim names them `cam01`, ...).
     pub serial: String,
-    /// Pinhole intrinsics in pixels (distortion ignored).
+    /// Pinhole intrinsics in pixels.
     pub intrinsics: Intrinsics,
+    /// OpenCV distortion `k1, k2, p1, p2` (see the module documentation).
+    pub distortion: [f64; 4],
     /// World-to-camera pose, metres.
     pub camera_from_world: Rigid3,
     /// Video width in pixels.
@@ -192,9 +197,16 @@ fn camera_from_tags(tags: &CameraTags, file: &str) -> anyhow::Result<QualisysCam
         }
         Ok(pixels as u32)
     };
+    let distortion = [
+        intrinsic("radialDistortion1")? / SUBPIXELS_PER_PIXEL,
+        intrinsic("radialDistortion2")? / SUBPIXELS_PER_PIXEL,
+        intrinsic("tangentalDistortion1")? / SUBPIXELS_PER_PIXEL,
+        intrinsic("tangentalDistortion2")? / SUBPIXELS_PER_PIXEL,
+    ];
     Ok(QualisysCamera {
         serial: serial.clone(),
         intrinsics,
+        distortion,
         camera_from_world,
         width_px: size(left, right, "width")?,
         height_px: size(top, bottom, "height")?,
@@ -229,6 +241,7 @@ mod tests {
         assert_eq!((c.width_px, c.height_px), (1088, 1920));
         assert!((c.intrinsics.fx - 107599.671875 / 64.0).abs() < 1e-9);
         assert!((c.intrinsics.cy - 60680.792969 / 64.0).abs() < 1e-9);
+        assert_eq!(c.distortion, [-0.046183 / 64.0, 0.139983 / 64.0, 0.000608 / 64.0, 0.00069 / 64.0]);
         // R = diag(1,-1,-1) Rq^T with Rq the transpose of the rows read: R's rows are the file's
         // rows, the last two negated; the centre is Tq in metres.
         let rows = c.camera_from_world.rotation_rows();

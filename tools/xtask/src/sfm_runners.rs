@@ -58,14 +58,14 @@ fn run_logged_status(label: &str, mut cmd: Command, log: &Path) -> anyhow::Resul
 }
 
 /// The last lines of `log`.
-fn log_tail(log: &Path) -> String {
+pub fn log_tail(log: &Path) -> String {
     let text = std::fs::read_to_string(log).unwrap_or_default();
     let lines: Vec<&str> = text.lines().collect();
     lines[lines.len().saturating_sub(LOG_TAIL_LINES)..].join("\n")
 }
 
 /// [`run_logged_status`], failing when the command fails; the error quotes the log's tail.
-fn run_logged(label: &str, cmd: Command, log: &Path) -> anyhow::Result<f64> {
+pub fn run_logged(label: &str, cmd: Command, log: &Path) -> anyhow::Result<f64> {
     let (secs, status) = run_logged_status(label, cmd, log)?;
     if !status.success() {
         bail!("{label} failed ({status}) after {secs:.1} s; the end of {}:\n{}", log.display(), log_tail(log));
