@@ -25,6 +25,7 @@ pub mod export;
 pub mod features;
 pub mod focal;
 pub mod geometry;
+pub mod guided;
 pub mod incremental;
 pub mod input;
 pub mod keyframes;

@@ -1,6 +1,6 @@
 //! Per-timestep points (METHOD.md Part 1 step 3): with the poses fixed, the frames of one time
 //! step are matched across cameras only (never through time, which is what lets moving objects
-//! be reconstructed), matches are checked against the known epipolar geometry, joined into
+//! be reconstructed), guided by the known epipolar geometry ([`crate::guided`]), joined into
 //! multi-view tracks, triangulated, filtered by reprojection error, ray angle and cheirality,
 //! and colored from the views that see them.
 
@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features, extract_gray};
 use crate::geometry::{Intrinsics, Pose, Ray, triangulate_robust};
-use crate::matching::{DescriptorIndex, mutual_matches_indexed};
+use crate::guided::guided_matches;
 use crate::tracks::Tracks;
 
 /// How the points of a time step are made.
@@ -95,8 +95,6 @@ pub fn timestep_points(views: &[TimestepView], features: &FeatureOptions, option
             extract_gray(&gray, features)
         })
         .collect::<SfmResult<_>>()?;
-    let mats = extracted.iter().map(Features::descriptor_mat).collect::<SfmResult<Vec<_>>>()?;
-    let mut indices = mats.iter().map(DescriptorIndex::build).collect::<SfmResult<Vec<_>>>()?;
     let pixel = |v: usize, f: u32| {
         let xy = extracted[v].xy[f as usize];
         Vector2::new(f64::from(xy[0]), f64::from(xy[1]))
@@ -106,8 +104,7 @@ pub fn timestep_points(views: &[TimestepView], features: &FeatureOptions, option
         for b in a + 1..views.len() {
             let e = essential_between(&views[a].pose, &views[b].pose);
             let (ka, kb) = (&views[a].intrinsics, &views[b].intrinsics);
-            let (left, right) = indices.split_at_mut(b);
-            let matches: Vec<[u32; 2]> = mutual_matches_indexed((&mats[a], &mut left[a]), (&mats[b], &mut right[0]), options.ratio)?
+            let matches: Vec<[u32; 2]> = guided_matches((&extracted[a], ka), (&extracted[b], kb), &e, options.max_epipolar_px, options.ratio)
                 .into_iter()
                 .filter(|m| {
                     let (na, nb) = (ka.normalized(pixel(a, m[0])), kb.normalized(pixel(b, m[1])));

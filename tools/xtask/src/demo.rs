@@ -93,7 +93,8 @@ pub fn make_sample_event(fresh: bool) -> anyhow::Result<std::path::PathBuf> {
     let root = workspace_root();
     let dynview = root.join("target/release/dynview");
     let event = root.join("target/demo/event");
-    if fresh || !event.join("synth.json").is_file() {
+    // An event made before ffmpeg was installed has no videos for prep: make it again.
+    if fresh || !event.join("synth.json").is_file() || !event.join("videos").is_dir() {
         let mut synth = Command::new(&dynview);
         synth.arg("synth").arg("--out").arg(&event);
         run_step("make the sample event", synth)?;
