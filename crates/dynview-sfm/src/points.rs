@@ -104,13 +104,14 @@ pub fn timestep_points(views: &[TimestepView], features: &FeatureOptions, option
         for b in a + 1..views.len() {
             let e = essential_between(&views[a].pose, &views[b].pose);
             let (ka, kb) = (&views[a].intrinsics, &views[b].intrinsics);
-            let matches: Vec<[u32; 2]> = guided_matches((&extracted[a], ka), (&extracted[b], kb), &e, options.max_epipolar_px, options.ratio)
-                .into_iter()
-                .filter(|m| {
-                    let (na, nb) = (ka.normalized(pixel(a, m[0])), kb.normalized(pixel(b, m[1])));
-                    epipolar_distance_px(&e, na, nb, ka.focal_px, kb.focal_px) <= options.max_epipolar_px
-                })
-                .collect();
+            let matches: Vec<[u32; 2]> =
+                guided_matches((&extracted[a], ka), (&extracted[b], kb), &e, options.max_epipolar_px, options.ratio)
+                    .into_iter()
+                    .filter(|m| {
+                        let (na, nb) = (ka.normalized(pixel(a, m[0])), kb.normalized(pixel(b, m[1])));
+                        epipolar_distance_px(&e, na, nb, ka.focal_px, kb.focal_px) <= options.max_epipolar_px
+                    })
+                    .collect();
             pairs.push((a, b, matches));
         }
     }

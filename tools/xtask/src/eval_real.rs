@@ -61,6 +61,8 @@ struct CameraResult {
     scores: Vec<(Method, f64, f64)>,
     prep_secs: f64,
     ms_per_frame: f64,
+    /// Mean points per time step of the package of the other cameras.
+    points_per_step: f64,
 }
 
 /// The leave-one-out evaluation (release build).
@@ -175,7 +177,8 @@ fn evaluate_camera(
         println!("{held_out} held out, {}: PSNR {p:.2} dB, SSIM {s:.4}", m.label());
     }
     let prep_secs = stage_seconds(&run.out)?.iter().map(|(_, s)| s).sum();
-    let result = CameraResult { name: held_out.to_string(), scores, prep_secs, ms_per_frame: render_secs * 1000.0 / n };
+    let points_per_step = crate::prep_runs::cloud_point_counts(package).0 as f64 / n;
+    let result = CameraResult { name: held_out.to_string(), scores, prep_secs, ms_per_frame: render_secs * 1000.0 / n, points_per_step };
     Ok((result, strip.context("no time step rendered")?))
 }
 
@@ -223,24 +226,29 @@ fn markdown(results: &[CameraResult], options: &Options, reference: &ScenePackag
     );
     let _ = writeln!(
         s,
-        "| held-out camera | (e) full PSNR (dB) | (e) full SSIM | (c) blend PSNR (dB) | (c) blend SSIM | prep of the other three (s) | (e) ms/frame |"
+        "| held-out camera | (e) full PSNR (dB) | (e) full SSIM | (c) blend PSNR (dB) | (c) blend SSIM | points per step | prep of the other three (s) | (e) ms/frame |"
     );
-    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | ---: |");
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
     let score = |r: &CameraResult, m: Method| r.scores.iter().find(|(x, _, _)| *x == m).map_or((f64::NAN, f64::NAN), |(_, p, q)| (*p, *q));
     for r in results {
         let (fp, fs) = score(r, Method::Full);
         let (bp, bs) = score(r, Method::Blend);
-        let _ = writeln!(s, "| {} | {fp:.2} | {fs:.4} | {bp:.2} | {bs:.4} | {:.0} | {:.0} |", r.name, r.prep_secs, r.ms_per_frame);
+        let _ = writeln!(
+            s,
+            "| {} | {fp:.2} | {fs:.4} | {bp:.2} | {bs:.4} | {:.0} | {:.0} | {:.0} |",
+            r.name, r.points_per_step, r.prep_secs, r.ms_per_frame
+        );
     }
     let n = results.len().max(1) as f64;
     let mean = |m: Method, i: usize| results.iter().map(|r| if i == 0 { score(r, m).0 } else { score(r, m).1 }).sum::<f64>() / n;
     let _ = writeln!(
         s,
-        "| **mean** | **{:.2}** | **{:.4}** | **{:.2}** | **{:.4}** | {:.0} | |",
+        "| **mean** | **{:.2}** | **{:.4}** | **{:.2}** | **{:.4}** | {:.0} | {:.0} | |",
         mean(Method::Full, 0),
         mean(Method::Full, 1),
         mean(Method::Blend, 0),
         mean(Method::Blend, 1),
+        results.iter().map(|r| r.points_per_step).sum::<f64>() / n,
         results.iter().map(|r| r.prep_secs).sum::<f64>() / n
     );
     let _ = writeln!(s, "\nStrips (`real_strip_<camera>.png`, middle time step): real frame | rendered (e) | depth of (e).\n");
