@@ -81,13 +81,7 @@ pub fn guided_matches(
     let (rays_a, rays_b) = (rays(a.0, a.1), rays(b.0, b.1));
     let ab = best_along_lines((a.0, &rays_a), (b.0, &rays_b, b.1.focal_px), e, max_epipolar_px, ratio);
     let ba = best_along_lines((b.0, &rays_b), (a.0, &rays_a, a.1.focal_px), &e.transpose(), max_epipolar_px, ratio);
-    ab.iter()
-        .enumerate()
-        .filter_map(|(i, j)| {
-            let j = (*j)?;
-            (ba.get(j as usize).copied().flatten() == Some(i as u32)).then_some([i as u32, j])
-        })
-        .collect()
+    crate::matching::mutual(&ab, &ba)
 }
 
 #[cfg(test)]

@@ -126,7 +126,8 @@ pub fn mutual_matches_shared(
     Ok(mutual(&ab, &ba))
 }
 
-fn mutual(ab: &[Option<u32>], ba: &[Option<u32>]) -> Vec<[u32; 2]> {
+/// The pairs `[i, j]` where `ab[i] = j` and `ba[j] = i`: mutual best matches.
+pub(crate) fn mutual(ab: &[Option<u32>], ba: &[Option<u32>]) -> Vec<[u32; 2]> {
     ab.iter()
         .enumerate()
         .filter_map(|(i, j)| {
