@@ -23,29 +23,10 @@ use glam::DVec3;
 fn accuracy(config: &SynthConfig, t: usize, origins: &[DVec3], cloud: &TimestepCloud) -> (f64, f64, f64, usize) {
     let objects = default_objects(config.seed);
     let frame = Frame::at(&objects, config.time_s(t as u32));
-    let mut errors = Vec::new();
-    let mut on_moving = 0;
-    for p in &cloud.positions_world {
-        let point = DVec3::new(p.x, p.y, p.z);
-        let (mut error, mut object) = (f64::INFINITY, None);
-        for &origin in origins {
-            let distance = (point - origin).length();
-            if let Some(hit) = frame.trace(origin, (point - origin) / distance) {
-                let e = (hit.t - distance).abs() / distance;
-                if e < error {
-                    (error, object) = (e, Some(hit.object));
-                }
-            }
-        }
-        if object.is_some_and(|o| objects[o].motion.is_dynamic()) && error < 0.01 {
-            on_moving += 1;
-        }
-        errors.push(error);
-    }
+    let (errors, on_moving) = frame.relative_depth_errors(origins, cloud.positions_world.iter().map(|p| DVec3::new(p.x, p.y, p.z)));
     if errors.is_empty() {
         return (f64::NAN, f64::NAN, f64::NAN, 0);
     }
-    errors.sort_by(f64::total_cmp);
     let q = |q: f64| errors[((errors.len() - 1) as f64 * q) as usize];
     let off = errors.iter().filter(|&&e| e > 0.05).count() as f64 / errors.len() as f64;
     (q(0.5), q(0.9), off, on_moving)

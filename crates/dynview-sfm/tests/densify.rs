@@ -57,27 +57,7 @@ impl Event {
         let objects = default_objects(self.config.seed);
         let frame = Frame::at(&objects, self.config.time_s(self.t as u32));
         let origins: Vec<DVec3> = self.poses.iter().map(|p| DVec3::new(p.center_world.x, p.center_world.y, p.center_world.z)).collect();
-        let mut errors = Vec::new();
-        let mut on_moving = 0;
-        for p in &cloud.positions_world {
-            let point = DVec3::new(p.x, p.y, p.z);
-            let (mut error, mut object) = (f64::INFINITY, None);
-            for &origin in &origins {
-                let distance = (point - origin).length();
-                if let Some(hit) = frame.trace(origin, (point - origin) / distance) {
-                    let e = (hit.t - distance).abs() / distance;
-                    if e < error {
-                        (error, object) = (e, Some(hit.object));
-                    }
-                }
-            }
-            if object.is_some_and(|o| objects[o].motion.is_dynamic()) && error < 0.01 {
-                on_moving += 1;
-            }
-            errors.push(error);
-        }
-        errors.sort_by(f64::total_cmp);
-        (errors, on_moving)
+        frame.relative_depth_errors(&origins, cloud.positions_world.iter().map(|p| DVec3::new(p.x, p.y, p.z)))
     }
 }
 

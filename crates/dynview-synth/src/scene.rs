@@ -232,6 +232,33 @@ impl<'a> Frame<'a> {
         best
     }
 
+    /// How far reconstructed points lie from the true surfaces: per point, the relative depth
+    /// error along the ray from whichever of `origins` (camera centres) puts it closest to the
+    /// surface it hits (infinite when no ray hits anything), sorted; and the number of points
+    /// within 1% of a moving object.
+    pub fn relative_depth_errors(&self, origins: &[DVec3], points: impl IntoIterator<Item = DVec3>) -> (Vec<f64>, usize) {
+        let mut errors = Vec::new();
+        let mut on_moving = 0;
+        for point in points {
+            let (mut error, mut object) = (f64::INFINITY, None);
+            for &origin in origins {
+                let distance = (point - origin).length();
+                if let Some(hit) = self.trace(origin, (point - origin) / distance) {
+                    let e = (hit.t - distance).abs() / distance;
+                    if e < error {
+                        (error, object) = (e, Some(hit.object));
+                    }
+                }
+            }
+            if object.is_some_and(|o| self.objects[o].motion.is_dynamic()) && error < 0.01 {
+                on_moving += 1;
+            }
+            errors.push(error);
+        }
+        errors.sort_by(f64::total_cmp);
+        (errors, on_moving)
+    }
+
     /// True when anything lies on the segment from `origin` along `direction` (unit) before
     /// `max_t`.
     pub fn occluded(&self, origin: DVec3, direction: DVec3, max_t: f64) -> bool {
