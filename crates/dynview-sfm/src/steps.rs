@@ -163,6 +163,12 @@ pub fn encode_cloud(cloud: &PointCloud) -> Vec<u8> {
     out
 }
 
+/// The number of points of a step's cloud file of `byte_length` bytes (an estimate when the
+/// file is damaged; [`read_cloud`] checks).
+pub fn cloud_point_count(byte_length: u64) -> usize {
+    (byte_length.saturating_sub(12) / POINT_BYTES as u64) as usize
+}
+
 /// Reads a step's cloud file, checking its magic and length.
 pub fn read_cloud(path: &Path) -> SfmResult<PointCloud> {
     let bytes = std::fs::read(path).map_err(SfmError::io(path))?;
