@@ -3,13 +3,13 @@
 //! terms, must agree within the stated tolerance.
 
 use dynview_core::RgbRaster;
-use dynview_core::camera_path::parse_path;
 use dynview_core::display::{DisplayMode, picture, to_rgba8};
 use dynview_core::metrics::psnr;
 use dynview_core::raster::Raster;
 use dynview_core::render::{Method, RenderHooks, RenderParams, render_frame};
 use dynview_core::scene::ScenePackage;
 use dynview_gpu::{FrameDisplay, GpuContext, GpuInputs, GpuRenderer, wgpu};
+use dynview_interchange::camera_path::parse_path;
 use dynview_tests::small_event;
 
 /// PSNR the GPU frame must reach against the CPU frame.

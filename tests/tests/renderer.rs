@@ -1,10 +1,10 @@
 //! The renderer on a real (synthetic, ray-traced) frame: energies, residuals, reproduction of
 //! an input view, streaming, and every method producing a sane image.
 
-use dynview_core::camera_path::parse_path;
 use dynview_core::metrics::psnr;
 use dynview_core::render::{Method, RenderHooks, RenderParams, SolveKind, SolveTrace, StreamingRenderer, render_frame};
 use dynview_core::scene::ScenePackage;
+use dynview_interchange::camera_path::parse_path;
 use dynview_tests::{load_rgb, small_event};
 
 /// Relative residual every solve must reach with the default sweep counts: the red-black
@@ -126,7 +126,7 @@ fn progressive_levels_arrive_coarse_to_fine_and_can_cancel() {
 
 #[test]
 fn a_stepped_job_gives_each_level_then_exactly_the_frame_render_frame_gives() {
-    use dynview_core::render::{FrameJob, PreviousFrame, Progress};
+    use dynview_core::render::{FrameJob, JobStep, PreviousFrame};
     let package = package();
     let params = RenderParams::default();
     let inputs = package.time_step_inputs(1, params.levels).unwrap();
@@ -137,11 +137,11 @@ fn a_stepped_job_gives_each_level_then_exactly_the_frame_render_frame_gives() {
     let stepped = loop {
         assert_eq!(job.next_level(), Some(params.levels - 1 - levels.len()));
         match job.step(&mut RenderHooks::default()).unwrap() {
-            Progress::Level(level) => {
+            JobStep::Level(level) => {
                 assert_eq!(job.preview(level).color.width, camera.width_px as usize >> level);
                 levels.push(level);
             }
-            Progress::Done(output) => break output,
+            JobStep::Done(output) => break output,
         }
     };
     assert_eq!(levels, vec![3, 2, 1]);

@@ -3,11 +3,11 @@
 
 use std::fs;
 
-use dynview_core::camera_path::parse_path;
-use dynview_core::colmap::ColmapModel;
 use dynview_core::depth_io::{DepthScale, SCALE_FILE, depth_from_image};
 use dynview_core::scene::ScenePackage;
 use dynview_core::{Camera, RgbRaster};
+use dynview_interchange::camera_path::parse_path;
+use dynview_interchange::colmap::ColmapModel;
 use dynview_tests::{load_rgb, small_config, small_event};
 use glam::{DVec2, DVec3};
 

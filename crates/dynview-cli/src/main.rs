@@ -1,6 +1,10 @@
 //! `dynview`: turn synchronized videos of an event into a scene package, inspect it, render
 //! novel views of it, make synthetic events with ground truth, and exchange camera poses with
 //! COLMAP.
+//!
+//! `prep` and `merge` need OpenCV and come with the default `prep` feature;
+//! `cargo build -p dynview-cli --no-default-features` gives a binary without OpenCV that
+//! renders, inspects, converts and synthesises.
 
 mod commands;
 mod progress;
@@ -23,15 +27,19 @@ enum Command {
     Info(commands::info::Args),
     /// A scene package from one video or image folder per camera: camera poses (structure from
     /// motion on keyframes, frame-to-frame refinement), per-timestep points, densification.
+    #[cfg(feature = "prep")]
     Prep(commands::prep::Args),
     /// Join the outputs of range runs (`prep --frames A..B`) into one scene package.
-    Merge(commands::package::MergeArgs),
+    #[cfg(feature = "prep")]
+    Merge(commands::merge::MergeArgs),
     /// Write one time step's cloud of a scene package as a PLY file.
     ExportPly(commands::package::PlyArgs),
     /// Render a camera path (nerfstudio camera_path.json or dynview path) through a scene.
     Render(commands::render::Args),
-    /// Convert a COLMAP model (text or binary) into poses.json.
-    ImportColmap(commands::colmap::ImportArgs),
+    /// Convert a calibration (COLMAP model, Qualisys .qca.txt, Middlebury *_par.txt) into
+    /// poses.json.
+    #[command(alias = "import-colmap")]
+    Import(commands::colmap::ImportArgs),
     /// Write the cameras and poses of a scene package or a poses.json as a COLMAP model.
     ExportColmap(commands::colmap::ExportArgs),
 }
@@ -42,10 +50,12 @@ fn main() -> std::process::ExitCode {
         Command::Synth(args) => commands::synth::run(args),
         Command::Info(args) => commands::info::run(args),
         Command::Render(args) => commands::render::run(args),
-        Command::ImportColmap(args) => commands::colmap::run_import(args),
+        Command::Import(args) => commands::colmap::run_import(args),
         Command::ExportColmap(args) => commands::colmap::run_export(args),
+        #[cfg(feature = "prep")]
         Command::Prep(args) => commands::prep::run(args),
-        Command::Merge(args) => commands::package::run_merge(args),
+        #[cfg(feature = "prep")]
+        Command::Merge(args) => commands::merge::run_merge(args),
         Command::ExportPly(args) => commands::package::run_ply(args),
     };
     match result {

@@ -1,11 +1,11 @@
-//! `dynview import-colmap` and `export-colmap` as a user runs them.
+//! `dynview import` (COLMAP, Qualisys, Middlebury) and `export-colmap` as a user runs them.
 
 use std::fs;
 use std::path::Path;
 use std::process::Command;
 
-use dynview_core::poses::EventPoses;
 use dynview_core::scene::{Manifest, PoseEntry, ScenePackage};
+use dynview_interchange::poses::EventPoses;
 
 fn dynview(args: &[&str]) -> (bool, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_dynview")).args(args).output().expect("run dynview");
@@ -25,7 +25,7 @@ fn synth(event: &Path) -> Manifest {
 }
 
 fn import(model: &Path, out: &Path) -> EventPoses {
-    let (ok, log) = dynview(&["import-colmap", path(model), "--out", path(out)]);
+    let (ok, log) = dynview(&["import", path(model), "--out", path(out)]);
     assert!(ok, "{log}");
     EventPoses::read(out).unwrap()
 }
@@ -73,7 +73,7 @@ fn export_then_import_gives_the_package_poses_in_text_and_binary() {
             assert!(model.join(file).is_file(), "{file} missing");
         }
         let poses_json = tmp.path().join(format!("poses{}.json", flag.unwrap_or("")));
-        let (ok, log) = dynview(&["import-colmap", path(&model), "--out", path(&poses_json)]);
+        let (ok, log) = dynview(&["import", path(&model), "--out", path(&poses_json)]);
         assert!(ok, "{log}");
         assert!(log.contains("3 cameras, 6 frames, 6 registered"), "{log}");
         assert_poses_match_package(&EventPoses::read(&poses_json).unwrap(), &manifest, extension);
@@ -98,7 +98,7 @@ fn imports_the_synth_ground_truth_model() {
     let tmp = tempfile::tempdir().unwrap();
     let event = tmp.path().join("event");
     let manifest = synth(&event);
-    let (ok, log) = dynview(&["import-colmap", path(&event.join("colmap")), "--out", path(&tmp.path().join("gt.json"))]);
+    let (ok, log) = dynview(&["import", path(&event.join("colmap")), "--out", path(&tmp.path().join("gt.json"))]);
     assert!(ok, "{log}");
     assert!(log.contains("read text COLMAP model"), "{log}");
     // The ground-truth model names its images `<camera>/<t:05>.png`.
@@ -118,7 +118,7 @@ fn corrupt_models_give_errors_naming_the_file() {
     let images_bin = binary.join("images.bin");
     let bytes = fs::read(&images_bin).unwrap();
     fs::write(&images_bin, &bytes[..bytes.len() - 5]).unwrap();
-    let (ok, log) = dynview(&["import-colmap", path(&binary), "--out", path(&out)]);
+    let (ok, log) = dynview(&["import", path(&binary), "--out", path(&out)]);
     assert!(!ok);
     assert!(log.contains("images.bin: image 5 (id 6)") && log.contains("truncated"), "{log}");
 
@@ -131,13 +131,13 @@ fn corrupt_models_give_errors_naming_the_file() {
     let mut fields: Vec<&str> = line.split(' ').collect();
     fields[5] = "nan";
     fs::write(&images_txt, contents.replace(line, &fields.join(" "))).unwrap();
-    let (ok, log) = dynview(&["import-colmap", path(&text), "--out", path(&out)]);
+    let (ok, log) = dynview(&["import", path(&text), "--out", path(&out)]);
     assert!(!ok);
     assert!(log.contains("images.txt:") && log.contains("field `TX`: not finite"), "{log}");
 
     // Names that are not `<camera>/<frame file>` are named.
     fs::write(&images_txt, contents.replace("cam01/00001.jpg", "loose.jpg")).unwrap();
-    let (ok, log) = dynview(&["import-colmap", path(&text), "--out", path(&out)]);
+    let (ok, log) = dynview(&["import", path(&text), "--out", path(&out)]);
     assert!(!ok);
     assert!(log.contains("image 4 (loose.jpg): name must be <camera>/<frame file>"), "{log}");
     assert!(!out.exists(), "no poses.json is written on failure");
@@ -155,7 +155,7 @@ fn refuses_folders_that_are_not_models() {
     assert!(!ok);
     assert!(log.contains("is not a COLMAP model folder") && log.contains("refusing"), "{log}");
     assert_eq!(fs::read_dir(&mine).unwrap().count(), 1);
-    let (ok, log) = dynview(&["import-colmap", path(&mine), "--out", path(&tmp.path().join("p.json"))]);
+    let (ok, log) = dynview(&["import", path(&mine), "--out", path(&tmp.path().join("p.json"))]);
     assert!(!ok);
     assert!(log.contains("no COLMAP model here"), "{log}");
 }
@@ -183,4 +183,36 @@ fn colmap_itself_reads_the_export() {
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     let poses = import(&text, &tmp.path().join("poses.json"));
     assert_poses_match_package(&poses, &manifest, manifest.frame_format.extension());
+}
+
+#[test]
+fn imports_qualisys_and_middlebury_calibrations() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data");
+    let out = tmp.path().join("rig.json");
+    let (ok, log) = dynview(&["import", path(&data.join("pose2sim-multiperson/Calib.qca.txt")), "--out", path(&out)]);
+    assert!(ok, "{log}");
+    assert!(log.contains("Qualisys") && log.contains("4 cameras"), "{log}");
+    let rig = EventPoses::read(&out).unwrap();
+    assert_eq!(rig.cameras.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(), ["cam01", "cam02", "cam03", "cam04"]);
+
+    // A Middlebury ring: the sizes come from the images beside the calibration.
+    let ring = tmp.path().join("ring");
+    fs::create_dir(&ring).unwrap();
+    let par = ring.join("ring_par.txt");
+    fs::write(&par, "1\nv1.png 500 0 31.5 0 500 23.5 0 0 1 1 0 0 0 1 0 0 0 1 0 0 2\n").unwrap();
+    let (ok, log) = dynview(&["import", path(&par), "--out", path(&tmp.path().join("ring.json"))]);
+    assert!(!ok && log.contains("v1.png") && log.contains("image size"), "{log}");
+    image::RgbImage::new(64, 48).save(ring.join("v1.png")).unwrap();
+    let (ok, log) = dynview(&["import", path(&par), "--out", path(&tmp.path().join("ring.json"))]);
+    assert!(ok, "{log}");
+    let ring_poses = EventPoses::read(&tmp.path().join("ring.json")).unwrap();
+    assert_eq!((ring_poses.cameras[0].width, ring_poses.cameras[0].height), (64, 48));
+
+    // Something else is named, and nothing is written.
+    let notes = tmp.path().join("notes.txt");
+    fs::write(&notes, "hello").unwrap();
+    let (ok, log) = dynview(&["import", path(&notes), "--out", path(&tmp.path().join("x.json"))]);
+    assert!(!ok && log.contains("notes.txt") && log.contains("not a calibration"), "{log}");
+    assert!(!tmp.path().join("x.json").exists());
 }

@@ -78,7 +78,7 @@ fn ranges_joined_by_merge_equal_a_single_run_byte_for_byte() {
     assert!(!ok && log.contains("time step 3 of 4") && log.contains("--frames 3..4"), "{log}");
     let other = dir.path().join("other");
     std::fs::create_dir_all(&other).expect("mkdir");
-    let mut changed = dynview_core::poses::EventPoses::read(&second.join("poses.json")).expect("poses");
+    let mut changed = dynview_interchange::poses::EventPoses::read(&second.join("poses.json")).expect("poses");
     changed.cameras[0].intrinsics.fx *= 1.01;
     changed.write(&other.join("poses.json")).expect("write");
     std::fs::create_dir_all(other.join("work/steps")).expect("mkdir");
@@ -98,7 +98,8 @@ fn the_package_has_working_size_frames_and_export_ply_writes_a_step() {
     let camera = &package.manifest().cameras[0];
     assert_eq!((camera.width, camera.height), (160, 90));
     let truth =
-        dynview_core::poses::EventPoses::from_colmap(&dynview_core::colmap::ColmapModel::read_dir(&poses).expect("model")).expect("poses");
+        dynview_interchange::poses::EventPoses::from_colmap(&dynview_interchange::colmap::ColmapModel::read_dir(&poses).expect("model"))
+            .expect("poses");
     let k = truth.cameras[0].intrinsics;
     assert!((camera.intrinsics.fx - k.fx * 160.0 / 240.0).abs() < 1e-9, "focal scaled with the frames");
     assert_eq!(package.read_frame(0, 3).expect("frame").width, 160);

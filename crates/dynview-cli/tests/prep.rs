@@ -38,8 +38,9 @@ fn known_poses_skip_estimation_and_equal_the_model() {
         dynview(&["prep", "--input", input.to_str().unwrap(), "--out", out.to_str().unwrap(), "--poses", model.to_str().unwrap()]);
     assert!(ok, "{log}");
     assert!(log.contains("pose estimation (poses from"), "{log}");
-    let written = dynview_core::poses::EventPoses::read(&out.join("poses.json")).unwrap();
-    let truth = dynview_core::poses::EventPoses::from_colmap(&dynview_core::colmap::ColmapModel::read_dir(&model).unwrap()).unwrap();
+    let written = dynview_interchange::poses::EventPoses::read(&out.join("poses.json")).unwrap();
+    let truth =
+        dynview_interchange::poses::EventPoses::from_colmap(&dynview_interchange::colmap::ColmapModel::read_dir(&model).unwrap()).unwrap();
     assert_eq!(written.cameras.len(), 3);
     for (w, t) in written.cameras.iter().zip(&truth.cameras) {
         assert_eq!((&w.name, w.frames.len()), (&t.name, t.frames.len()));

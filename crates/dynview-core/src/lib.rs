@@ -5,10 +5,6 @@
 //! - [`view_ranking`]: the paper's input-view score `r_F`;
 //! - [`raster`]: pixel grids and 8-bit conversions;
 //! - [`scene`]: the scene package (format v1: `scene.json`, `clouds.bin`, frames);
-//! - [`camera_path`]: nerfstudio `camera_path.json` paths;
-//! - [`colmap`]: COLMAP sparse models, text and binary;
-//! - [`poses`]: `poses.json`, the camera poses of a whole event, and its COLMAP conversions;
-//! - [`align`]: similarity (Umeyama) alignment and the pose accuracy of a reconstruction;
 //! - [`depth_io`]: 16-bit depth images with a scale;
 //! - [`display`]: render outputs as pictures (false-color depth, view weights, RGBA);
 //! - [`render`]: the paper's renderer (CPU) and its baselines;
@@ -16,19 +12,17 @@
 //! - [`par`]: data parallelism (rayon on native, serial in the browser);
 //! - `fsutil` (native only): atomic file writes and staged output folders.
 //!
-//! No GPU, browser or OpenCV dependency lives here; the crate builds for `wasm32`.
+//! Interchange with other tools (COLMAP, `poses.json`, camera paths, PLY) is in
+//! `dynview-interchange`. No GPU, browser or OpenCV dependency lives here; the crate builds
+//! for `wasm32`.
 
-pub mod align;
 pub mod camera;
-pub mod camera_path;
-pub mod colmap;
 pub mod depth_io;
 pub mod display;
 #[cfg(not(target_family = "wasm"))]
 pub mod fsutil;
 pub mod metrics;
 pub mod par;
-pub mod poses;
 pub mod raster;
 pub mod render;
 pub mod rotation;
@@ -37,3 +31,7 @@ pub mod view_ranking;
 
 pub use camera::{Camera, Intrinsics, Rigid3};
 pub use raster::{Raster, Rgb, RgbRaster, ScalarRaster};
+
+/// Progress of a long run, reported as it goes: stage name, items done, items in the stage.
+/// The synthetic event generator and `dynview prep` report through it; the CLI draws bars.
+pub type StageProgress<'a> = &'a (dyn Fn(&str, u64, u64) + Sync);

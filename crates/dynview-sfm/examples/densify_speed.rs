@@ -6,8 +6,8 @@
 
 use std::time::Instant;
 
-use dynview_core::colmap::ColmapModel;
-use dynview_core::poses::EventPoses;
+use dynview_interchange::colmap::ColmapModel;
+use dynview_interchange::poses::EventPoses;
 use dynview_sfm::densify::{DensifyOptions, densify};
 use dynview_sfm::features::FeatureOptions;
 use dynview_sfm::geometry::{Intrinsics, Pose};

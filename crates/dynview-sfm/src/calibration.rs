@@ -12,22 +12,17 @@ use opencv::prelude::*;
 use rayon::prelude::*;
 
 use dynview_core::fsutil::write_atomic;
-use dynview_core::poses::{CameraPoses, EventPoses};
+use dynview_interchange::poses::{CameraPoses, EventPoses};
 
 use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 use crate::geometry::Intrinsics;
 use crate::input::{EventFrames, read_bgr};
 
-/// Reads a `poses.json` file or a COLMAP model folder (text or binary).
+/// Reads a `poses.json` file, a COLMAP model folder (text or binary), a Qualisys or a
+/// Middlebury calibration (detected: `dynview_interchange::import`).
 pub fn read_poses(path: &Path) -> SfmResult<EventPoses> {
-    if path.is_dir() {
-        let model = dynview_core::colmap::ColmapModel::read_dir(path)
-            .map_err(|e| SfmError::Input { path: path.to_path_buf(), problem: e.to_string() })?;
-        Ok(EventPoses::from_colmap(&model)?)
-    } else {
-        Ok(EventPoses::read(path)?)
-    }
+    dynview_interchange::import::read_event_poses(path).map_err(|e| SfmError::Input { path: path.to_path_buf(), problem: e.to_string() })
 }
 
 /// The calibration of every input camera in `given`, checked against the frames' sizes.

@@ -88,7 +88,7 @@ pub enum SfmError {
     BundleAdjustment(#[from] dynview_ba::BaError),
     /// Reading or converting poses failed.
     #[error(transparent)]
-    Poses(#[from] dynview_core::poses::PosesError),
+    Poses(#[from] dynview_interchange::poses::PosesError),
     /// Reading or writing the scene package failed.
     #[error(transparent)]
     Scene(#[from] dynview_core::scene::SceneError),

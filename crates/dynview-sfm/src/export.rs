@@ -5,9 +5,9 @@
 
 use std::path::{Path, PathBuf};
 
-use dynview_core::poses::{EventPoses, POSES_FILE};
 use dynview_core::scene::manifest::{FORMAT_NAME, FORMAT_VERSION};
 use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, PointCloud, SceneWriter, StartView};
+use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
 use crate::Progress;
 use crate::error::{SfmError, SfmResult};

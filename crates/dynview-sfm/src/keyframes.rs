@@ -7,8 +7,8 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use rayon::prelude::*;
 
-use dynview_core::colmap::{CameraModel, ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
 use dynview_core::fsutil::write_atomic;
+use dynview_interchange::colmap::{CameraModel, ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
 
 use crate::Progress;
 use crate::error::{SfmError, SfmResult};

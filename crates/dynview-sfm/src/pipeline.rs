@@ -9,8 +9,8 @@ use std::sync::atomic::AtomicBool;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use dynview_core::poses::{CameraPoses, EventPoses, FramePose, POSES_FILE};
 use dynview_core::scene::manifest::PoseEntry;
+use dynview_interchange::poses::{CameraPoses, EventPoses, FramePose, POSES_FILE};
 
 use crate::Progress;
 use crate::calibration::{calibration_for, known_intrinsics, read_poses, undistort_frames};

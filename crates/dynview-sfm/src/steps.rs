@@ -14,9 +14,9 @@ use opencv::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use dynview_core::poses::EventPoses;
 use dynview_core::scene::PointCloud;
 use dynview_core::scene::manifest::PoseEntry;
+use dynview_interchange::poses::EventPoses;
 
 use crate::Progress;
 use crate::densify::{DensifyOptions, densify};

@@ -3,7 +3,7 @@
 use std::sync::atomic::AtomicBool;
 
 use dynview_core::Intrinsics;
-use dynview_core::poses::{CameraPoses, FramePose};
+use dynview_interchange::poses::{CameraPoses, FramePose};
 use dynview_sfm::calibration::undistort_frames;
 use dynview_sfm::geometry::Intrinsics as Model;
 use dynview_sfm::input::{CameraFrames, EventFrames};

@@ -2,8 +2,8 @@
 //! on the true surfaces (moving objects included), deterministic, within the target count, and no
 //! panic on degenerate input.
 
-use dynview_core::colmap::ColmapModel;
-use dynview_core::poses::EventPoses;
+use dynview_interchange::colmap::ColmapModel;
+use dynview_interchange::poses::EventPoses;
 use dynview_sfm::densify::{DensifyOptions, densify};
 use dynview_sfm::features::FeatureOptions;
 use dynview_sfm::geometry::{Intrinsics, Pose};

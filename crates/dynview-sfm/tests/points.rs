@@ -1,8 +1,8 @@
 //! Per-timestep points on a synthetic event with known poses: they lie on the true surfaces,
 //! moving objects included (nothing is matched through time).
 
-use dynview_core::colmap::ColmapModel;
-use dynview_core::poses::EventPoses;
+use dynview_interchange::colmap::ColmapModel;
+use dynview_interchange::poses::EventPoses;
 use dynview_sfm::features::FeatureOptions;
 use dynview_sfm::geometry::{Intrinsics, Pose};
 use dynview_sfm::input::read_bgr;

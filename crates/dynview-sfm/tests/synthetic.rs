@@ -8,9 +8,9 @@ use std::sync::OnceLock;
 use std::sync::atomic::AtomicBool;
 
 use dynview_core::Rigid3;
-use dynview_core::align::{PoseEvalOptions, evaluate_poses};
-use dynview_core::colmap::ColmapModel;
-use dynview_core::poses::EventPoses;
+use dynview_eval::align::{PoseEvalOptions, evaluate_poses};
+use dynview_interchange::colmap::ColmapModel;
+use dynview_interchange::poses::EventPoses;
 use dynview_sfm::{PrepOptions, Stage, run};
 use dynview_synth::SynthConfig;
 

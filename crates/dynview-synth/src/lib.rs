@@ -191,6 +191,3 @@ pub struct SynthReport {
     /// Size of the ground-truth scene package in bytes.
     pub package_bytes: u64,
 }
-
-/// Progress of a run: stage name, items done, items in the stage.
-pub type Progress<'a> = &'a (dyn Fn(&str, u64, u64) + Sync);

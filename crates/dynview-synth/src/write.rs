@@ -9,8 +9,6 @@ use rand::{Rng, SeedableRng, rngs::SmallRng};
 use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
 
-use dynview_core::camera_path::NerfstudioPath;
-use dynview_core::colmap::{ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
 use dynview_core::depth_io::{DepthScale, SCALE_FILE, depth_png_bytes};
 use dynview_core::fsutil::{StagedDir, write_atomic};
 use dynview_core::raster::u8_from_unit;
@@ -18,12 +16,14 @@ use dynview_core::scene::manifest::{
     Bounds, CameraEntry, CloudsEntry, FORMAT_NAME, FORMAT_VERSION, FrameFormat, Manifest, PoseEntry, StartView,
 };
 use dynview_core::scene::{PointCloud, ScenePackage, SceneWriter};
-use dynview_core::{Camera, RgbRaster};
+use dynview_core::{Camera, RgbRaster, StageProgress};
+use dynview_interchange::camera_path::NerfstudioPath;
+use dynview_interchange::colmap::{ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
 
 use crate::render::{View, render_view};
 use crate::rig::{Heldout, Rig};
 use crate::scene::{Frame, default_objects};
-use crate::{Progress, SYNTH_MARKER, SynthConfig, SynthError, SynthReport};
+use crate::{SYNTH_MARKER, SynthConfig, SynthError, SynthReport};
 
 /// Noise-free surface points per input camera kept for the COLMAP model (frame 0).
 const COLMAP_POINTS_PER_CAMERA: usize = 400;
@@ -87,7 +87,7 @@ enum TaskOutput {
 /// Generates the event described by `config` into `out_dir` (created, or replaced if it holds
 /// an earlier synth output; any other existing folder is refused). Nothing appears at
 /// `out_dir` until everything is written.
-pub fn generate(config: &SynthConfig, out_dir: &Path, progress: Progress) -> Result<SynthReport, SynthError> {
+pub fn generate(config: &SynthConfig, out_dir: &Path, progress: StageProgress) -> Result<SynthReport, SynthError> {
     config.validate()?;
     let staged = StagedDir::new(out_dir, SYNTH_MARKER, "a dynview synth output")?;
     let root = staged.path().to_path_buf();
@@ -276,7 +276,7 @@ fn write_package(
     names: &[String],
     clouds: &[PointCloud],
     root: &Path,
-    progress: Progress,
+    progress: StageProgress,
 ) -> Result<u64, SynthError> {
     let cameras = names
         .iter()

@@ -2,8 +2,8 @@
 //! of the scene, as plain JS objects (serde), converted to and from dynview-core's cameras.
 
 use dynview_core::camera::{Camera, Intrinsics, Rigid3};
-use dynview_core::camera_path::{MAX_RENDER_SIDE_PX, PathFrame};
 use dynview_core::scene::Manifest;
+use dynview_interchange::camera_path::{MAX_RENDER_SIDE_PX, PathFrame};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 

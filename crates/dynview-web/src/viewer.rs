@@ -5,10 +5,10 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use dynview_core::camera::Camera;
-use dynview_core::camera_path::{NerfstudioPath, parse_path};
 use dynview_core::display::{self, DisplayMode};
 use dynview_core::raster::{RgbRaster, ScalarRaster};
-use dynview_core::render::{FrameJob, PreviousFrame, Progress, RenderHooks, RenderParams, TimeStepInputs, Timings};
+use dynview_core::render::{FrameJob, JobStep, PreviousFrame, RenderHooks, RenderParams, TimeStepInputs, Timings};
+use dynview_interchange::camera_path::{NerfstudioPath, parse_path};
 use js_sys::{Function, Promise};
 use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
@@ -269,7 +269,7 @@ impl Viewer {
         let progress = active.job.step(&mut hooks).map_err(error)?;
         let elapsed_ms = performance_now() - active.started_ms;
         let report = match progress {
-            Progress::Level(level) => {
+            JobStep::Level(level) => {
                 active.level = Some(level);
                 let preview = active.job.preview(level);
                 StepReport {
@@ -281,7 +281,7 @@ impl Viewer {
                     temporal_used: false,
                 }
             }
-            Progress::Done(output) => {
+            JobStep::Done(output) => {
                 let Some(active) = self.active.take() else { return Err(error("no render in progress")) };
                 let output = *output;
                 let (width, height, temporal_used) = (output.color.width, output.color.height, output.temporal_used);

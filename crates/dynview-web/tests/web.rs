@@ -192,8 +192,8 @@ async fn camera_paths_export_in_the_format_dynview_render_reads() {
         keyframes.push(&k);
     }
     let json = viewer.export_camera_path(keyframes.into(), 320, 180, 30.0).unwrap();
-    let parsed = dynview_core::camera_path::parse_path(json.as_bytes(), "export", None).unwrap();
-    let original = dynview_core::camera_path::parse_path(&read("camera_path.json"), "fixture", None).unwrap();
+    let parsed = dynview_interchange::camera_path::parse_path(json.as_bytes(), "export", None).unwrap();
+    let original = dynview_interchange::camera_path::parse_path(&read("camera_path.json"), "fixture", None).unwrap();
     assert_eq!(parsed.len(), 2);
     for (a, b) in parsed.iter().zip(&original) {
         let (ca, cb) = (a.camera.center_world(), b.camera.center_world());

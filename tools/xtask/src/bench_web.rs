@@ -11,10 +11,7 @@ use crate::util::run_step;
 use crate::{setup, web};
 
 /// Builds everything, serves the demo event on a free port and runs `web/tests/bench/measure.mjs`.
-pub fn run(args: &[String]) -> anyhow::Result<()> {
-    if let Some(extra) = args.first() {
-        anyhow::bail!("xtask bench-web takes no arguments, got {extra:?}");
-    }
+pub fn run() -> anyhow::Result<()> {
     setup::ensure_packages(setup::TEST_PACKAGES)?;
     setup::ensure_node()?;
     setup::ensure_rust_tools()?;

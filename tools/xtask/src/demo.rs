@@ -2,12 +2,11 @@
 //! on its videos and serve the viewer with the result (and the event's ground-truth package
 //! beside it). `--real` prepares and serves the Pose2Sim capture instead (see `demo_real`).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{Context, bail};
 
-use crate::prep_runs::run_prep;
 use crate::serve::{self, Site};
 use crate::setup;
 use crate::util::{cargo, run_step, workspace_root};
@@ -16,23 +15,27 @@ use crate::web;
 /// Port the demo listens on first (the next free one is taken when it is busy).
 const DEMO_PORT: u16 = 8080;
 
+/// Options of `cargo xtask demo`.
+#[derive(Debug, clap::Args)]
+pub struct DemoArgs {
+    /// Remake the sample event and redo prep.
+    #[arg(long)]
+    pub fresh: bool,
+    /// The real Pose2Sim capture instead, prepared with its calibration and with our SfM.
+    #[arg(long)]
+    pub real: bool,
+    /// Port to listen on first (the next free one is taken when it is busy).
+    #[arg(long, default_value_t = DEMO_PORT)]
+    pub port: u16,
+    /// Build and prepare, then stop without serving.
+    #[arg(long)]
+    pub no_serve: bool,
+}
+
 /// Builds the CLI, makes the sample event (unless present), prepares it from its videos, builds
 /// the wasm package and serves the page until Ctrl-C.
-pub fn run(args: &[String]) -> anyhow::Result<()> {
-    let mut fresh = false;
-    let mut serve = true;
-    let mut real = false;
-    let mut port = DEMO_PORT;
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--fresh" => fresh = true,
-            "--no-serve" => serve = false,
-            "--real" => real = true,
-            "--port" => port = it.next().context("--port needs a number")?.parse().context("--port needs a number")?,
-            other => bail!("unknown option {other:?} for xtask demo (known: --fresh, --real, --no-serve, --port N)"),
-        }
-    }
+pub fn run(args: DemoArgs) -> anyhow::Result<()> {
+    let DemoArgs { fresh, real, port, no_serve } = args;
     setup::ensure_packages(setup::DEMO_PACKAGES)?;
     setup::ensure_rust_tools()?;
     let scenes = if real {
@@ -44,7 +47,7 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
     };
     let size = web::build_package()?;
     println!("    wasm package: {:.2} MB", size as f64 / 1e6);
-    if !serve {
+    if no_serve {
         return Ok(());
     }
     let site = Site { web_dir: web::web_dir(), scenes: scenes.clone() };
@@ -58,7 +61,7 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
 }
 
 /// The release `dynview` binary (built by [`make_sample_event`] or here).
-fn dynview_release() -> anyhow::Result<PathBuf> {
+pub fn dynview_release() -> anyhow::Result<PathBuf> {
     let mut build = cargo();
     build.args(["build", "--release", "-p", "dynview-cli"]);
     run_step("build dynview (release)", build)?;
@@ -75,23 +78,18 @@ fn prepare_sample_event(event: &std::path::Path, fresh: bool) -> anyhow::Result<
         bail!("{} is missing (ffmpeg was not installed when the event was made?); run `cargo xtask demo --fresh`", videos.display());
     }
     let out = workspace_root().join("target/demo/prep");
-    println!("\n==> dynview prep on the sample event's videos (log: {})", out.join(crate::prep_runs::LOG_FILE).display());
-    let run = run_prep(&dynview, &videos, &out, &[], fresh)?;
+    let scene = run_prep(&dynview, &videos, &out, &[], fresh, "dynview prep on the sample event's videos")?;
     let mut info = Command::new(&dynview);
-    info.arg("info").arg(run.scene_dir());
+    info.arg("info").arg(&scene);
     run_step("check the prepared scene package", info)?;
-    Ok(run.scene_dir())
+    Ok(scene)
 }
 
 /// Builds the release CLI and makes the sample event under `target/demo/event` unless it is
 /// there already (or `fresh`); returns the event folder.
 pub fn make_sample_event(fresh: bool) -> anyhow::Result<std::path::PathBuf> {
-    let mut build = cargo();
-    build.args(["build", "--release", "-p", "dynview-cli"]);
-    run_step("build dynview (release)", build)?;
-
+    let dynview = dynview_release()?;
     let root = workspace_root();
-    let dynview = root.join("target/release/dynview");
     let event = root.join("target/demo/event");
     // An event made before ffmpeg was installed has no videos for prep: make it again.
     if fresh || !event.join("synth.json").is_file() || !event.join("videos").is_dir() {
@@ -107,22 +105,33 @@ pub fn make_sample_event(fresh: bool) -> anyhow::Result<std::path::PathBuf> {
     Ok(event)
 }
 
-/// `cargo xtask serve SCENE [--port N]`: builds the wasm package and serves the viewer with
-/// the scene package folder `SCENE` at `/scenes/scene/`.
-pub fn serve_scene(args: &[String]) -> anyhow::Result<()> {
-    let mut scene = None;
-    let mut port = DEMO_PORT;
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--port" => port = it.next().context("--port needs a number")?.parse().context("--port needs a number")?,
-            other if scene.is_none() && !other.starts_with('-') => scene = Some(std::path::PathBuf::from(other)),
-            other => bail!("unknown option {other:?} for xtask serve (usage: serve SCENE [--port N])"),
-        }
-    }
-    let scene = scene.context("usage: cargo xtask serve SCENE [--port N]")?;
+/// Options of `cargo xtask serve`.
+#[derive(Debug, clap::Args)]
+pub struct ServeArgs {
+    /// The scene package folder to open.
+    pub scene: PathBuf,
+    /// Port to listen on first (the next free one is taken when it is busy).
+    #[arg(long, default_value_t = DEMO_PORT)]
+    pub port: u16,
+}
+
+/// `cargo xtask serve SCENE`: builds the wasm package and serves the viewer with one scene.
+pub fn serve_scene(args: ServeArgs) -> anyhow::Result<()> {
     setup::ensure_rust_tools()?;
     web::build_package()?;
-    let site = Site { web_dir: web::web_dir(), scenes: vec![("scene".into(), scene)] };
-    serve::serve_forever(&site, port, |addr| println!("\n==> http://{addr}/?scene=scenes/scene/  (Ctrl-C stops)"))
+    let site = Site { web_dir: web::web_dir(), scenes: vec![("scene".into(), args.scene)] };
+    serve::serve_forever(&site, args.port, |addr| println!("\n==> http://{addr}/?scene=scenes/scene/  (Ctrl-C stops)"))
+}
+
+/// Runs `dynview prep --input INPUT --out OUT EXTRA...` (with `fresh`, `OUT` is removed first;
+/// otherwise prep itself skips the stages an earlier run finished) and returns the package
+/// folder it wrote.
+pub fn run_prep(dynview: &Path, input: &Path, out: &Path, extra: &[String], fresh: bool, label: &str) -> anyhow::Result<PathBuf> {
+    if fresh && out.exists() {
+        std::fs::remove_dir_all(out).with_context(|| format!("cannot remove {}", out.display()))?;
+    }
+    let mut prep = Command::new(dynview);
+    prep.arg("prep").arg("--input").arg(input).arg("--out").arg(out).args(extra);
+    run_step(label, prep)?;
+    Ok(out.join("scene"))
 }

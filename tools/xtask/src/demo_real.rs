@@ -9,16 +9,26 @@ use std::process::Command;
 
 use anyhow::bail;
 
-use crate::pose2sim::{WORKING_WIDTH_PX, videos_dir, write_calibrated_poses};
-use crate::prep_runs::{LOG_FILE, run_prep};
+use crate::demo::run_prep;
 use crate::util::{run_step, workspace_root};
+
+/// Working width of prep's frames for the portrait 1088x1920 videos (540x953 frames).
+const WORKING_WIDTH_PX: u32 = 540;
+
+/// The capture's folder in the shared data beside the checkout.
+fn source_dir() -> PathBuf {
+    workspace_root().join("../shared/data/pose2sim-multiperson")
+}
 
 /// Prepares both packages (prep skips finished stages; `fresh` starts over) and returns the
 /// scenes to serve, by URL name.
 pub fn prepare(dynview: &Path, fresh: bool) -> anyhow::Result<Vec<(String, PathBuf)>> {
     let demo = workspace_root().join("target/demo");
     let poses = demo.join("pose2sim-calibration.json");
-    write_calibrated_poses(&poses, None)?;
+    let mut import = Command::new(dynview);
+    import.arg("import").arg(source_dir().join("calibration/Calib.qca.txt")).arg("--out").arg(&poses);
+    run_step("the Qualisys calibration as poses.json (dynview import)", import)?;
+    let videos = source_dir().join("videos");
     let width = ["--working-width".to_string(), WORKING_WIDTH_PX.to_string()];
     let calibrated_args = [vec!["--poses".to_string(), poses.display().to_string()], width.to_vec()].concat();
     let runs = [("pose2sim-calibrated", calibrated_args), ("pose2sim-sfm", width.to_vec())];
@@ -26,13 +36,12 @@ pub fn prepare(dynview: &Path, fresh: bool) -> anyhow::Result<Vec<(String, PathB
     let mut failures = Vec::new();
     for (name, args) in runs {
         let out = demo.join(name);
-        println!("\n==> {name}: dynview prep on {} (log: {})", videos_dir().display(), out.join(LOG_FILE).display());
-        match run_prep(dynview, &videos_dir(), &out, &args, fresh) {
-            Ok(run) => {
+        match run_prep(dynview, &videos, &out, &args, fresh, &format!("{name}: dynview prep on {}", videos.display())) {
+            Ok(scene) => {
                 let mut info = Command::new(dynview);
-                info.arg("info").arg(run.scene_dir());
+                info.arg("info").arg(&scene);
                 run_step(&format!("check the {name} package"), info)?;
-                scenes.push((name.to_string(), run.scene_dir()));
+                scenes.push((name.to_string(), scene));
             }
             Err(e) => {
                 eprintln!("\n!!! {name}: dynview prep failed; going on without it.\n{e:#}\n");

@@ -37,7 +37,7 @@ fn write_bundle(dir: &Path, out: &Path) -> anyhow::Result<()> {
         bytes.extend_from_slice(&(data.len() as u64).to_le_bytes());
         bytes.extend_from_slice(&data);
     }
-    dynview_core::fsutil::write_atomic(out, &bytes)?;
+    std::fs::write(out, &bytes).with_context(|| format!("cannot write {}", out.display()))?;
     Ok(())
 }
 

@@ -1,80 +1,91 @@
-//! `cargo xtask`: dynview's build orchestration.
-//!
-//! - `cargo xtask test`: installs what is missing, then runs every check and test;
-//! - `cargo xtask demo [--fresh] [--real]`: installs what is missing, builds, makes the sample
-//!   event, prepares it from its videos and serves the viewer with it (`--real`: the Pose2Sim
-//!   capture, calibrated and with our SfM);
-//! - `cargo xtask eval [--real]`: renderer and full-pipeline quality on the synthetic event, or
-//!   leave-one-camera-out on the real capture;
-//! - `cargo xtask bench sfm`: our keyframe SfM against COLMAP and ground truth;
-//! - `cargo xtask bench prep`: the whole `dynview prep` on a 6-camera, 100-frame event.
+//! `cargo xtask`: dynview's build orchestration. It installs what is missing, builds, tests,
+//! serves and runs the evaluation binary; the evaluations and benchmarks themselves live in
+//! `crates/dynview-eval` (the `dynview-eval` binary, run here in release mode).
 
-mod bench;
-mod bench_prep;
-mod bench_sfm;
 mod bench_web;
 mod demo;
 mod demo_real;
-mod eval;
-mod eval_pipeline;
-mod eval_real;
 mod fixtures;
-mod pose2sim;
-mod prep_runs;
 mod serve;
 mod setup;
-mod sfm_data;
-mod sfm_datasets;
-mod sfm_qualisys;
-mod sfm_runners;
 mod test;
 mod util;
 mod web;
 
-use anyhow::bail;
+use std::ffi::OsString;
+use std::process::Command;
 
-const USAGE: &str = "usage: cargo xtask <command>
+use clap::{Parser, Subcommand};
 
-commands:
-  test           install what is missing, then fmt, clippy, all tests, wasm32 build of the core
-  serve SCENE [--port N]
-                 build the wasm package and serve the viewer with a scene package folder
-  e2e            only the page's end-to-end tests (Playwright, headless Chromium)
-  demo [--fresh] [--real] [--port N] [--no-serve]
-                 install what is missing, build, make the sample event (target/demo/event),
-                 run dynview prep on its videos (target/demo/prep) and serve the viewer on
-                 127.0.0.1 with the prepared scene (`demo`) and the event's ground-truth
-                 package (`demo-truth`); prep skips stages a former run finished, --fresh
-                 remakes the event and redoes prep.
-                 --real: the Pose2Sim capture (../shared/data/pose2sim-multiperson) prepared
-                 with its Qualisys calibration (`pose2sim-calibrated`) and with our own SfM
-                 (`pose2sim-sfm`, reported and skipped when it fails), both served
-  bench          ms per frame of the full method at 480x270, 960x540 and 1920x1080
-                 (release build, all cores), per level and stage
-  bench sfm [--dataset NAME]... [--only ours|colmap] [--robust]
-                 our keyframe SfM (dynview prep) vs COLMAP on the synthetic event, the
-                 Middlebury temple ring and Pose2Sim: time, registered images, reprojection
-                 and pose errors against ground truth (target/bench/sfm/results.md)
-  bench prep [--out DIR] [--event-only]
-                 the whole dynview prep (release) on a 6-camera, 100-frame, 960x540
-                 hand-held synthetic event's videos: wall time, stage times, package size,
-                 points, pose accuracy (docs/results/prep.md); --event-only makes the
-                 event (once) and stops
-  bench-web      the viewer in headless Chromium on the demo event: time to first frame,
-                 CPU-path ms per frame at 480x270 and 960x540, wasm package size
-  eval [--frames N] [--methods a,b] [--params FILE] [--out DIR] [--no-pipeline] [--fresh]
-                 quality table of the renderer and its baselines on the synthetic event:
-                 from the ground-truth package, and through the full pipeline (dynview prep
-                 on the event's videos, with and without densification, aligned to the
-                 truth by a similarity); written to docs/results/eval.md. --fresh redoes
-                 the prep runs (target/eval/prep*)
-  eval --real [--frames N] [--fresh] [--out DIR]
-                 leave-one-camera-out on the Pose2Sim capture: each camera rendered from a
-                 package of the other three (calibrated poses, first N frames, default 20)
-                 and compared with its real frames (docs/results/real.md and strips)";
+use crate::util::{cargo, run_step, workspace_root};
+
+/// dynview's build orchestration: `cargo xtask demo` and `cargo xtask test` set up a fresh
+/// Debian machine and run everything.
+#[derive(Parser)]
+#[command(name = "cargo xtask", bin_name = "cargo xtask")]
+struct Cli {
+    #[command(subcommand)]
+    command: Task,
+}
+
+#[derive(Subcommand)]
+enum Task {
+    /// Install what is missing, then fmt, clippy, every native test, the wasm tests in headless
+    /// Chromium (wasm-pack) and the page's unit and end-to-end tests.
+    Test,
+    /// Only the page's end-to-end tests (Playwright, headless Chromium).
+    E2e,
+    /// Install what is missing, build, make the sample event (target/demo/event), run dynview
+    /// prep on its videos (target/demo/prep) and serve the viewer on 127.0.0.1 with the prepared
+    /// scene (`demo`) and the event's ground-truth package (`demo-truth`).
+    Demo(demo::DemoArgs),
+    /// Build the wasm package and serve the viewer with a scene package folder.
+    Serve(demo::ServeArgs),
+    /// Quality of the renderer and its baselines on the synthetic event (`dynview-eval eval`,
+    /// release build); with `--real`, leave-one-camera-out on the Pose2Sim capture
+    /// (`dynview-eval eval-real`). The arguments go to dynview-eval: `cargo xtask eval --help`
+    /// and `cargo xtask eval --real --help` list them.
+    #[command(disable_help_flag = true)]
+    Eval {
+        /// Arguments for dynview-eval (`--real` picks the real capture).
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<OsString>,
+    },
+    /// Benchmarks (release build): `bench` times frames of the full method on the CPU and the
+    /// GPU; `bench sfm` compares our SfM with COLMAP; `bench prep` times the whole prep.
+    /// Arguments after the kind go to dynview-eval (`cargo xtask bench sfm --help`).
+    #[command(disable_help_flag = true)]
+    Bench {
+        /// `sfm` or `prep` (none: the renderer), then arguments for dynview-eval.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<OsString>,
+    },
+    /// The viewer in headless Chromium on the demo event: time to first frame, ms per frame,
+    /// wasm package size.
+    BenchWeb,
+}
 
 fn main() -> std::process::ExitCode {
-    match run() {
+    let result = match Cli::parse().command {
+        Task::Test => test::run(),
+        Task::E2e => test::run_end_to_end(),
+        Task::Demo(args) => demo::run(args),
+        Task::Serve(args) => demo::serve_scene(args),
+        Task::Eval { args } => {
+            let real = args.iter().any(|a| a == "--real");
+            let args: Vec<OsString> = args.into_iter().filter(|a| a != "--real").collect();
+            setup::ensure_packages(setup::DEMO_PACKAGES).and_then(|()| run_eval(if real { "eval-real" } else { "eval" }, &args, true))
+        }
+        Task::Bench { args } => match args.first().and_then(|a| a.to_str()) {
+            Some("sfm") => setup::ensure_packages(setup::DEMO_PACKAGES)
+                .and_then(|()| setup::ensure_packages(setup::BENCH_SFM_PACKAGES))
+                .and_then(|()| run_eval("bench-sfm", &args[1..], true)),
+            Some("prep") => setup::ensure_packages(setup::DEMO_PACKAGES).and_then(|()| run_eval("bench-prep", &args[1..], true)),
+            _ => run_eval("bench", &args, false),
+        },
+        Task::BenchWeb => bench_web::run(),
+    };
+    match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("xtask: error: {e:#}");
@@ -83,29 +94,17 @@ fn main() -> std::process::ExitCode {
     }
 }
 
-fn run() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let Some(command) = args.first() else {
-        println!("{USAGE}");
-        return Ok(());
-    };
-    let rest = &args[1..];
-    match command.as_str() {
-        "test" => test::run(rest),
-        "demo" => demo::run(rest),
-        "e2e" => test::run_end_to_end(rest),
-        "serve" => demo::serve_scene(rest),
-        "bench" if rest.first().is_some_and(|a| a == "sfm") => bench_sfm::run(&rest[1..]),
-        "bench" if rest.first().is_some_and(|a| a == "prep") => bench_prep::run(&rest[1..]),
-        "bench" => bench::run(rest),
-        "bench-release" => bench::run_release(rest),
-        "bench-web" => bench_web::run(rest),
-        "eval" => eval::run(rest),
-        "eval-release" => eval::run_release(rest),
-        "help" | "--help" | "-h" => {
-            println!("{USAGE}");
-            Ok(())
-        }
-        other => bail!("unknown command {other:?}\n\n{USAGE}"),
+/// Builds `dynview-eval` (and `dynview` when `with_cli`, which the evaluations run) in release
+/// mode and runs `dynview-eval COMMAND ARGS...`.
+fn run_eval(command: &str, args: &[OsString], with_cli: bool) -> anyhow::Result<()> {
+    let mut build = cargo();
+    build.args(["build", "--release", "-p", "dynview-eval"]);
+    if with_cli {
+        build.args(["-p", "dynview-cli"]);
     }
+    run_step("release build of the evaluations", build)?;
+    let mut eval = Command::new(workspace_root().join("target/release").join(format!("dynview-eval{}", std::env::consts::EXE_SUFFIX)));
+    eval.arg(command).args(args);
+    run_step(&format!("dynview-eval {command}"), eval)?;
+    Ok(())
 }

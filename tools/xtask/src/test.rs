@@ -4,8 +4,6 @@
 
 use std::process::Command;
 
-use anyhow::bail;
-
 use crate::fixtures::{BrowserFixture, browser_fixture};
 use crate::serve::{self, Site};
 use crate::util::{cargo, run_step, workspace_root};
@@ -15,10 +13,7 @@ use crate::{setup, web};
 const FIXTURE: (u32, u32, u32) = (4, 320, 180);
 
 /// Runs the whole test suite.
-pub fn run(args: &[String]) -> anyhow::Result<()> {
-    if let Some(extra) = args.first() {
-        bail!("xtask test takes no arguments, got {extra:?}");
-    }
+pub fn run() -> anyhow::Result<()> {
     setup::ensure_packages(setup::TEST_PACKAGES)?;
     setup::ensure_node()?;
     setup::ensure_rust_tools()?;
@@ -33,6 +28,8 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
     let mut clippy = cargo();
     clippy.args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]);
     timings.push(("clippy", run_step("clippy, warnings denied", clippy)?));
+
+    timings.push(("dependency rules", dependency_rules()?));
 
     let mut tests = cargo();
     tests.args(["test", "--workspace"]);
@@ -96,10 +93,7 @@ fn fixture() -> anyhow::Result<BrowserFixture> {
 
 /// `cargo xtask e2e`: only the end-to-end tests of the page (fixture, wasm package, server,
 /// Playwright).
-pub fn run_end_to_end(args: &[String]) -> anyhow::Result<()> {
-    if let Some(extra) = args.first() {
-        bail!("xtask e2e takes no arguments, got {extra:?}");
-    }
+pub fn run_end_to_end() -> anyhow::Result<()> {
     setup::ensure_packages(setup::TEST_PACKAGES)?;
     setup::ensure_node()?;
     web::ensure_npm_packages()?;
@@ -131,4 +125,43 @@ fn end_to_end(fixture: &BrowserFixture) -> anyhow::Result<f64> {
     drop(server);
     println!("    screenshots: {}", out.display());
     Ok(secs)
+}
+
+/// Crates (with cargo's feature flags) that must not link a dependency, and which.
+const FORBIDDEN_DEPENDENCIES: &[(&str, &[&str], &str)] = &[
+    ("dynview-core", &[], "opencv"),
+    ("dynview-interchange", &[], "opencv"),
+    ("dynview-gpu", &[], "opencv"),
+    ("dynview-web", &[], "opencv"),
+    ("dynview-eval", &[], "opencv"),
+    ("dynview-cli", &["--no-default-features"], "opencv"),
+    ("dynview-core", &[], "wgpu"),
+    ("xtask", &[], "wgpu"),
+];
+
+/// Checks the workspace's dependency rules (docs/ARCHITECTURE.md): OpenCV only through
+/// dynview-sfm and the CLI's `prep` feature, no GPU in the core or xtask, and that the CLI
+/// builds without OpenCV.
+fn dependency_rules() -> anyhow::Result<f64> {
+    println!("\n==> dependency rules (docs/ARCHITECTURE.md)");
+    let start = std::time::Instant::now();
+    for (krate, flags, forbidden) in FORBIDDEN_DEPENDENCIES {
+        let out = cargo()
+            .args(["tree", "-p", krate, "-e", "normal,build", "--prefix", "none", "--format", "{p}"])
+            .args(*flags)
+            .output()
+            .map_err(|e| anyhow::anyhow!("cannot run cargo tree: {e}"))?;
+        if !out.status.success() {
+            anyhow::bail!("cargo tree -p {krate} failed: {}", String::from_utf8_lossy(&out.stderr));
+        }
+        let tree = String::from_utf8_lossy(&out.stdout);
+        if let Some(line) = tree.lines().find(|l| l.split_whitespace().next() == Some(forbidden)) {
+            anyhow::bail!("{krate} {} depends on {forbidden} ({line}); see docs/ARCHITECTURE.md", flags.join(" "));
+        }
+        println!("    {krate} {}: no {forbidden}", flags.join(" "));
+    }
+    let mut build = cargo();
+    build.args(["build", "-p", "dynview-cli", "--no-default-features"]);
+    let secs = run_step("dynview without OpenCV (dynview-cli --no-default-features)", build)?;
+    Ok(start.elapsed().as_secs_f64().max(secs))
 }

@@ -1,37 +1,45 @@
-//! `dynview import-colmap` and `dynview export-colmap`: event poses from and to COLMAP models.
+//! `dynview import` and `dynview export-colmap`: event poses from calibrations (COLMAP,
+//! Qualisys, Middlebury) and to COLMAP models.
 
 use std::path::PathBuf;
 
 use anyhow::Context;
-use dynview_core::colmap::{ColmapFormat, ColmapModel};
-use dynview_core::poses::EventPoses;
 use dynview_core::scene::ScenePackage;
+use dynview_interchange::colmap::{ColmapFormat, ColmapModel};
+use dynview_interchange::import::{CalibrationFormat, read_event_poses};
+use dynview_interchange::poses::EventPoses;
 
-/// Arguments of `dynview import-colmap`.
+/// Arguments of `dynview import`.
 #[derive(clap::Args, Debug)]
 pub struct ImportArgs {
-    /// The COLMAP model folder: cameras, images and points3D as .bin or .txt (detected; binary
-    /// wins when both are there). Image names must be `<camera>/<frame file>`.
-    model_dir: PathBuf,
+    /// The calibration: a COLMAP model folder (cameras, images and points3D as .bin or .txt;
+    /// image names `<camera>/<frame file>`), a Qualisys `.qca.txt`, a Middlebury `*_par.txt`
+    /// (the images beside it give the sizes) or a `poses.json`; the format is detected.
+    source: PathBuf,
     /// The poses file to write (poses.json).
     #[arg(long)]
     out: PathBuf,
 }
 
-/// Runs `dynview import-colmap`: reads the model, converts it and writes `poses.json`.
+/// Runs `dynview import`: reads the calibration, converts it and writes `poses.json`.
 pub fn run_import(args: ImportArgs) -> anyhow::Result<()> {
-    let dir = &args.model_dir;
-    let format = ColmapModel::detect_format(dir)?;
-    let model = ColmapModel::read_dir(dir).with_context(|| format!("reading the COLMAP model in {}", dir.display()))?;
-    let poses = EventPoses::from_colmap(&model).with_context(|| format!("converting the COLMAP model in {}", dir.display()))?;
+    let source = &args.source;
+    let format = CalibrationFormat::detect(source)?;
+    let poses = read_event_poses(source).with_context(|| format!("importing {}", source.display()))?;
     poses.write(&args.out)?;
-    println!(
-        "read {format} COLMAP model {}: {} cameras, {} images, {} points",
-        dir.display(),
-        model.cameras.len(),
-        model.images.len(),
-        model.points3d.len()
-    );
+    if format == CalibrationFormat::Colmap {
+        let model = ColmapModel::read_dir(source)?;
+        println!(
+            "read {} COLMAP model {}: {} cameras, {} images, {} points",
+            ColmapModel::detect_format(source)?,
+            source.display(),
+            model.cameras.len(),
+            model.images.len(),
+            model.points3d.len()
+        );
+    } else {
+        println!("read {} {}", format.name(), source.display());
+    }
     println!(
         "wrote {}: {} cameras, {} frames, {} registered",
         args.out.display(),

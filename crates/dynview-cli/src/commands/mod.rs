@@ -2,7 +2,10 @@
 
 pub mod colmap;
 pub mod info;
+#[cfg(feature = "prep")]
+pub mod merge;
 pub mod package;
+#[cfg(feature = "prep")]
 pub mod prep;
 pub mod render;
 pub mod synth;

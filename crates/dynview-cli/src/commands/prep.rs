@@ -42,10 +42,11 @@ pub struct Args {
     /// Most SIFT features per image.
     #[arg(long, default_value_t = PrepOptions::default().features.max_features)]
     max_features: usize,
-    /// Known poses, a COLMAP model folder (text or binary) or a poses.json: pose estimation is
+    /// Known poses: a COLMAP model folder (text or binary), a poses.json, or a calibration
+    /// `dynview import` reads (Qualisys .qca.txt, Middlebury *_par.txt); pose estimation is
     /// skipped (calibrated rigs, ground truth, earlier COLMAP results). Image names
     /// `<camera>/<frame file>`; one pose per frame or one per camera.
-    #[arg(long, value_name = "MODEL_DIR|POSES_JSON")]
+    #[arg(long, value_name = "MODEL_DIR|POSES_JSON|CALIBRATION")]
     poses: Option<PathBuf>,
     /// Known intrinsics and distortion of every camera, a COLMAP model folder or a poses.json
     /// (its poses are ignored): frames are undistorted first and the intrinsics kept fixed.

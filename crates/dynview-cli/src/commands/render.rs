@@ -6,13 +6,13 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use dynview_core::camera::Camera;
-use dynview_core::camera_path::parse_path;
 use dynview_core::depth_io::{DepthScale, SCALE_FILE, depth_png_bytes};
 use dynview_core::fsutil::write_atomic;
 use dynview_core::raster::{RgbRaster, ScalarRaster};
 use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer, TimeStepInputs};
 use dynview_core::scene::ScenePackage;
 use dynview_gpu::{GpuContext, GpuFrame, GpuInputs, GpuRenderer};
+use dynview_interchange::camera_path::parse_path;
 
 use crate::progress::StageBars;
 

@@ -1,7 +1,7 @@
 //! Rendering one novel frame: the coarse-to-fine alternation of METHOD.md Part 2, and the
 //! baselines it is compared with.
 
-use super::job::{FrameJob, Progress};
+use super::job::{FrameJob, JobStep};
 use super::params::RenderParams;
 use super::pushpull;
 use super::pyramid::{self, camera_at};
@@ -307,14 +307,14 @@ pub fn render_frame(
     let mut job = FrameJob::new(params.clone(), *camera, inputs, previous)?;
     loop {
         match job.step(hooks)? {
-            Progress::Level(level) => {
+            JobStep::Level(level) => {
                 if let Some(on_level) = hooks.on_level.as_mut()
                     && !on_level(job.preview(level))
                 {
                     return Err(RenderError::Cancelled);
                 }
             }
-            Progress::Done(output) => {
+            JobStep::Done(output) => {
                 if let Some(on_level) = hooks.on_level.as_mut()
                     && !on_level(LevelPreview { level: 0, color: &output.color, depth: &output.depth })
                 {

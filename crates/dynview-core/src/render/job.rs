@@ -21,7 +21,7 @@ use crate::view_ranking::{rank_views, view_score};
 
 /// What one [`FrameJob::step`] achieved.
 #[derive(Debug)]
-pub enum Progress {
+pub enum JobStep {
     /// A coarse level is done (its number); [`FrameJob::preview`] shows it.
     Level(usize),
     /// The frame is done.
@@ -82,14 +82,14 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
         self.next_level
     }
 
-    /// The solution of the level last finished (after [`Progress::Level`]).
+    /// The solution of the level last finished (after [`JobStep::Level`]).
     pub fn preview(&self, level: usize) -> LevelPreview<'_> {
         LevelPreview { level, color: &self.color, depth: &self.depth }
     }
 
     /// Solves the next level. After the last one, returns the frame; stepping a finished job
     /// does no work and returns [`RenderError::Cancelled`].
-    pub fn step(&mut self, hooks: &mut RenderHooks) -> Result<Progress, RenderError> {
+    pub fn step(&mut self, hooks: &mut RenderHooks) -> Result<JobStep, RenderError> {
         let Some(level) = self.next_level else {
             return Err(RenderError::Cancelled);
         };
@@ -104,13 +104,13 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
         if level > 0 {
             self.coarse_levels.insert(0, LevelSolution { color: self.color.clone(), depth: self.depth.clone() });
             self.next_level = Some(level - 1);
-            return Ok(Progress::Level(level));
+            return Ok(JobStep::Level(level));
         }
         self.next_level = None;
         let mut timings = std::mem::take(&mut self.timings);
         timings.total_ms = timings.levels.iter().map(|l| l.total_ms()).sum();
         let empty = || ScalarRaster::filled(1, 1, 0.0);
-        Ok(Progress::Done(Box::new(RenderOutput {
+        Ok(JobStep::Done(Box::new(RenderOutput {
             color: std::mem::replace(&mut self.color, RgbRaster::filled(1, 1, FALLBACK_COLOR)),
             depth: std::mem::replace(&mut self.depth, empty()),
             view_weight: std::mem::replace(&mut self.view_weight, empty()),

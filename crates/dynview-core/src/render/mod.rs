@@ -23,7 +23,7 @@ pub use frame::{
     FALLBACK_COLOR, FALLBACK_DEPTH, InputView, LevelPreview, LevelSolution, PreviousFrame, RenderError, RenderHooks, RenderOutput,
     SolveKind, SolveTrace, TimeStepInputs, render_frame,
 };
-pub use job::{FrameJob, Progress};
+pub use job::{FrameJob, JobStep};
 pub use params::{Method, ParamsError, RenderParams};
 pub use timing::{LevelTimings, Stage, Timings};
 

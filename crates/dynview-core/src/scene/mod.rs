@@ -8,7 +8,6 @@ pub mod limits;
 pub mod manifest;
 #[cfg(not(target_family = "wasm"))]
 pub mod package;
-pub mod ply;
 pub mod summary;
 
 pub use cloud::{CloudIndex, PointCloud};
@@ -17,10 +16,9 @@ pub use frame::{decode_frame, encode_frame};
 pub use manifest::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, PoseEntry, StartView};
 #[cfg(not(target_family = "wasm"))]
 pub use package::{ScenePackage, SceneWriter};
-pub use ply::encode_ply;
 pub use summary::SceneSummary;
 
-#[cfg(test)]
-pub(crate) mod testing;
+#[cfg(any(test, feature = "testing"))]
+pub mod testing;
 #[cfg(test)]
 mod tests;

@@ -16,9 +16,11 @@ use std::process::Command;
 use anyhow::{Context, bail};
 use dynview_synth::SynthConfig;
 
-use crate::sfm_data::{Poses, parse_middlebury_par, poses_from_colmap, read_colmap_text};
-use crate::sfm_qualisys::parse_qualisys_calibration;
-use crate::util::{describe, workspace_root};
+use dynview_interchange::middlebury::parse_middlebury_par;
+use dynview_interchange::qualisys::parse_qualisys_calibration;
+
+use crate::paths::{command_line as describe, shared_data};
+use crate::sfm_data::{Poses, poses_from_colmap, read_colmap_text};
 
 /// Names of the datasets, in the order the benchmark runs them.
 pub const DATASETS: [&str; 3] = ["synthetic", "temple", "pose2sim"];
@@ -38,11 +40,6 @@ pub struct Dataset {
     pub images_dir: PathBuf,
     /// Ground-truth `camera_from_world` of every image in the folder, by `<camera>/<file>`.
     pub ground_truth: Poses,
-}
-
-/// The shared data folder (`../shared/data` beside the checkout).
-pub fn shared_data() -> PathBuf {
-    workspace_root().join("../shared/data")
 }
 
 /// Prepares the dataset `name` under `bench_dir/<name>/` (images once, ground truth each time).

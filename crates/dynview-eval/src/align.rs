@@ -16,8 +16,8 @@ use std::collections::BTreeMap;
 
 use glam::{DMat3, DVec3};
 
-use crate::camera::Rigid3;
-use crate::rotation::angle_axis_from_matrix;
+use dynview_core::Rigid3;
+use dynview_core::rotation::angle_axis_from_matrix;
 
 /// Errors of alignment and pose evaluation.
 #[derive(Debug, thiserror::Error)]

@@ -11,8 +11,8 @@
 use glam::{DMat3, DVec3};
 use serde::{Deserialize, Serialize};
 
-use crate::camera::{Camera, Intrinsics, Rigid3};
-use crate::scene::manifest::PoseEntry;
+use dynview_core::camera::{Camera, Intrinsics, Rigid3};
+use dynview_core::scene::manifest::PoseEntry;
 
 /// Errors reading a camera path.
 #[derive(Debug, thiserror::Error)]
@@ -264,7 +264,7 @@ fn frames_from_nerfstudio(path: &NerfstudioPath, file: &str) -> Result<Vec<PathF
                 DVec3::new(m[0][2], m[1][2], m[2][2]),
             );
             let world_from_camera = Rigid3::new(rotation_gl * GL_FROM_CV, DVec3::new(m[0][3], m[1][3], m[2][3]));
-            if !world_from_camera.is_proper_rigid(crate::scene::limits::ROTATION_TOLERANCE) {
+            if !world_from_camera.is_proper_rigid(dynview_core::scene::limits::ROTATION_TOLERANCE) {
                 return Err(invalid(file, field("camera_to_world"), "rotation part is not a rotation"));
             }
             if !(key.fov.is_finite() && key.fov > 0.1 && key.fov < 179.0) {
@@ -297,7 +297,7 @@ fn frames_from_dynview(path: &DynviewPath, file: &str) -> Result<Vec<PathFrame>,
             let field = |name: &str| format!("frames[{i}].{name}");
             check_render_size(f.width, f.height, file, &field("width/height"))?;
             let pose = f.pose.camera_from_world();
-            if !pose.is_proper_rigid(crate::scene::limits::ROTATION_TOLERANCE) {
+            if !pose.is_proper_rigid(dynview_core::scene::limits::ROTATION_TOLERANCE) {
                 return Err(invalid(file, field("pose"), "not a finite rigid transform"));
             }
             if !f.intrinsics.is_valid() {

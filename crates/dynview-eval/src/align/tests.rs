@@ -1,5 +1,5 @@
 use super::*;
-use crate::rotation::matrix_from_angle_axis;
+use dynview_core::rotation::matrix_from_angle_axis;
 
 fn known_similarity() -> Similarity3 {
     Similarity3 { scale: 2.5, rotation: matrix_from_angle_axis(DVec3::new(0.3, -1.1, 0.7)), translation: DVec3::new(4.0, -2.0, 0.5) }

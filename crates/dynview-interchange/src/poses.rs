@@ -14,10 +14,10 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use serde::{Deserialize, Serialize};
 
-use crate::camera::{Intrinsics, Rigid3};
 use crate::colmap::{ColmapCamera, ColmapImage, ColmapModel, Distortion};
-use crate::scene::limits::{MAX_ABS_COORDINATE_M, MAX_IMAGE_SIDE_PX, MAX_NAME_CHARS, MAX_TIME_STEPS};
-use crate::scene::manifest::{Manifest, PoseEntry, is_safe_name};
+use dynview_core::camera::{Intrinsics, Rigid3};
+use dynview_core::scene::limits::{MAX_ABS_COORDINATE_M, MAX_IMAGE_SIDE_PX, MAX_NAME_CHARS, MAX_TIME_STEPS};
+use dynview_core::scene::manifest::{Manifest, PoseEntry, is_safe_name};
 
 /// The file's usual name.
 pub const POSES_FILE: &str = "poses.json";
@@ -257,7 +257,7 @@ impl EventPoses {
     #[cfg(not(target_family = "wasm"))]
     pub fn write(&self, path: &std::path::Path) -> Result<(), PosesError> {
         self.validate_as(&path.display().to_string())?;
-        crate::fsutil::write_atomic(path, self.to_json_string().as_bytes())
+        dynview_core::fsutil::write_atomic(path, self.to_json_string().as_bytes())
             .map_err(|source| PosesError::Io { path: path.display().to_string(), source })
     }
 

@@ -10,7 +10,7 @@
 //!   so both methods are measured the same way whatever their `ERROR` fields hold;
 //! - after a similarity alignment to the ground truth (rotation from the camera orientations,
 //!   scale and translation from the centres)
-//!   (`dynview_core::align`): median and largest rotation error in degrees, and median and
+//!   (`crate::align`): median and largest rotation error in degrees, and median and
 //!   largest centre error in percent of the scene size (the diagonal of the bounding box of the
 //!   ground-truth camera centres).
 //!
@@ -19,21 +19,23 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use anyhow::{Context, bail};
-use dynview_core::align::{PoseAccuracy, PoseEvalOptions, evaluate_poses};
+use crate::align::{PoseAccuracy, PoseEvalOptions, evaluate_poses};
+use anyhow::bail;
 
+use crate::paths::workspace_root;
 use crate::sfm_data::{mean_reprojection_error_px, poses_from_colmap, track_weighted_error_px};
 use crate::sfm_datasets::{DATASETS, Dataset, prepare};
 use crate::sfm_runners::{Reconstruction, dynview_binary, run_colmap, run_ours};
-use crate::util::workspace_root;
 
 /// Relative gap between the recomputed and the model's own mean error that earns a note.
 const ERROR_FIELD_MISMATCH: f64 = 0.1;
 
 /// The methods compared.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Method {
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// `dynview prep --stop-after keyframes`.
     Ours,
+    /// COLMAP's incremental mapper.
     Colmap,
 }
 
@@ -46,48 +48,18 @@ impl Method {
     }
 }
 
-struct Options {
-    datasets: Vec<String>,
-    methods: Vec<Method>,
-    eval: PoseEvalOptions,
-}
-
-const USAGE: &str = "usage: cargo xtask bench sfm [--dataset NAME]... [--only ours|colmap] [--robust]
-  --dataset NAME   run only this dataset (synthetic, temple, pose2sim; repeatable)
-  --only METHOD    run only ours or only COLMAP
-  --robust         fit the similarity on the 80% best-aligned cameras (after a first fit on all)";
-
-fn parse_options(args: &[String]) -> anyhow::Result<Options> {
-    let mut options = Options { datasets: Vec::new(), methods: vec![Method::Ours, Method::Colmap], eval: PoseEvalOptions::default() };
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--dataset" => {
-                let name = it.next().with_context(|| format!("--dataset needs a name\n{USAGE}"))?;
-                if !DATASETS.contains(&name.as_str()) {
-                    bail!("unknown dataset {name:?} (known: {})", DATASETS.join(", "));
-                }
-                options.datasets.push(name.clone());
-            }
-            "--only" => {
-                options.methods = match it.next().map(String::as_str) {
-                    Some("ours") => vec![Method::Ours],
-                    Some("colmap") => vec![Method::Colmap],
-                    other => bail!("--only takes ours or colmap, got {other:?}\n{USAGE}"),
-                }
-            }
-            "--robust" => options.eval.robust = true,
-            "-h" | "--help" => {
-                println!("{USAGE}");
-                std::process::exit(0);
-            }
-            other => bail!("unknown argument {other:?}\n{USAGE}"),
-        }
-    }
-    if options.datasets.is_empty() {
-        options.datasets = DATASETS.iter().map(|s| s.to_string()).collect();
-    }
-    Ok(options)
+/// Options of `dynview-eval bench-sfm` (`cargo xtask bench sfm`).
+#[derive(Debug, clap::Args)]
+pub struct Options {
+    /// Run only this dataset (repeatable; default: all).
+    #[arg(long = "dataset", value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(DATASETS))]
+    pub datasets: Vec<String>,
+    /// Run only ours or only COLMAP.
+    #[arg(long, value_enum)]
+    pub only: Option<Method>,
+    /// Fit the similarity on the 80% best-aligned cameras (after a first fit on all).
+    #[arg(long)]
+    pub robust: bool,
 }
 
 /// What one method achieved on one dataset.
@@ -107,19 +79,21 @@ struct Figures {
     notes: Vec<String>,
 }
 
-/// Entry from `cargo xtask bench sfm ...`.
-pub fn run(args: &[String]) -> anyhow::Result<()> {
-    let options = parse_options(args)?;
-    crate::setup::ensure_packages(crate::setup::DEMO_PACKAGES)?;
-    crate::setup::ensure_packages(crate::setup::BENCH_SFM_PACKAGES)?;
+/// The benchmark (COLMAP must be installed; `cargo xtask bench sfm` installs it): writes
+/// `target/bench/sfm/results.md`.
+pub fn run(options: Options) -> anyhow::Result<()> {
+    let datasets: Vec<String> =
+        if options.datasets.is_empty() { DATASETS.iter().map(|s| s.to_string()).collect() } else { options.datasets.clone() };
+    let methods = options.only.map_or(vec![Method::Ours, Method::Colmap], |only| vec![only]);
+    let eval = PoseEvalOptions { robust: options.robust, ..PoseEvalOptions::default() };
     let bench_dir = workspace_root().join("target/bench/sfm");
     let mut dynview: Option<Result<PathBuf, String>> = None;
     let mut rows = Vec::new();
-    for name in &options.datasets {
+    for name in &datasets {
         println!("\n==> dataset {name}");
         let dataset = prepare(name, &bench_dir)?;
         println!("  {} images in {}", dataset.ground_truth.len(), dataset.images_dir.display());
-        for &method in &options.methods {
+        for &method in &methods {
             let work_dir = bench_dir.join(dataset.name).join(method.label().to_lowercase());
             let reconstruction = match method {
                 Method::Colmap => run_colmap(&dataset.images_dir, &work_dir),
@@ -131,14 +105,14 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
                     }
                 }
             };
-            let result = reconstruction.map(|r| figures(&dataset, &r, options.eval)).map_err(|e| format!("{e:#}"));
+            let result = reconstruction.map(|r| figures(&dataset, &r, eval)).map_err(|e| format!("{e:#}"));
             if let Err(e) = &result {
                 eprintln!("  {} failed on {}: {e}", method.label(), dataset.name);
             }
             rows.push(Row { dataset: dataset.name, method, result });
         }
     }
-    let report = table(&rows, options.eval);
+    let report = table(&rows, eval);
     println!("\n{report}");
     let out = bench_dir.join("results.md");
     dynview_core::fsutil::write_atomic(&out, report.as_bytes())?;
@@ -189,7 +163,7 @@ fn table(rows: &[Row], eval: PoseEvalOptions) -> String {
         s,
         "SfM: ours (`dynview prep --stop-after keyframes`) vs COLMAP {} (CPU), {threads} threads. Errors after a {} \
          similarity alignment to the ground truth (rotation from the camera orientations, scale and translation \
-         from the centres: `dynview_core::align`); centre errors in % of the scene size \
+         from the centres: `crate::align`); centre errors in % of the scene size \
          (diagonal of the ground-truth camera centres' bounding box); reprojection error recomputed from each model.\n",
         colmap_version().unwrap_or_else(|| "(version unknown)".into()),
         if eval.robust { "robust (best 80%)" } else { "least-squares" },
@@ -251,7 +225,7 @@ fn colmap_version() -> Option<String> {
 mod tests {
     use super::*;
     use dynview_core::Rigid3;
-    use dynview_core::colmap::{ColmapCamera, ColmapImage, ColmapModel};
+    use dynview_interchange::colmap::{ColmapCamera, ColmapImage, ColmapModel};
     use glam::DVec3;
 
     fn dataset() -> Dataset {

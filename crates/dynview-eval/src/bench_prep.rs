@@ -7,14 +7,14 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+use crate::align::{PoseEvalOptions, evaluate_poses};
 use anyhow::{Context, bail};
-use dynview_core::align::{PoseEvalOptions, evaluate_poses};
 use dynview_core::scene::ScenePackage;
 use dynview_synth::SynthConfig;
 
+use crate::paths::{results_dir, workspace_root};
 use crate::prep_runs::{cloud_point_counts, package_poses, run_prep, stage_seconds, stage_table};
 use crate::sfm_runners::dynview_binary;
-use crate::util::workspace_root;
 
 /// The event of the benchmark.
 fn event_config() -> SynthConfig {
@@ -29,18 +29,20 @@ fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg").ok().and_then(|s| s.split_whitespace().next().map(str::to_owned)).unwrap_or_else(|| "?".into())
 }
 
-/// Entry from `cargo xtask bench prep [--out DIR] [--event-only]`.
-pub fn run(args: &[String]) -> anyhow::Result<()> {
-    let mut out_dir = workspace_root().join("docs/results");
-    let mut event_only = false;
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--out" => out_dir = PathBuf::from(it.next().context("--out needs a folder")?),
-            "--event-only" => event_only = true,
-            other => bail!("unknown option {other:?} for xtask bench prep (known: --out DIR, --event-only)"),
-        }
-    }
+/// Options of `dynview-eval bench-prep` (`cargo xtask bench prep`).
+#[derive(Debug, clap::Args)]
+pub struct Options {
+    /// Folder of the written `prep.md`.
+    #[arg(long, default_value_os_t = results_dir())]
+    pub out: PathBuf,
+    /// Make the event (once) and stop.
+    #[arg(long)]
+    pub event_only: bool,
+}
+
+/// The benchmark: the whole `dynview prep` on the event's videos, timed and scored.
+pub fn run(options: Options) -> anyhow::Result<()> {
+    let Options { out: out_dir, event_only } = options;
     let root = workspace_root().join("target/bench/prep");
     let event = root.join("event");
     let config = event_config();
@@ -107,10 +109,8 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
         accuracy.center_error_median_fraction * 100.0,
         accuracy.center_error_max_fraction * 100.0
     );
-    let _ = writeln!(
-        s,
-        "\nPose errors: every camera at every time step against the ground-truth package (`dynview_core::align::evaluate_poses`)."
-    );
+    let _ =
+        writeln!(s, "\nPose errors: every camera at every time step against the ground-truth package (`crate::align::evaluate_poses`).");
     let _ = writeln!(
         s,
         "\nReproduce: `cargo xtask bench prep` (event in `target/bench/prep/event`, made once; prep output in `target/bench/prep/out`)."

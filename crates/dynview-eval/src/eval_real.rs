@@ -10,17 +10,17 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use dynview_core::display::colorize_depth;
 use dynview_core::metrics::{psnr, ssim};
 use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer};
 use dynview_core::scene::ScenePackage;
 use dynview_core::{RgbRaster, ScalarRaster};
 
+use crate::paths::{results_dir, workspace_root};
 use crate::pose2sim::{WORKING_WIDTH_PX, calibration, extract_first_frames, write_calibrated_poses};
 use crate::prep_runs::{PrepRun, prep_once, stage_seconds};
 use crate::sfm_runners::dynview_binary;
-use crate::util::workspace_root;
 
 /// Frames of each video used by default (the capture has 100).
 const DEFAULT_FRAMES: u32 = 20;
@@ -31,27 +31,18 @@ const STRIP_MAX_BYTES: usize = 400_000;
 /// Width of one strip panel to start from, pixels (shrunk until the PNG fits).
 const STRIP_PANEL_WIDTH_PX: u32 = 270;
 
-struct Options {
-    frames: u32,
-    fresh: bool,
-    out: PathBuf,
-}
-
-fn parse_options(args: &[String]) -> anyhow::Result<Options> {
-    let mut options = Options { frames: DEFAULT_FRAMES, fresh: false, out: workspace_root().join("docs/results") };
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--frames" => options.frames = it.next().context("--frames needs a number")?.parse().context("--frames needs a number")?,
-            "--fresh" => options.fresh = true,
-            "--out" => options.out = PathBuf::from(it.next().context("--out needs a folder")?),
-            other => bail!("unknown option {other:?} for xtask eval --real (known: --frames N, --fresh, --out DIR)"),
-        }
-    }
-    if options.frames == 0 {
-        bail!("--frames must be at least 1");
-    }
-    Ok(options)
+/// Options of `dynview-eval eval-real` (`cargo xtask eval --real`).
+#[derive(Debug, clap::Args)]
+pub struct Options {
+    /// Frames of each video used, from the first.
+    #[arg(long, default_value_t = DEFAULT_FRAMES, value_parser = clap::value_parser!(u32).range(1..))]
+    pub frames: u32,
+    /// Redo the prep runs even when their packages exist.
+    #[arg(long)]
+    pub fresh: bool,
+    /// Folder of the written results.
+    #[arg(long, default_value_os_t = results_dir())]
+    pub out: PathBuf,
 }
 
 /// Scores of one held-out camera.
@@ -65,9 +56,8 @@ struct CameraResult {
     points_per_step: f64,
 }
 
-/// The leave-one-out evaluation (release build).
-pub fn run_release(args: &[String]) -> anyhow::Result<()> {
-    let options = parse_options(args)?;
+/// The leave-one-out evaluation: writes `real.md` and one strip per camera into `options.out`.
+pub fn run(options: Options) -> anyhow::Result<()> {
     let root = workspace_root().join("target/eval/real");
     let frames_dir = root.join(format!("frames{}", options.frames));
     println!("==> first {} frames of the Pose2Sim videos into {}", options.frames, frames_dir.display());

@@ -15,9 +15,11 @@
 //!
 //! The XML is read by a small tag scanner: the file is machine-written, flat and small.
 
-use anyhow::{Context, bail};
 use dynview_core::{Intrinsics, Rigid3};
 use glam::{DMat3, DVec3};
+
+use crate::error::{ImportError, invalid};
+use crate::poses::{CameraPoses, EventPoses, FramePose};
 
 /// Qualisys stores focal lengths and principal points in 1/64 pixel.
 const SUBPIXELS_PER_PIXEL: f64 = 64.0;
@@ -57,13 +59,13 @@ impl Tag {
 }
 
 /// The tags of an XML document in order (declarations, comments and text skipped).
-fn scan_tags(text: &str, file: &str) -> anyhow::Result<Vec<Tag>> {
+fn scan_tags(text: &str, file: &str) -> Result<Vec<Tag>, ImportError> {
     let mut tags = Vec::new();
     let mut rest = text;
     while let Some(open) = rest.find('<') {
         rest = &rest[open..];
         let line = || text[..text.len() - rest.len()].lines().count().max(1);
-        let skip_to = |end: &str| rest.find(end).map(|i| i + end.len()).with_context(|| format!("{file}:{}: unterminated {end:?}", line()));
+        let skip_to = |end: &str| rest.find(end).map(|i| i + end.len()).ok_or_else(|| invalid!("{file}:{}: unterminated {end:?}", line()));
         if rest.starts_with("<!--") {
             rest = &rest[skip_to("-->")?..];
             continue;
@@ -85,13 +87,13 @@ fn scan_tags(text: &str, file: &str) -> anyhow::Result<Vec<Tag>> {
         let mut attrs = body[name_len..].trim_start();
         let mut attributes = Vec::new();
         while !attrs.is_empty() {
-            let eq = attrs.find('=').with_context(|| format!("{file}:{tag_line}: <{name}>: attribute without a value: {attrs:?}"))?;
+            let eq = attrs.find('=').ok_or_else(|| invalid!("{file}:{tag_line}: <{name}>: attribute without a value: {attrs:?}"))?;
             let key = attrs[..eq].trim().to_owned();
             let after = attrs[eq + 1..].trim_start();
             let quote = after.chars().next().filter(|c| *c == '"' || *c == '\'');
-            let quote = quote.with_context(|| format!("{file}:{tag_line}: <{name}> attribute `{key}`: value not quoted"))?;
+            let quote = quote.ok_or_else(|| invalid!("{file}:{tag_line}: <{name}> attribute `{key}`: value not quoted"))?;
             let value_end =
-                after[1..].find(quote).with_context(|| format!("{file}:{tag_line}: <{name}> attribute `{key}`: unterminated"))?;
+                after[1..].find(quote).ok_or_else(|| invalid!("{file}:{tag_line}: <{name}> attribute `{key}`: unterminated"))?;
             attributes.push((key, unescape(&after[1..1 + value_end])));
             attrs = after[value_end + 2..].trim_start();
         }
@@ -116,17 +118,17 @@ struct CameraTags<'a> {
 
 /// Parses a Qualisys calibration into OpenCV cameras (see the module documentation). `file`
 /// names the source in errors.
-pub fn parse_qualisys_calibration(text: &str, file: &str) -> anyhow::Result<Vec<QualisysCamera>> {
+pub fn parse_qualisys_calibration(text: &str, file: &str) -> Result<Vec<QualisysCamera>, ImportError> {
     let tags = scan_tags(text, file)?;
     let mut cameras = Vec::new();
     let mut current: Option<CameraTags> = None;
     for tag in &tags {
         match (tag.name.as_str(), tag.end, current.as_mut()) {
             ("camera", false, None) => {
-                let serial = tag.attribute("serial").with_context(|| format!("{file}: <camera> without `serial`"))?;
+                let serial = tag.attribute("serial").ok_or_else(|| invalid!("{file}: <camera> without `serial`"))?;
                 current = Some(CameraTags { serial: serial.to_owned(), ..CameraTags::default() });
             }
-            ("camera", false, Some(c)) => bail!("{file}: camera {}: <camera> inside <camera>", c.serial),
+            ("camera", false, Some(c)) => return Err(invalid!("{file}: camera {}: <camera> inside <camera>", c.serial)),
             ("camera", true, Some(_)) => {
                 if let Some(done) = current.take() {
                     cameras.push(camera_from_tags(&done, file)?);
@@ -139,25 +141,25 @@ pub fn parse_qualisys_calibration(text: &str, file: &str) -> anyhow::Result<Vec<
         }
     }
     if let Some(c) = current {
-        bail!("{file}: camera {}: missing </camera>", c.serial);
+        return Err(invalid!("{file}: camera {}: missing </camera>", c.serial));
     }
     if cameras.is_empty() {
-        bail!("{file}: no <camera> found");
+        return Err(invalid!("{file}: no <camera> found"));
     }
     Ok(cameras)
 }
 
-fn camera_from_tags(tags: &CameraTags, file: &str) -> anyhow::Result<QualisysCamera> {
+fn camera_from_tags(tags: &CameraTags, file: &str) -> Result<QualisysCamera, ImportError> {
     let serial = &tags.serial;
-    let number = |tag: Option<&Tag>, tag_name: &str, key: &str| -> anyhow::Result<f64> {
-        let tag = tag.with_context(|| format!("{file}: camera {serial}: missing <{tag_name}>"))?;
-        let value = tag.attribute(key).with_context(|| format!("{file}: camera {serial}: <{tag_name}> lacks `{key}`"))?;
+    let number = |tag: Option<&Tag>, tag_name: &str, key: &str| -> Result<f64, ImportError> {
+        let tag = tag.ok_or_else(|| invalid!("{file}: camera {serial}: missing <{tag_name}>"))?;
+        let value = tag.attribute(key).ok_or_else(|| invalid!("{file}: camera {serial}: <{tag_name}> lacks `{key}`"))?;
         value
             .trim()
             .parse::<f64>()
             .ok()
             .filter(|v| v.is_finite())
-            .with_context(|| format!("{file}: camera {serial}: <{tag_name}> `{key}`: not a finite number: {value:?}"))
+            .ok_or_else(|| invalid!("{file}: camera {serial}: <{tag_name}> `{key}`: not a finite number: {value:?}"))
     };
     let transform = |key: &str| number(tags.transform, "transform", key);
     let r = |row: usize, col: usize| transform(&format!("r{row}{col}"));
@@ -175,7 +177,7 @@ fn camera_from_tags(tags: &CameraTags, file: &str) -> anyhow::Result<QualisysCam
     let half_turn_about_x = DMat3::from_diagonal(DVec3::new(1.0, -1.0, -1.0));
     let camera_from_world = Rigid3::new(half_turn_about_x * rotation, half_turn_about_x * translation);
     if !camera_from_world.is_proper_rigid(1e-6) {
-        bail!("{file}: camera {serial}: <transform> r11..r33 is not a rotation");
+        return Err(invalid!("{file}: camera {serial}: <transform> r11..r33 is not a rotation"));
     }
 
     let fov = |key: &str| number(tags.fov_video, "fov_video", key);
@@ -188,12 +190,12 @@ fn camera_from_tags(tags: &CameraTags, file: &str) -> anyhow::Result<QualisysCam
         cy: intrinsic("centerPointV")? / SUBPIXELS_PER_PIXEL - top,
     };
     if !intrinsics.is_valid() {
-        bail!("{file}: camera {serial}: <intrinsic> focal lengths must be positive");
+        return Err(invalid!("{file}: camera {serial}: <intrinsic> focal lengths must be positive"));
     }
-    let size = |lo: f64, hi: f64, what: &str| -> anyhow::Result<u32> {
+    let size = |lo: f64, hi: f64, what: &str| -> Result<u32, ImportError> {
         let pixels = hi - lo + 1.0;
         if pixels < 1.0 || pixels.fract() != 0.0 || pixels > f64::from(u32::MAX) {
-            bail!("{file}: camera {serial}: <fov_video> gives a {what} of {pixels} pixels");
+            return Err(invalid!("{file}: camera {serial}: <fov_video> gives a {what} of {pixels} pixels"));
         }
         Ok(pixels as u32)
     };
@@ -211,6 +213,30 @@ fn camera_from_tags(tags: &CameraTags, file: &str) -> anyhow::Result<QualisysCam
         width_px: size(left, right, "width")?,
         height_px: size(top, bottom, "height")?,
     })
+}
+
+/// The file name given to the single frame of each camera in [`event_poses`]: a calibrated rig
+/// has one pose per camera, which `dynview prep --poses` applies to every frame.
+pub const RIG_FRAME_FILE: &str = "00000.jpg";
+
+/// The cameras of a calibration as event poses: one camera per calibrated camera (named by its
+/// serial), keeping those in `keep` when given, each with one frame ([`RIG_FRAME_FILE`]) whose
+/// pose holds for every frame of a fixed rig.
+pub fn event_poses(cameras: &[QualisysCamera], keep: Option<&[&str]>) -> EventPoses {
+    EventPoses {
+        cameras: cameras
+            .iter()
+            .filter(|c| keep.is_none_or(|k| k.contains(&c.serial.as_str())))
+            .map(|c| CameraPoses {
+                name: c.serial.clone(),
+                width: c.width_px,
+                height: c.height_px,
+                intrinsics: c.intrinsics,
+                distortion: c.distortion,
+                frames: vec![FramePose { file: RIG_FRAME_FILE.into(), camera_from_world: Some(c.camera_from_world.into()) }],
+            })
+            .collect(),
+    }
 }
 
 #[cfg(test)]
@@ -278,5 +304,20 @@ mod tests {
         assert!(err.contains("no <camera>"), "{err}");
         let err = parse_qualisys_calibration("<camera serial=\"a\"><transform r11=1/></camera>", "c.qca.txt").unwrap_err().to_string();
         assert!(err.contains("not quoted"), "{err}");
+    }
+
+    #[test]
+    fn event_poses_validate_and_keep_the_chosen_cameras() {
+        let cameras = parse_qualisys_calibration(CALIBRATION, "Calib.qca.txt").unwrap();
+        let all = event_poses(&cameras, None);
+        all.validate().unwrap();
+        assert_eq!(all.cameras.len(), 4);
+        assert_eq!((all.cameras[0].width, all.cameras[0].height), (1088, 1920));
+        assert!(all.cameras.iter().all(|c| c.frames.len() == 1 && c.distortion[0] < 0.0));
+        let three = event_poses(&cameras, Some(&["cam01", "cam03", "cam04"]));
+        let names: Vec<&str> = three.cameras.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["cam01", "cam03", "cam04"]);
+        let round_trip = EventPoses::from_json_bytes(three.to_json_string().as_bytes(), "poses.json").unwrap();
+        assert_eq!(round_trip.cameras[2].frames[0].camera_from_world, Some(cameras[3].camera_from_world.into()));
     }
 }

@@ -4,7 +4,7 @@ use std::fs;
 use std::path::Path;
 
 use super::{ColmapError, ColmapFormat, ColmapModel};
-use crate::fsutil::write_atomic;
+use dynview_core::fsutil::write_atomic;
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ColmapError + '_ {
     move |source| ColmapError::Io { path: path.display().to_string(), source }

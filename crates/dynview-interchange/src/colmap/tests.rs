@@ -7,7 +7,7 @@ use std::process::Command;
 use glam::{DMat3, DVec3};
 
 use super::*;
-use crate::camera::{Intrinsics, Rigid3};
+use dynview_core::camera::{Intrinsics, Rigid3};
 
 /// A small model using every supported camera model, with points and tracks.
 pub(crate) fn sample_model() -> ColmapModel {

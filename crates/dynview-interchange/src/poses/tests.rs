@@ -3,7 +3,7 @@ use glam::{DMat3, DVec3};
 use super::*;
 use crate::colmap::tests::sample_model;
 use crate::colmap::{CameraModel, ColmapFormat};
-use crate::scene::testing::small_manifest;
+use dynview_core::scene::testing::small_manifest;
 
 /// Two cameras, one distorted, with an unregistered frame.
 fn sample_poses() -> EventPoses {

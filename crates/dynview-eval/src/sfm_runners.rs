@@ -13,10 +13,10 @@ use std::process::{Command, ExitStatus, Stdio};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use dynview_core::colmap::ColmapModel;
+use dynview_interchange::colmap::ColmapModel;
 
+use crate::paths::command_line as describe;
 use crate::sfm_data::read_colmap_text;
-use crate::util::{cargo, describe, run_step, workspace_root};
 
 /// A finished reconstruction.
 pub struct Reconstruction {
@@ -137,24 +137,20 @@ pub fn run_colmap(images_dir: &Path, work_dir: &Path) -> anyhow::Result<Reconstr
     Ok(Reconstruction { wall_secs, model, note: None })
 }
 
-/// The release `dynview` binary: `$DYNVIEW_BIN` when set, else built with
-/// `cargo build --release -p dynview-cli`.
+/// The `dynview` binary: `$DYNVIEW_BIN` when set, else `dynview` beside this program (`cargo
+/// xtask eval` and `bench` build both into `target/release/`).
 pub fn dynview_binary() -> anyhow::Result<PathBuf> {
-    if let Some(path) = std::env::var_os("DYNVIEW_BIN") {
-        let path = PathBuf::from(path);
-        if !path.is_file() {
-            bail!("DYNVIEW_BIN={} is not a file", path.display());
+    let path = match std::env::var_os("DYNVIEW_BIN") {
+        Some(path) => PathBuf::from(path),
+        None => {
+            let exe = std::env::current_exe().context("cannot locate this program")?;
+            exe.with_file_name(format!("dynview{}", std::env::consts::EXE_SUFFIX))
         }
-        return Ok(path);
+    };
+    if !path.is_file() {
+        bail!("no dynview binary at {} (build it with `cargo build --release -p dynview-cli`, or set DYNVIEW_BIN)", path.display());
     }
-    let mut cmd = cargo();
-    cmd.args(["build", "--release", "-p", "dynview-cli"]);
-    run_step("release build of dynview (set DYNVIEW_BIN to use another binary)", cmd)?;
-    let binary = workspace_root().join("target/release").join(format!("dynview{}", std::env::consts::EXE_SUFFIX));
-    if !binary.is_file() {
-        bail!("the release build did not produce {}", binary.display());
-    }
-    Ok(binary)
+    Ok(path)
 }
 
 /// Runs `dynview prep` up to its keyframe model on `images_dir` in `work_dir` (emptied first).

@@ -14,16 +14,16 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use crate::align::{PoseAccuracy, PoseEvalOptions, Similarity3, evaluate_poses};
 use anyhow::Context;
-use dynview_core::align::{PoseAccuracy, PoseEvalOptions, Similarity3, evaluate_poses};
-use dynview_core::camera_path::PathFrame;
 use dynview_core::render::{Method, TimeStepInputs};
 use dynview_core::scene::ScenePackage;
+use dynview_interchange::camera_path::PathFrame;
 
 use crate::eval::{Options, Row, Sequence, VIDEOS_DIR, evaluate_method};
+use crate::paths::workspace_root;
 use crate::prep_runs::{PrepRun, cloud_point_counts, package_poses, prep_once, stage_seconds};
 use crate::sfm_runners::dynview_binary;
-use crate::util::workspace_root;
 
 /// Largest PSNR drop of the full pipeline's (e) row below the ground-truth package's that
 /// issue 7 accepts, in dB.
@@ -211,8 +211,8 @@ pub fn markdown_section(variants: &[Variant], truth_rows: &[Row], frames: usize)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dynview_core::camera_path::PathTime;
     use dynview_core::{Camera, Intrinsics, Rigid3};
+    use dynview_interchange::camera_path::PathTime;
     use glam::{DMat3, DVec3};
 
     /// A held-out camera mapped into a scaled, rotated and shifted estimated world sees an

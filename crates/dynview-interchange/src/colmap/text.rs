@@ -8,8 +8,8 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use super::{CameraModel, ColmapCamera, ColmapError, ColmapImage, ColmapModel, ColmapPoint3D, MAX_ENTRIES, Point2D};
-use crate::camera::Rigid3;
-use crate::rotation::{matrix_from_quaternion_wxyz, quaternion_wxyz_from_matrix};
+use dynview_core::camera::Rigid3;
+use dynview_core::rotation::{matrix_from_quaternion_wxyz, quaternion_wxyz_from_matrix};
 
 struct Lines<'a> {
     file: &'a str,
@@ -221,8 +221,8 @@ impl ColmapModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::Intrinsics;
     use crate::colmap::tests::sample_model as model;
+    use dynview_core::camera::Intrinsics;
 
     #[test]
     fn text_round_trip() {

@@ -1,4 +1,4 @@
-//! `cargo xtask bench`: milliseconds per frame of the full method at several resolutions, per
+//! `cargo xtask bench` (`dynview-eval bench`): milliseconds per frame of the full method at several resolutions, per
 //! pyramid level and per stage, on this machine with all cores (release build), and on the GPU
 //! that wgpu finds (lavapipe without one: correctness, not speed).
 
@@ -6,27 +6,19 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use dynview_core::Camera;
-use dynview_core::camera_path::parse_path;
 use dynview_core::render::{LevelTimings, RenderHooks, RenderParams, TimeStepInputs, render_frame};
 use dynview_core::scene::ScenePackage;
+use dynview_interchange::camera_path::parse_path;
 use dynview_synth::SynthConfig;
 
-use crate::util::{cargo, run_step, workspace_root};
+use crate::paths::workspace_root;
 
 /// Resolutions of the benchmark.
 pub const SIZES: [(u32, u32); 3] = [(480, 270), (960, 540), (1920, 1080)];
 /// Timed runs per resolution (after one warm-up run); the median is reported.
 const RUNS: usize = 5;
-
-/// Entry from `cargo xtask bench`: re-runs itself in release mode.
-pub fn run(args: &[String]) -> anyhow::Result<()> {
-    let mut cmd = cargo();
-    cmd.args(["run", "--release", "--quiet", "-p", "xtask", "--", "bench-release"]).args(args);
-    run_step("benchmark (release build)", cmd)?;
-    Ok(())
-}
 
 /// A one-frame synthetic event at `width x height` (made once, cached under target/bench/).
 pub fn bench_event(width: u32, height: u32) -> anyhow::Result<(TimeStepInputs, Camera)> {
@@ -43,11 +35,8 @@ pub fn bench_event(width: u32, height: u32) -> anyhow::Result<(TimeStepInputs, C
     Ok((inputs, camera))
 }
 
-/// The benchmark itself (release build).
-pub fn run_release(args: &[String]) -> anyhow::Result<()> {
-    if let Some(a) = args.first() {
-        bail!("xtask bench takes no arguments, got {a:?}");
-    }
+/// The benchmark: prints the tables and writes them to `target/bench/report.md`.
+pub fn run() -> anyhow::Result<()> {
     let params = RenderParams::default();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut report = String::new();

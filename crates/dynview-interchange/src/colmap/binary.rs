@@ -17,8 +17,8 @@ use std::collections::BTreeMap;
 use std::fmt;
 
 use super::{CameraModel, ColmapCamera, ColmapError, ColmapImage, ColmapModel, ColmapPoint3D, MAX_ENTRIES, Point2D};
-use crate::camera::Rigid3;
-use crate::rotation::{matrix_from_quaternion_wxyz, quaternion_wxyz_from_matrix};
+use dynview_core::camera::Rigid3;
+use dynview_core::rotation::{matrix_from_quaternion_wxyz, quaternion_wxyz_from_matrix};
 
 /// Longest image name accepted from `images.bin`, in bytes (without the NUL).
 pub const MAX_IMAGE_NAME_BYTES: usize = 4096;

@@ -7,84 +7,47 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use dynview_core::camera_path::{PathFrame, parse_path};
 use dynview_core::metrics::{flicker, psnr, ssim};
 use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer, TimeStepInputs};
 use dynview_core::scene::ScenePackage;
 use dynview_core::{RgbRaster, ScalarRaster};
+use dynview_interchange::camera_path::{PathFrame, parse_path};
 use dynview_synth::SynthConfig;
 
-use crate::util::{cargo, run_step, workspace_root};
+use crate::paths::{results_dir, workspace_root};
 
-/// Entry from `cargo xtask eval`: re-runs itself in release mode (rendering in a debug build
-/// would take many minutes).
-pub fn run(args: &[String]) -> anyhow::Result<()> {
-    let mut cmd = cargo();
-    cmd.args(["run", "--release", "--quiet", "-p", "xtask", "--", "eval-release"]).args(args);
-    run_step("evaluation (release build)", cmd)?;
-    Ok(())
-}
-
-/// Options of `cargo xtask eval`.
+/// Options of `dynview-eval eval` (`cargo xtask eval`): the synthetic event.
+#[derive(Debug, clap::Args)]
 pub struct Options {
-    /// Time steps used (all when `None`).
+    /// Time steps used (all when not given).
+    #[arg(long)]
     pub frames: Option<usize>,
-    /// Methods compared.
+    /// Methods compared, comma-separated (default: all; the tables are written only then).
+    #[arg(long, value_delimiter = ',', value_parser = parse_method)]
     pub methods: Vec<Method>,
-    /// Per-frame PSNR printed.
+    /// Print the PSNR of every frame.
+    #[arg(long)]
     pub verbose: bool,
-    /// Render parameters (method overridden per row).
+    /// Render parameters as JSON (the method is set per row).
+    #[arg(long = "params", value_name = "FILE")]
+    pub params_file: Option<PathBuf>,
+    /// Render parameters: the defaults, or `--params`' (read by [`run`]).
+    #[arg(skip)]
     pub params: RenderParams,
     /// Folder of the written results.
+    #[arg(long, default_value_os_t = results_dir())]
     pub out: PathBuf,
-    /// Also evaluate the full pipeline (`dynview prep` on the event's videos).
+    /// Skip the full pipeline (`dynview prep` on the event's videos).
+    #[arg(long = "no-pipeline", action = clap::ArgAction::SetFalse)]
     pub pipeline: bool,
     /// Redo the pipeline's prep runs even when their packages exist.
+    #[arg(long)]
     pub fresh: bool,
 }
 
-fn parse_options(args: &[String]) -> anyhow::Result<Options> {
-    let mut options = Options {
-        frames: None,
-        methods: Method::ALL.to_vec(),
-        verbose: false,
-        params: RenderParams::default(),
-        out: workspace_root().join("docs/results"),
-        pipeline: true,
-        fresh: false,
-    };
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--frames" => options.frames = Some(it.next().context("--frames needs a number")?.parse()?),
-            "--params" => {
-                let file = it.next().context("--params needs a file")?;
-                options.params =
-                    serde_json::from_str(&fs::read_to_string(file)?).with_context(|| format!("{file}: not render parameters"))?;
-            }
-            "--out" => options.out = PathBuf::from(it.next().context("--out needs a folder")?),
-            "--methods" => {
-                options.methods = it
-                    .next()
-                    .context("--methods needs a list")?
-                    .split(',')
-                    .map(|m| {
-                        serde_json::from_value(serde_json::Value::String(m.to_owned())).with_context(|| format!("unknown method {m:?}"))
-                    })
-                    .collect::<anyhow::Result<_>>()?;
-            }
-            "--verbose" => options.verbose = true,
-            "--no-pipeline" => options.pipeline = false,
-            "--fresh" => options.fresh = true,
-            other => {
-                bail!(
-                    "unknown option {other:?} for xtask eval (known: --frames N, --methods a,b, --params FILE, --out DIR, --verbose, \
-                     --no-pipeline, --fresh, --real)"
-                )
-            }
-        }
-    }
-    Ok(options)
+/// A method by its name in render parameters (`full`, `blend`, ...).
+fn parse_method(name: &str) -> Result<Method, String> {
+    serde_json::from_value(serde_json::Value::String(name.to_owned())).map_err(|_| format!("unknown method {name:?}"))
 }
 
 /// One row of the table.
@@ -103,12 +66,16 @@ pub struct Row {
     pub ms_per_frame: f64,
 }
 
-/// The evaluation itself (release build).
-pub fn run_release(args: &[String]) -> anyhow::Result<()> {
-    if args.first().is_some_and(|a| a == "--real") {
-        return crate::eval_real::run_release(&args[1..]);
+/// The evaluation: renders, scores, and writes `eval.md` and `eval_strip.png` into
+/// `options.out` when every method was run.
+pub fn run(mut options: Options) -> anyhow::Result<()> {
+    if options.methods.is_empty() {
+        options.methods = Method::ALL.to_vec();
     }
-    let options = parse_options(args)?;
+    if let Some(file) = &options.params_file {
+        let text = fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
+        options.params = serde_json::from_str(&text).with_context(|| format!("{}: not render parameters", file.display()))?;
+    }
     let event = workspace_root().join("target/eval/event");
     let config = SynthConfig::default();
     // The full pipeline starts from the videos: an event made without them is made again

@@ -6,11 +6,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{Context, bail};
-use dynview_core::poses::{CameraPoses, EventPoses, FramePose};
+use dynview_interchange::qualisys::{QualisysCamera, event_poses, parse_qualisys_calibration};
 
-use crate::sfm_datasets::shared_data;
-use crate::sfm_qualisys::{QualisysCamera, parse_qualisys_calibration};
-use crate::util::describe;
+use crate::paths::{command_line as describe, shared_data};
 
 /// Working width of prep's frames for the portrait 1088x1920 videos (960 would keep them
 /// nearly full size; 540 gives 540x953 frames).
@@ -30,32 +28,12 @@ pub fn videos_dir() -> PathBuf {
 pub fn calibration() -> anyhow::Result<Vec<QualisysCamera>> {
     let path = source_dir().join("calibration/Calib.qca.txt");
     let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {} (is ../shared/data there?)", path.display()))?;
-    parse_qualisys_calibration(&text, &path.display().to_string())
+    Ok(parse_qualisys_calibration(&text, &path.display().to_string())?)
 }
 
-/// `poses.json` of the calibration's cameras whose serial is in `keep` (all when `None`): one
-/// pose per camera, at the video size, with the calibration's distortion.
-pub fn calibrated_poses(cameras: &[QualisysCamera], keep: Option<&[&str]>) -> EventPoses {
-    EventPoses {
-        cameras: cameras
-            .iter()
-            .filter(|c| keep.is_none_or(|k| k.contains(&c.serial.as_str())))
-            .map(|c| CameraPoses {
-                name: c.serial.clone(),
-                width: c.width_px,
-                height: c.height_px,
-                intrinsics: c.intrinsics,
-                distortion: c.distortion,
-                // One pose for every frame; prep ignores the file name of a single pose.
-                frames: vec![FramePose { file: "00000.jpg".into(), camera_from_world: Some(c.camera_from_world.into()) }],
-            })
-            .collect(),
-    }
-}
-
-/// Writes [`calibrated_poses`] to `path` (validated; atomic).
+/// Writes the calibration as `poses.json` (`dynview_interchange::qualisys::event_poses`) to `path` (validated; atomic).
 pub fn write_calibrated_poses(path: &Path, keep: Option<&[&str]>) -> anyhow::Result<()> {
-    let poses = calibrated_poses(&calibration()?, keep);
+    let poses = event_poses(&calibration()?, keep);
     if let Some(parent) = path.parent() {
         std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
     }
@@ -92,26 +70,4 @@ pub fn extract_first_frames(out: &Path, frames: u32) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    const CALIBRATION: &str = include_str!("../../../tests/data/pose2sim-multiperson/Calib.qca.txt");
-
-    #[test]
-    fn calibrated_poses_validate_and_keep_the_chosen_cameras() {
-        let cameras = parse_qualisys_calibration(CALIBRATION, "Calib.qca.txt").unwrap();
-        let all = calibrated_poses(&cameras, None);
-        all.validate().unwrap();
-        assert_eq!(all.cameras.len(), 4);
-        assert_eq!((all.cameras[0].width, all.cameras[0].height), (1088, 1920));
-        assert!(all.cameras.iter().all(|c| c.frames.len() == 1 && c.distortion[0] < 0.0));
-        let three = calibrated_poses(&cameras, Some(&["cam01", "cam03", "cam04"]));
-        let names: Vec<&str> = three.cameras.iter().map(|c| c.name.as_str()).collect();
-        assert_eq!(names, ["cam01", "cam03", "cam04"]);
-        let round_trip = EventPoses::from_json_bytes(three.to_json_string().as_bytes(), "poses.json").unwrap();
-        assert_eq!(round_trip.cameras[2].frames[0].camera_from_world, Some(cameras[3].camera_from_world.into()));
-    }
 }

@@ -19,7 +19,7 @@ pub mod text;
 
 use std::collections::BTreeMap;
 
-use crate::camera::{Intrinsics, Rigid3};
+use dynview_core::camera::{Intrinsics, Rigid3};
 
 pub use binary::{parse_cameras_bin, parse_images_bin, parse_points3d_bin};
 pub use text::{parse_cameras_txt, parse_images_txt, parse_points3d_txt};

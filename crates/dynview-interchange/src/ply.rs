@@ -1,7 +1,7 @@
 //! A time step's cloud as a binary PLY file, for inspection in other tools (MeshLab,
 //! CloudCompare, Blender): `dynview export-ply`.
 
-use super::cloud::PointCloud;
+use dynview_core::scene::PointCloud;
 
 /// Encodes `cloud` as a little-endian binary PLY with `x y z` (float) and `red green blue`
 /// (uchar) per vertex; `comment` (one line) goes into the header.

@@ -1,0 +1,45 @@
+//! `dynview merge`: range outputs of `prep --frames` into one scene package (with the `prep`
+//! feature).
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+use crate::progress::StageBars;
+
+/// Arguments of `dynview merge`.
+#[derive(clap::Args, Debug)]
+pub struct MergeArgs {
+    /// `prep` output folders of one event (the same pose stage), together holding every time
+    /// step; when several hold a step, the first is used.
+    #[arg(required = true)]
+    outputs: Vec<PathBuf>,
+    /// The scene package folder to write (replaced only when the new package is complete).
+    #[arg(long)]
+    out: PathBuf,
+    /// The package's name (default: the --out folder's name).
+    #[arg(long)]
+    name: Option<String>,
+}
+
+/// Runs `dynview merge`.
+pub fn run_merge(args: MergeArgs) -> anyhow::Result<()> {
+    let name = args.name.clone().unwrap_or_else(|| args.out.file_name().map_or("event".into(), |n| n.to_string_lossy().into_owned()));
+    let bars = StageBars::new();
+    let result =
+        dynview_sfm::export::export_package(&args.outputs, &args.out, &name, &|stage, done, total| bars.update(stage, done, total));
+    bars.finish();
+    let report = result.with_context(|| format!("dynview merge into {}", args.out.display()))?;
+    for warning in &report.warnings {
+        eprintln!("warning: {warning}");
+    }
+    println!(
+        "wrote {} ({} cameras x {} time steps, {} points, {:.1} MB)",
+        args.out.display(),
+        report.cameras,
+        report.time_steps,
+        report.points,
+        report.bytes as f64 / 1e6
+    );
+    Ok(())
+}

@@ -1,0 +1,48 @@
+//! `dynview-eval`: the evaluations and benchmarks (run through `cargo xtask eval` and
+//! `cargo xtask bench`, which build it and `dynview` in release mode first).
+
+use clap::{Parser, Subcommand};
+use dynview_eval::{bench_prep, bench_render, bench_sfm, eval, eval_real};
+
+/// dynview's evaluations and benchmarks; results go to `docs/results/` or `target/bench/`.
+#[derive(Parser)]
+#[command(name = "dynview-eval", version)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Quality of the renderer and its baselines on the synthetic event's held-out cameras,
+    /// from the ground-truth package and through the full pipeline (`docs/results/eval.md`).
+    Eval(eval::Options),
+    /// Leave-one-camera-out on the real Pose2Sim capture (`docs/results/real.md`).
+    EvalReal(eval_real::Options),
+    /// Milliseconds per frame of the full method at 480x270, 960x540 and 1920x1080, per level
+    /// and stage, on the CPU and on the GPU wgpu finds.
+    Bench,
+    /// The whole `dynview prep` on a 6-camera, 100-frame, 960x540 hand-held event
+    /// (`docs/results/prep.md`).
+    BenchPrep(bench_prep::Options),
+    /// Our keyframe SfM against COLMAP on the synthetic event, the temple ring and Pose2Sim
+    /// (`target/bench/sfm/results.md`).
+    BenchSfm(bench_sfm::Options),
+}
+
+fn main() -> std::process::ExitCode {
+    let result = match Cli::parse().command {
+        Command::Eval(options) => eval::run(options),
+        Command::EvalReal(options) => eval_real::run(options),
+        Command::Bench => bench_render::run(),
+        Command::BenchPrep(options) => bench_prep::run(options),
+        Command::BenchSfm(options) => bench_sfm::run(options),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("dynview-eval: error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
