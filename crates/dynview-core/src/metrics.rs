@@ -44,27 +44,27 @@ fn gaussian_kernel() -> Vec<f64> {
     k.into_iter().map(|v| v / s).collect()
 }
 
-/// Separable Gaussian blur with the 11-tap window, clamped at the borders.
+/// Separable Gaussian blur with the 11-tap window, clamped at the borders: rows, then columns.
 fn blur(values: &[f64], w: usize, h: usize, kernel: &[f64]) -> Vec<f64> {
+    let rows = blur_1d(values, w, h, kernel, true);
+    blur_1d(&rows, w, h, kernel, false)
+}
+
+/// One pass of [`blur`]: along x (`along_x`) or along y, clamped at the borders.
+fn blur_1d(values: &[f64], w: usize, h: usize, kernel: &[f64], along_x: bool) -> Vec<f64> {
     let r = SSIM_RADIUS as isize;
-    let mut tmp = vec![0.0; w * h];
-    for y in 0..h {
-        for x in 0..w {
-            let mut s = 0.0;
-            for (k, kv) in kernel.iter().enumerate() {
-                let xx = (x as isize + k as isize - r).clamp(0, w as isize - 1) as usize;
-                s += kv * values[y * w + xx];
-            }
-            tmp[y * w + x] = s;
-        }
-    }
     let mut out = vec![0.0; w * h];
     for y in 0..h {
         for x in 0..w {
             let mut s = 0.0;
             for (k, kv) in kernel.iter().enumerate() {
-                let yy = (y as isize + k as isize - r).clamp(0, h as isize - 1) as usize;
-                s += kv * tmp[yy * w + x];
+                let offset = k as isize - r;
+                let at = if along_x {
+                    y * w + (x as isize + offset).clamp(0, w as isize - 1) as usize
+                } else {
+                    (y as isize + offset).clamp(0, h as isize - 1) as usize * w + x
+                };
+                s += kv * values[at];
             }
             out[y * w + x] = s;
         }
