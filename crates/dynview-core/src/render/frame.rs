@@ -195,6 +195,13 @@ pub struct SolveTrace {
     pub final_residual: f64,
 }
 
+impl SolveTrace {
+    /// An empty trace of one solve (energies and residual filled in as it runs).
+    pub(super) fn start(level: usize, iteration: usize, kind: SolveKind) -> Self {
+        Self { level, iteration, kind, energies: Vec::new(), final_residual: f64::NAN }
+    }
+}
+
 /// Per-level state of the views: warps, visibility and weights.
 pub(super) struct LevelViews<'a> {
     views: Vec<(Camera, &'a RgbRaster)>,

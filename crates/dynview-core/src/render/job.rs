@@ -11,7 +11,8 @@ use super::frame::{
 };
 use super::params::{Method, RenderParams};
 use super::pushpull;
-use super::pyramid::{self, camera_at};
+use super::pyramid::{self, Pixel, camera_at};
+use super::solve::{GridSystem, Norm};
 use super::sparse::warp_frame;
 use super::timing::{Stage, Stopwatch, Timings};
 use super::weights;
@@ -201,18 +202,9 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
             views.update(&cam, depth, params, watch);
             let depth_terms = depth_terms(params, color, &views.warps, &sparse, temporal);
             watch.lap(Stage::Weights);
-            let sys = depth_terms.system();
-            let mut energies = hooks.solve_traces.is_some().then(|| vec![depth_terms.energy(&depth.data)]);
-            for _ in 0..params.depth_sweeps {
-                sys.sweep(&mut depth.data, &mut scratch_d, params.relaxation);
-                if let Some(e) = energies.as_mut() {
-                    e.push(depth_terms.energy(&depth.data));
-                }
-            }
-            if let (Some(traces), Some(energies)) = (hooks.solve_traces.as_mut(), energies) {
-                let final_residual = sys.relative_residual(&depth.data);
-                traces.push(SolveTrace { level, iteration, kind: SolveKind::Depth, energies, final_residual });
-            }
+            let trace = hooks.solve_traces.as_mut().map(|traces| (&mut **traces, SolveTrace::start(level, iteration, SolveKind::Depth)));
+            let sweeps = Sweeps { count: params.depth_sweeps, relaxation: params.relaxation };
+            solve(&depth_terms.system(), |u| depth_terms.energy(u), &mut depth.data, &mut scratch_d, sweeps, trace);
             views.depth_changed();
             watch.lap(Stage::DepthSolve);
             // Color with depth fixed.
@@ -220,18 +212,9 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
             let w_p: Vec<Vec<f32>> = views.warps.iter().map(|wp| weights::projection_weights(wp, color, params.sigma)).collect();
             let color_terms = color_terms(params, &views.warps, &w_p, &sparse, temporal, w, h);
             watch.lap(Stage::Weights);
-            let sys = color_terms.system();
-            let mut energies = hooks.solve_traces.is_some().then(|| vec![color_terms.energy(&color.data)]);
-            for _ in 0..params.color_sweeps {
-                sys.sweep(&mut color.data, &mut scratch_c, params.relaxation);
-                if let Some(e) = energies.as_mut() {
-                    e.push(color_terms.energy(&color.data));
-                }
-            }
-            if let (Some(traces), Some(energies)) = (hooks.solve_traces.as_mut(), energies) {
-                let final_residual = sys.relative_residual(&color.data);
-                traces.push(SolveTrace { level, iteration, kind: SolveKind::Color, energies, final_residual });
-            }
+            let trace = hooks.solve_traces.as_mut().map(|traces| (&mut **traces, SolveTrace::start(level, iteration, SolveKind::Color)));
+            let sweeps = Sweeps { count: params.color_sweeps, relaxation: params.relaxation };
+            solve(&color_terms.system(), |u| color_terms.energy(u), &mut color.data, &mut scratch_c, sweeps, trace);
             watch.lap(Stage::ColorSolve);
             if level == 0 {
                 let mut sum = vec![0.0f32; w * h];
@@ -243,5 +226,37 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
                 self.view_weight = Raster { width: w, height: h, data: sum };
             }
         }
+    }
+}
+
+/// How many relaxation sweeps one solve makes, and their over-relaxation factor.
+#[derive(Clone, Copy)]
+struct Sweeps {
+    count: usize,
+    relaxation: f32,
+}
+
+/// Runs `sweeps` of `system` on `u`; with `trace`, records the energy before the first sweep
+/// and after each, and the final residual, into the trace pushed onto the list.
+fn solve<T: Pixel + Norm>(
+    system: &GridSystem<T>,
+    energy: impl Fn(&[T]) -> f64,
+    u: &mut Vec<T>,
+    scratch: &mut Vec<T>,
+    sweeps: Sweeps,
+    mut trace: Option<(&mut Vec<SolveTrace>, SolveTrace)>,
+) {
+    if let Some((_, t)) = trace.as_mut() {
+        t.energies.push(energy(u));
+    }
+    for _ in 0..sweeps.count {
+        system.sweep(u, scratch, sweeps.relaxation);
+        if let Some((_, t)) = trace.as_mut() {
+            t.energies.push(energy(u));
+        }
+    }
+    if let Some((traces, mut t)) = trace {
+        t.final_residual = system.relative_residual(u);
+        traces.push(t);
     }
 }
