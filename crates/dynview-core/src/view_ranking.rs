@@ -29,6 +29,32 @@ pub fn rank_views(virtual_from_world: &Rigid3, inputs_from_world: &[Rigid3], sig
     scored.into_iter().take(n).map(|(i, _)| i).collect()
 }
 
+/// Smallest weight of a chosen view in the color initial guess, relative to the best view's
+/// rank score: a view whose score is negligible next to the best one's still counts a little,
+/// so a pixel only that view sees takes its color rather than the fallback.
+pub const MIN_RELATIVE_BLEND_WEIGHT: f64 = 1e-6;
+
+/// The input views chosen for a virtual camera and their weights in the color initial guess.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChosenViews {
+    /// Indices of the chosen inputs, best first (as [`rank_views`]).
+    pub indices: Vec<usize>,
+    /// Per chosen view: its rank score `r_F` relative to the best, at least
+    /// [`MIN_RELATIVE_BLEND_WEIGHT`] (the weights of the visibility-tested blend).
+    pub blend_weights: Vec<f32>,
+}
+
+/// The `n` best input cameras for the virtual camera (as [`rank_views`]) with their weights in
+/// the color initial guess (as [`ChosenViews::blend_weights`]); the CPU and GPU renderers
+/// both start from these.
+pub fn choose_views(virtual_from_world: &Rigid3, inputs_from_world: &[Rigid3], sigma: f64, n: usize) -> ChosenViews {
+    let indices = rank_views(virtual_from_world, inputs_from_world, sigma, n);
+    let scores: Vec<f64> = indices.iter().map(|&s| view_score(virtual_from_world, &inputs_from_world[s], sigma)).collect();
+    let best = scores.iter().copied().fold(f64::MIN_POSITIVE, f64::max);
+    let blend_weights = scores.iter().map(|s| (s / best).max(MIN_RELATIVE_BLEND_WEIGHT) as f32).collect();
+    ChosenViews { indices, blend_weights }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -63,6 +89,20 @@ mod tests {
         let virtual_cam = looking_at_origin(DVec3::new(6.0 * angle.sin(), 1.5, 6.0 * angle.cos()));
         let ranked = rank_views(&virtual_cam, &inputs, 0.075, 4);
         assert_eq!(ranked, vec![4, 5, 3, 6]);
+    }
+
+    #[test]
+    fn blend_weights_are_scores_relative_to_the_best() {
+        let inputs: Vec<Rigid3> = [0.0, 0.5, 40.0].iter().map(|&x| looking_at_origin(DVec3::new(x, 0.0, 5.0))).collect();
+        let virtual_cam = looking_at_origin(DVec3::new(0.2, 0.0, 5.0));
+        let chosen = choose_views(&virtual_cam, &inputs, 0.075, 3);
+        assert_eq!(chosen.indices, rank_views(&virtual_cam, &inputs, 0.075, 3));
+        assert_eq!(chosen.blend_weights[0], 1.0);
+        let score = |k: usize| view_score(&virtual_cam, &inputs[chosen.indices[k]], 0.075);
+        assert_eq!(chosen.blend_weights[1], (score(1) / score(0)) as f32);
+        assert!(chosen.blend_weights[1] > 1e3 * MIN_RELATIVE_BLEND_WEIGHT as f32);
+        // The far, turned view's score is negligible: it keeps the floor.
+        assert_eq!(chosen.blend_weights[2], MIN_RELATIVE_BLEND_WEIGHT as f32);
     }
 
     #[test]

@@ -1,11 +1,12 @@
 //! The weights and the assembly of the depth and color systems on the GPU
-//! (`shaders/assemble.wgsl`), as dynview-core's `render::weights` and `render::solve`.
+//! (`shaders/assemble/*.wgsl`), as dynview-core's `render::weights` and `render::solve`.
 
 use dynview_core::render::RenderParams;
 
 use crate::context::{GpuContext, GpuError};
 use crate::image::GpuImage;
 use crate::kernel::Kernel;
+use crate::shaders;
 
 /// A grid system on the GPU, as dynview-core's `GridSystem`: couplings to the right and down
 /// neighbours, `1 / diag`, and the right-hand side (`channels` per pixel).
@@ -34,7 +35,7 @@ pub struct PackedViews<'a> {
     pub count: usize,
 }
 
-/// `assemble.wgsl`'s uniform block.
+/// The uniform block of `shaders/assemble/*.wgsl` (`assemble/params.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct AssembleParams {
@@ -51,7 +52,9 @@ struct AssembleParams {
     eps_visibility: f32,
     w_d_min: f32,
     w_d_max: f32,
-    _pad: [u32; 3],
+    _pad1: u32,
+    _pad2: u32,
+    _pad3: u32,
 }
 
 /// The assembly kernels, compiled once per device.
@@ -74,17 +77,16 @@ fn check(image: &GpuImage, what: &str, width: usize, height: usize, channels: us
 impl AssembleKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
-        let module = ctx.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("assemble.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("shaders/assemble.wgsl").into()),
-        });
-        let bindings = [true, true, true, true, false, false, false, false];
-        let kernel = |entry| Kernel::new(ctx, &module, entry, &bindings, 8);
+        // Read-only inputs, then the outputs.
+        let kernel = |shader: shaders::Shader, entry, inputs: usize, outputs: usize| {
+            let bindings: Vec<bool> = (0..inputs + outputs).map(|i| i < inputs).collect();
+            Kernel::new(ctx, &shaders::module(ctx, shader), entry, &bindings, 8)
+        };
         Self {
-            projection_weights: kernel("projection_weights"),
-            depth_weights: kernel("depth_weights"),
-            depth_system: kernel("depth_system"),
-            color_system: kernel("color_system"),
+            projection_weights: kernel(shaders::PROJECTION_WEIGHTS, "projection_weights", 4, 1),
+            depth_weights: kernel(shaders::DEPTH_WEIGHTS, "depth_weights", 4, 2),
+            depth_system: kernel(shaders::DEPTH_SYSTEM, "depth_system", 4, 4),
+            color_system: kernel(shaders::COLOR_SYSTEM, "color_system", 3, 4),
         }
     }
 
@@ -103,13 +105,15 @@ impl AssembleKernels {
             eps_visibility: params.eps_visibility,
             w_d_min: params.w_d_min,
             w_d_max: params.w_d_max,
-            _pad: [0; 3],
+            _pad1: 0,
+            _pad2: 0,
+            _pad3: 0,
         }
     }
 
-    fn run(&self, ctx: &GpuContext, kernel: &Kernel, uniform: &AssembleParams, buffers: [&GpuImage; 8]) {
+    fn run(&self, ctx: &GpuContext, kernel: &Kernel, uniform: &AssembleParams, buffers: &[&GpuImage]) {
         let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("assemble") });
-        let buffers = buffers.map(|b| &b.buffer);
+        let buffers: Vec<&wgpu::Buffer> = buffers.iter().map(|b| &b.buffer).collect();
         kernel.dispatch(ctx, &mut encoder, bytemuck::bytes_of(uniform), &buffers, uniform.width as usize, uniform.height as usize);
         ctx.queue.submit([encoder.finish()]);
     }
@@ -130,14 +134,7 @@ impl AssembleKernels {
         check(visibility, "visibility", w, h * views, 1)?;
         check(valid, "validity", w, h * views, 1)?;
         let w_p = GpuImage::zeroed(ctx, w, h * views, 1)?;
-        // Unused writable bindings (each must be its own buffer).
-        let (u2, u3, u4) = (GpuImage::zeroed(ctx, 1, 1, 1)?, GpuImage::zeroed(ctx, 1, 1, 1)?, GpuImage::zeroed(ctx, 1, 1, 1)?);
-        self.run(
-            ctx,
-            &self.projection_weights,
-            &Self::uniform(params, w, h, views),
-            [color, warp_colors, visibility, valid, &w_p, &u2, &u3, &u4],
-        );
+        self.run(ctx, &self.projection_weights, &Self::uniform(params, w, h, views), &[color, warp_colors, visibility, valid, &w_p]);
         Ok(w_p)
     }
 
@@ -167,8 +164,7 @@ impl AssembleKernels {
         let uniform = Self::uniform(params, w, h, views);
         let w_d = GpuImage::zeroed(ctx, w, h, 1)?;
         let attach = GpuImage::zeroed(ctx, w, h, 1)?;
-        let (u3, u4) = (GpuImage::zeroed(ctx, 1, 1, 1)?, GpuImage::zeroed(ctx, 1, 1, 1)?);
-        self.run(ctx, &self.depth_weights, &uniform, [color, w_p, visibility, sparse_color_mask, &w_d, &attach, &u3, &u4]);
+        self.run(ctx, &self.depth_weights, &uniform, &[color, w_p, visibility, sparse_color_mask, &w_d, &attach]);
         let sys = GpuSystem {
             right: GpuImage::zeroed(ctx, w, h, 1)?,
             down: GpuImage::zeroed(ctx, w, h, 1)?,
@@ -179,7 +175,7 @@ impl AssembleKernels {
             ctx,
             &self.depth_system,
             &uniform,
-            [&w_d, &attach, sparse_depth, temporal, &sys.right, &sys.down, &sys.inv_diag, &sys.rhs],
+            &[&w_d, &attach, sparse_depth, temporal, &sys.right, &sys.down, &sys.inv_diag, &sys.rhs],
         );
         Ok(sys)
     }
@@ -199,7 +195,6 @@ impl AssembleKernels {
         check(warp_colors, "warp colors", w, h * views, 3)?;
         check(w_p, "w_p", w, h * views, 1)?;
         check(temporal, "temporal terms", w, h, 4)?;
-        let unused = GpuImage::zeroed(ctx, 1, 1, 1)?;
         let sys = GpuSystem {
             right: GpuImage::zeroed(ctx, w, h, 1)?,
             down: GpuImage::zeroed(ctx, w, h, 1)?,
@@ -207,7 +202,41 @@ impl AssembleKernels {
             rhs: GpuImage::zeroed(ctx, w, h, 3)?,
         };
         let uniform = Self::uniform(params, w, h, views);
-        self.run(ctx, &self.color_system, &uniform, [warp_colors, w_p, &unused, temporal, &sys.right, &sys.down, &sys.inv_diag, &sys.rhs]);
+        self.run(ctx, &self.color_system, &uniform, &[warp_colors, w_p, temporal, &sys.right, &sys.down, &sys.inv_diag, &sys.rhs]);
         Ok(sys)
     }
+}
+
+/// The uniform block's mirror in each shader, checked against the WGSL
+/// (`shaders/layout_tests.rs`).
+#[cfg(test)]
+pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
+    use crate::shaders::layout_tests::mirror;
+    [shaders::PROJECTION_WEIGHTS, shaders::DEPTH_WEIGHTS, shaders::DEPTH_SYSTEM, shaders::COLOR_SYSTEM]
+        .into_iter()
+        .map(|shader| {
+            mirror!(
+                shader,
+                "Params",
+                AssembleParams {
+                    width,
+                    height,
+                    views,
+                    _pad0,
+                    sigma,
+                    lambda_pc,
+                    lambda_p,
+                    lambda_g,
+                    gradient_unit,
+                    eps_gradient,
+                    eps_visibility,
+                    w_d_min,
+                    w_d_max,
+                    _pad1,
+                    _pad2,
+                    _pad3,
+                }
+            )
+        })
+        .collect()
 }

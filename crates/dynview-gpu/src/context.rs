@@ -15,6 +15,15 @@ pub enum GpuError {
     /// The inputs do not fit (sizes disagree, or beyond the device's limits).
     #[error("{0}")]
     Size(String),
+    /// A parameter or input is invalid for the GPU path (out of range, unsupported, or
+    /// missing), whatever the sizes.
+    #[error("invalid {field}: {reason}")]
+    InvalidParams {
+        /// The parameter or input, by name (a `RenderParams` field where it is one).
+        field: &'static str,
+        /// What is wrong with it.
+        reason: String,
+    },
 }
 
 /// Storage buffers no longer in use, by size in bytes: images of the sizes a frame needs are

@@ -10,6 +10,7 @@ use crate::context::{GpuContext, GpuError};
 use crate::image::GpuImage;
 use crate::kernel::Kernel;
 use crate::renderer::GpuFrame;
+use crate::shaders;
 
 /// `depth_range.wgsl`'s uniform block.
 #[repr(C)]
@@ -56,11 +57,8 @@ impl FrameDisplay {
     /// not).
     pub fn new(ctx: &GpuContext, format: wgpu::TextureFormat) -> Self {
         let device = &ctx.device;
-        let module = |name: &str, source: &str| {
-            device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(source.into()) })
-        };
-        let range_module = module("depth_range.wgsl", include_str!("shaders/depth_range.wgsl"));
-        let display_module = module("display.wgsl", include_str!("shaders/display.wgsl"));
+        let range_module = shaders::module(ctx, shaders::DEPTH_RANGE);
+        let display_module = shaders::module(ctx, shaders::DISPLAY);
         let r = [true, false, false, false];
         let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
             binding,
@@ -267,4 +265,14 @@ impl FrameDisplay {
         }
         Ok((width, height, rgba))
     }
+}
+
+/// The uniform blocks' mirrors, checked against the WGSL (`shaders/layout_tests.rs`).
+#[cfg(test)]
+pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
+    use crate::shaders::layout_tests::mirror;
+    vec![
+        mirror!(shaders::DEPTH_RANGE, "Params", RangeParams { width, height, _pad }),
+        mirror!(shaders::DISPLAY, "Params", DisplayParams { src_width, src_height, dst_width, dst_height, mode, views, srgb_target, _pad }),
+    ]
 }

@@ -6,6 +6,7 @@ use wgpu::util::DeviceExt;
 
 use crate::context::{BufferPool, GpuContext, GpuError, POOL_BUFFERS_PER_SIZE};
 use crate::kernel::Kernel;
+use crate::shaders;
 
 /// An image in a storage buffer. Its buffer comes from, and goes back to when dropped, the
 /// context's pool.
@@ -171,12 +172,8 @@ fn half(n: usize) -> usize {
 impl ImageKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
-        let module = |name: &str, source: &str| {
-            ctx.device
-                .create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(source.into()) })
-        };
-        let pyramid = module("pyramid.wgsl", include_str!("shaders/pyramid.wgsl"));
-        let pushpull = module("pushpull.wgsl", include_str!("shaders/pushpull.wgsl"));
+        let pyramid = shaders::module(ctx, shaders::PYRAMID);
+        let pushpull = shaders::module(ctx, shaders::PUSHPULL);
         let pp = [true, true, true, false, false];
         Self {
             downsample: Kernel::new(ctx, &pyramid, "downsample", &[true, false], 8),
@@ -294,4 +291,18 @@ impl ImageKernels {
         ctx.queue.submit([encoder.finish()]);
         Ok(filled)
     }
+}
+
+/// The uniform blocks' mirrors, checked against the WGSL (`shaders/layout_tests.rs`).
+#[cfg(test)]
+pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
+    use crate::shaders::layout_tests::mirror;
+    vec![
+        mirror!(shaders::PYRAMID, "Dims", PyramidDims { src_width, src_height, dst_width, dst_height, channels, scale_x, scale_y, _pad }),
+        mirror!(
+            shaders::PUSHPULL,
+            "Dims",
+            PushPullDims { width, height, other_width, other_height, channels, scale_x, scale_y, _pad, fallback }
+        ),
+    ]
 }

@@ -3,12 +3,14 @@
 //!
 //! [`GpuRenderer`] runs the full method and its no-temporal ablation of METHOD.md Part 2 level
 //! by level on the GPU: z-buffered splats of the cloud and of the previous frame
-//! ([`SplatKernels`]), the sparse consistency filter, push-pull and pyramid resampling
-//! ([`ImageKernels`]), backward warps with visibility ([`WarpKernels`]), the weights and the
-//! assembly of both systems ([`AssembleKernels`]), the color initial guess and `w_T`
-//! ([`LevelKernels`]), and red-black sweeps ([`GridSolver`]). Each matches its dynview-core
-//! counterpart; a whole frame matches the CPU's (tests/gpu_parity.rs). The baselines stay on
-//! the CPU.
+//! ([`SplatKernels`]), the sparse consistency filter ([`ConsistencyKernels`]), push-pull and
+//! pyramid resampling ([`ImageKernels`]), backward warps with visibility ([`WarpKernels`]), the
+//! weights and the assembly of both systems ([`AssembleKernels`]), the color initial guess
+//! ([`BlendKernel`]), `w_T` and the temporal terms ([`TemporalKernels`]), and red-black sweeps
+//! ([`GridSolver`]). Each matches its dynview-core counterpart; a whole frame matches the CPU's
+//! (tests/gpu_parity.rs). The baselines stay on the CPU. The WGSL ([`SHADERS`]) is composed from
+//! per-kernel files and shared code in `src/shaders/common/`; it owns the uniform layouts, which
+//! the Rust mirrors are tested against.
 //!
 //! Images live in storage buffers taken from a pool on the context: each size is allocated
 //! once and reused by every later frame at that resolution. [`FrameDisplay`] draws a frame into
@@ -16,44 +18,35 @@
 //! every compute pass with timestamp queries, summed per level and stage ([`StageTime`]).
 
 mod assemble;
+mod blend;
+mod consistency;
 mod context;
 mod display;
 mod image;
 mod kernel;
-mod level;
 mod profile;
 mod readback;
 mod renderer;
+mod shaders;
 mod solver;
 mod splat;
+mod temporal;
 mod warp;
 
 pub use assemble::{AssembleKernels, GpuSystem, PackedViews};
+pub use blend::{BlendKernel, MAX_VIEWS};
+pub use consistency::ConsistencyKernels;
 pub use context::{GpuContext, GpuError};
 pub use display::FrameDisplay;
 pub use image::{GpuImage, ImageKernels};
-pub use level::{LevelKernels, MAX_VIEWS};
 pub use profile::StageTime;
 pub use readback::{read_bytes, read_floats};
 pub use renderer::{GpuFrame, GpuInputs, GpuRenderer};
+pub use shaders::SHADERS;
 pub use solver::GridSolver;
 pub use splat::{GpuCloud, GpuSplat, SplatKernels};
+pub use temporal::TemporalKernels;
 pub use warp::{GpuWarps, WarpKernels};
 
 /// wgpu, as this crate uses it (for targets to draw into).
 pub use wgpu;
-
-/// Every WGSL shader of the crate, by file name (validated by naga in the tests).
-pub const SHADERS: &[(&str, &str)] = &[
-    ("red_black.wgsl", include_str!("shaders/red_black.wgsl")),
-    ("pyramid.wgsl", include_str!("shaders/pyramid.wgsl")),
-    ("pushpull.wgsl", include_str!("shaders/pushpull.wgsl")),
-    ("warp.wgsl", include_str!("shaders/warp.wgsl")),
-    ("assemble.wgsl", include_str!("shaders/assemble.wgsl")),
-    ("splat_project.wgsl", include_str!("shaders/splat_project.wgsl")),
-    ("splat_resolve.wgsl", include_str!("shaders/splat_resolve.wgsl")),
-    ("consistency.wgsl", include_str!("shaders/consistency.wgsl")),
-    ("frame.wgsl", include_str!("shaders/frame.wgsl")),
-    ("depth_range.wgsl", include_str!("shaders/depth_range.wgsl")),
-    ("display.wgsl", include_str!("shaders/display.wgsl")),
-];

@@ -4,14 +4,16 @@
 use dynview_core::camera::Camera;
 use dynview_core::render::pyramid::{camera_at, level_sizes};
 use dynview_core::render::{FALLBACK_COLOR, FALLBACK_DEPTH, Method, RenderParams, TimeStepInputs};
-use dynview_core::view_ranking::{rank_views, view_score};
+use dynview_core::view_ranking::{ChosenViews, choose_views};
 
 use crate::assemble::AssembleKernels;
+use crate::blend::BlendKernel;
+use crate::consistency::ConsistencyKernels;
 use crate::context::{GpuContext, GpuError};
 use crate::image::{GpuImage, ImageKernels};
-use crate::level::LevelKernels;
 use crate::solver::GridSolver;
 use crate::splat::{GpuCloud, GpuSplat, SplatKernels};
+use crate::temporal::TemporalKernels;
 use crate::warp::WarpKernels;
 
 /// A time step's inputs on the GPU: the cloud and every view's pyramid.
@@ -75,7 +77,9 @@ pub struct GpuRenderer {
     warps: WarpKernels,
     assemble: AssembleKernels,
     splat: SplatKernels,
-    level: LevelKernels,
+    consistency: ConsistencyKernels,
+    blend: BlendKernel,
+    temporal: TemporalKernels,
 }
 
 impl GpuRenderer {
@@ -87,7 +91,9 @@ impl GpuRenderer {
             warps: WarpKernels::new(ctx),
             assemble: AssembleKernels::new(ctx),
             splat: SplatKernels::new(ctx),
-            level: LevelKernels::new(ctx),
+            consistency: ConsistencyKernels::new(ctx),
+            blend: BlendKernel::new(ctx),
+            temporal: TemporalKernels::new(ctx),
         }
     }
 
@@ -102,19 +108,17 @@ impl GpuRenderer {
         inputs: &GpuInputs,
         previous: Option<&GpuFrame>,
     ) -> Result<GpuFrame, GpuError> {
-        params.validate().map_err(|e| GpuError::Size(e.to_string()))?;
+        params.validate().map_err(|e| GpuError::InvalidParams { field: e.field, reason: e.problem })?;
         if !params.method.is_variational() {
-            return Err(GpuError::Size(format!("method {:?} runs on the CPU only", params.method)));
+            return Err(GpuError::InvalidParams { field: "method", reason: format!("{:?} runs on the CPU only", params.method) });
         }
         if inputs.views.is_empty() {
-            return Err(GpuError::Size("no input views".into()));
+            return Err(GpuError::InvalidParams { field: "inputs", reason: "no input views".into() });
         }
         let previous = if params.method == Method::Full { previous } else { None };
         let poses: Vec<_> = inputs.views.iter().map(|(c, _)| c.camera_from_world).collect();
-        let chosen = rank_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views);
-        let scores: Vec<f64> = chosen.iter().map(|&s| view_score(&camera.camera_from_world, &poses[s], f64::from(params.sigma))).collect();
-        let best = scores.iter().copied().fold(f64::MIN_POSITIVE, f64::max);
-        let init_weights: Vec<f32> = scores.iter().map(|s| (s / best).max(1e-6) as f32).collect();
+        let ChosenViews { indices: chosen, blend_weights } =
+            choose_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views);
         let sizes = level_sizes(camera.width_px as usize, camera.height_px as usize, params.levels);
         let mut state: Option<(GpuImage, GpuImage)> = None;
         let mut solutions = Vec::with_capacity(params.levels);
@@ -124,7 +128,7 @@ impl GpuRenderer {
             let cam = camera_at(camera, w, h);
             ctx.set_stage(level, "splat");
             let sparse = self.splat.project_cloud(ctx, &inputs.cloud, &cam)?;
-            let counters = self.level.consistency(ctx, &sparse, params.sparse_consistency)?;
+            let counters = self.consistency.drop_inconsistent(ctx, &sparse, params.sparse_consistency)?;
             ctx.set_stage(level, "temporal");
             let prev: Option<GpuSplat> = match previous
                 .filter(|_| level < params.temporal_levels)
@@ -157,18 +161,18 @@ impl GpuRenderer {
             ctx.set_stage(level, "warp");
             let mut warps = self.warps.warp_views(ctx, &cam, &depth, &view_images, params.visibility_tolerance)?;
             ctx.set_stage(level, "weights");
-            let color = self.level.blend(ctx, &warps, &fallback_color, &init_weights)?;
+            let color = self.blend.blend(ctx, &warps, &fallback_color, &blend_weights)?;
             ctx.set_stage(level, "temporal");
             // Temporal terms from the fresh estimate of this level.
             let (temporal_depth, temporal_color) = match &prev {
                 Some(p) => {
-                    let w_t = self.level.temporal_weights(ctx, p, &warps, params.sigma)?;
-                    self.level.temporal_terms(ctx, &w_t, p, &counters, params.lambda_t, params.temporal_coverage_scaling)?
+                    let w_t = self.temporal.temporal_weights(ctx, p, &warps, params.sigma)?;
+                    self.temporal.temporal_terms(ctx, &w_t, p, &counters, params.lambda_t, params.temporal_coverage_scaling)?
                 }
                 None => (GpuImage::zeroed(ctx, w, h, 2)?, GpuImage::zeroed(ctx, w, h, 4)?),
             };
             ctx.set_stage(level, "splat");
-            let sparse_color_mask = self.level.pack_sparse(ctx, &sparse)?;
+            let sparse_color_mask = self.splat.pack_color_mask(ctx, &sparse)?;
             for _ in 0..params.outer_iterations_at(level) {
                 ctx.set_stage(level, "weights");
                 let w_p = self.assemble.projection_weights(ctx, params, &color, warps.packed())?;

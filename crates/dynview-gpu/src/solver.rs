@@ -9,17 +9,20 @@ use wgpu::util::DeviceExt;
 
 use crate::context::{GpuContext, GpuError};
 use crate::image::GpuImage;
+use crate::shaders;
 
-/// The shader's uniform block.
+/// `red_black.wgsl`'s uniform block.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
+struct SweepParams {
     width: u32,
     height: u32,
     parity: u32,
     channels: u32,
     omega: f32,
-    _pad: [u32; 3],
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 /// Side of the square workgroup of `red_black.wgsl`.
@@ -49,10 +52,7 @@ impl GridSolver {
     /// Compiles the pipeline on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
         let device = &ctx.device;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("red_black.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("shaders/red_black.wgsl").into()),
-        });
+        let module = shaders::module(ctx, shaders::RED_BLACK);
         let uniform = wgpu::BindGroupLayoutEntry {
             binding: 0,
             visibility: wgpu::ShaderStages::COMPUTE,
@@ -123,7 +123,8 @@ impl GridSolver {
         let device = &ctx.device;
         let bind_groups: Vec<wgpu::BindGroup> = (0..2u32)
             .map(|parity| {
-                let params = Params { width: width as u32, height: height as u32, parity, channels, omega, _pad: [0; 3] };
+                let params =
+                    SweepParams { width: width as u32, height: height as u32, parity, channels, omega, _pad0: 0, _pad1: 0, _pad2: 0 };
                 let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some("red_black params"),
                     contents: bytemuck::bytes_of(&params),
@@ -212,4 +213,11 @@ pub(crate) fn read_buffer(ctx: &GpuContext, buffer: &wgpu::Buffer, out: &mut [f3
     let floats = pollster::block_on(crate::readback::read_floats(ctx, buffer, out.len()))?;
     out.copy_from_slice(&floats);
     Ok(())
+}
+
+/// The uniform block's mirror, checked against the WGSL (`shaders/layout_tests.rs`).
+#[cfg(test)]
+pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
+    use crate::shaders::layout_tests::mirror;
+    vec![mirror!(shaders::RED_BLACK, "Params", SweepParams { width, height, parity, channels, omega, _pad0, _pad1, _pad2 })]
 }

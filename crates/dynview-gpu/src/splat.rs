@@ -1,7 +1,8 @@
 //! Splatting with a z-buffer on the GPU (`shaders/splat_project.wgsl`,
 //! `shaders/splat_resolve.wgsl`): the sparse cloud into a camera (`D^`, `I^`, `m`) and a rendered
 //! frame into the next camera (the temporal terms' `D_{t-1}^{proj}`, `I_{t-1}^{proj}`), as
-//! dynview-core's `sparse::project_cloud` and `sparse::warp_frame`.
+//! dynview-core's `sparse::project_cloud` and `sparse::warp_frame`; and the sparse maps' color
+//! and mask packed for the depth weights (`shaders/splat_pack.wgsl`).
 
 use dynview_core::camera::Camera;
 use dynview_core::render::transfer::PixelTransfer;
@@ -11,6 +12,7 @@ use wgpu::util::DeviceExt;
 use crate::context::{GpuContext, GpuError};
 use crate::image::GpuImage;
 use crate::kernel::Kernel;
+use crate::shaders;
 
 /// Splat maps on the GPU: depth (infinite where nothing landed), RGB color and mask.
 #[derive(Debug)]
@@ -54,6 +56,7 @@ impl GpuCloud {
     }
 }
 
+/// `splat_project.wgsl`'s uniform block.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct ProjectParams {
@@ -61,16 +64,30 @@ struct ProjectParams {
     width: u32,
     height: u32,
     source_width: u32,
-    rows: [[f32; 4]; 3],
+    row0: [f32; 4],
+    row1: [f32; 4],
+    row2: [f32; 4],
     extra: [f32; 4],
 }
 
+/// `splat_resolve.wgsl`'s uniform block.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct ResolveParams {
     count: u32,
     pixels: u32,
-    _pad: [u32; 2],
+    _pad0: u32,
+    _pad1: u32,
+}
+
+/// `splat_pack.wgsl`'s uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct PackParams {
+    width: u32,
+    height: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 /// The splat kernels, compiled once per device.
@@ -82,17 +99,15 @@ pub struct SplatKernels {
     nearest_depth: Kernel,
     first_index: Kernel,
     write: Kernel,
+    pack_color_mask: Kernel,
 }
 
 impl SplatKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
-        let module = |name: &str, source: &str| {
-            ctx.device
-                .create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(source.into()) })
-        };
-        let project = module("splat_project.wgsl", include_str!("shaders/splat_project.wgsl"));
-        let resolve = module("splat_resolve.wgsl", include_str!("shaders/splat_resolve.wgsl"));
+        let project = shaders::module(ctx, shaders::SPLAT_PROJECT);
+        let resolve = shaders::module(ctx, shaders::SPLAT_RESOLVE);
+        let pack = shaders::module(ctx, shaders::SPLAT_PACK);
         let p = [true, true, false, false, false];
         let r = [true, true, true, false, false, false, false, false];
         Self {
@@ -102,6 +117,7 @@ impl SplatKernels {
             nearest_depth: Kernel::new(ctx, &resolve, "nearest_depth", &r, 64),
             first_index: Kernel::new(ctx, &resolve, "first_index", &r, 64),
             write: Kernel::new(ctx, &resolve, "write", &r, 64),
+            pack_color_mask: Kernel::new(ctx, &pack, "pack_color_mask", &[true, true, false], 8),
         }
     }
 
@@ -111,16 +127,18 @@ impl SplatKernels {
         let r = camera.camera_from_world.rotation;
         let t = camera.camera_from_world.translation;
         let k = camera.intrinsics;
-        let rows = std::array::from_fn(|i| {
+        let row = |i: usize| {
             let row = r.row(i);
             [row.x as f32, row.y as f32, row.z as f32, t[i] as f32]
-        });
+        };
         let params = ProjectParams {
             count: cloud.count as u32,
             width: camera.width_px,
             height: camera.height_px,
             source_width: 1,
-            rows,
+            row0: row(0),
+            row1: row(1),
+            row2: row(2),
             extra: [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32],
         };
         self.splat(ctx, &self.project_points, &params, &cloud.positions, &cloud.colors, camera)
@@ -148,10 +166,25 @@ impl SplatKernels {
             width: camera.width_px,
             height: camera.height_px,
             source_width: depth.width as u32,
-            rows: [[m[0], m[1], m[2], 0.0], [m[3], m[4], m[5], 0.0], [m[6], m[7], m[8], 0.0]],
+            row0: [m[0], m[1], m[2], 0.0],
+            row1: [m[3], m[4], m[5], 0.0],
+            row2: [m[6], m[7], m[8], 0.0],
             extra: [e[0], e[1], e[2], 0.0],
         };
         self.splat(ctx, &self.project_pixels, &params, &depth.buffer, &color.buffer, camera)
+    }
+
+    /// `sparse`'s color and mask as one RGBA image (RGB, then the mask), as the depth weights
+    /// take them ([`crate::AssembleKernels::depth_system`]).
+    pub fn pack_color_mask(&self, ctx: &GpuContext, sparse: &GpuSplat) -> Result<GpuImage, GpuError> {
+        let (w, h) = (sparse.mask.width, sparse.mask.height);
+        let out = GpuImage::zeroed(ctx, w, h, 4)?;
+        let params = PackParams { width: w as u32, height: h as u32, _pad0: 0, _pad1: 0 };
+        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("pack color and mask") });
+        let buffers = [&sparse.color.buffer, &sparse.mask.buffer, &out.buffer];
+        self.pack_color_mask.dispatch(ctx, &mut encoder, bytemuck::bytes_of(&params), &buffers, w, h);
+        ctx.queue.submit([encoder.finish()]);
+        Ok(out)
     }
 
     fn splat(
@@ -185,7 +218,7 @@ impl SplatKernels {
             params.count as usize,
             1,
         );
-        let resolve = ResolveParams { count: params.count, pixels: (w * h) as u32, _pad: [0; 2] };
+        let resolve = ResolveParams { count: params.count, pixels: (w * h) as u32, _pad0: 0, _pad1: 0 };
         let buffers =
             [elements[0], elements[1], elements[2], &zbuf.buffer, &winner.buffer, &out.depth.buffer, &out.color.buffer, &out.mask.buffer];
         let uniform = bytemuck::bytes_of(&resolve);
@@ -196,4 +229,15 @@ impl SplatKernels {
         ctx.queue.submit([encoder.finish()]);
         Ok(out)
     }
+}
+
+/// The uniform blocks' mirrors, checked against the WGSL (`shaders/layout_tests.rs`).
+#[cfg(test)]
+pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
+    use crate::shaders::layout_tests::mirror;
+    vec![
+        mirror!(shaders::SPLAT_PROJECT, "Params", ProjectParams { count, width, height, source_width, row0, row1, row2, extra }),
+        mirror!(shaders::SPLAT_RESOLVE, "Params", ResolveParams { count, pixels, _pad0, _pad1 }),
+        mirror!(shaders::SPLAT_PACK, "Params", PackParams { width, height, _pad0, _pad1 }),
+    ]
 }

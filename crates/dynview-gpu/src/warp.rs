@@ -8,6 +8,7 @@ use crate::assemble::PackedViews;
 use crate::context::{GpuContext, GpuError};
 use crate::image::GpuImage;
 use crate::kernel::Kernel;
+use crate::shaders;
 
 /// The chosen input views warped into the novel view, packed: view `s` occupies rows
 /// `s * height ..` of each image.
@@ -40,8 +41,11 @@ struct WarpParams {
     input_height: u32,
     tolerance: f32,
     offset: u32,
-    _pad: [u32; 2],
-    m_rows: [[f32; 4]; 3],
+    _pad1: u32,
+    _pad2: u32,
+    m_row0: [f32; 4],
+    m_row1: [f32; 4],
+    m_row2: [f32; 4],
     e: [f32; 4],
 }
 
@@ -56,10 +60,7 @@ pub struct WarpKernels {
 impl WarpKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
-        let module = ctx.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("warp.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("shaders/warp.wgsl").into()),
-        });
+        let module = shaders::module(ctx, shaders::WARP);
         let bindings = [true, true, false, false, false, false, false, false];
         Self {
             clear_zbuf: Kernel::new(ctx, &module, "clear_zbuf", &bindings, 64),
@@ -87,7 +88,7 @@ impl WarpKernels {
         }
         let count = inputs.len();
         if count == 0 {
-            return Err(GpuError::Size("no input views to warp".into()));
+            return Err(GpuError::InvalidParams { field: "inputs", reason: "no input views to warp".into() });
         }
         let out = GpuWarps {
             colors: GpuImage::zeroed(ctx, w, h * count, 3)?,
@@ -114,8 +115,11 @@ impl WarpKernels {
                 input_height: input.height as u32,
                 tolerance,
                 offset: (s * w * h) as u32,
-                _pad: [0; 2],
-                m_rows: [[m[0], m[1], m[2], 0.0], [m[3], m[4], m[5], 0.0], [m[6], m[7], m[8], 0.0]],
+                _pad1: 0,
+                _pad2: 0,
+                m_row0: [m[0], m[1], m[2], 0.0],
+                m_row1: [m[3], m[4], m[5], 0.0],
+                m_row2: [m[6], m[7], m[8], 0.0],
                 e: [e[0], e[1], e[2], 0.0],
             };
             zbufs.push(GpuImage::zeroed(ctx, input.width, input.height, 1)?);
@@ -138,4 +142,15 @@ impl WarpKernels {
         ctx.queue.submit([encoder.finish()]);
         Ok(out)
     }
+}
+
+/// The uniform block's mirror, checked against the WGSL (`shaders/layout_tests.rs`).
+#[cfg(test)]
+pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
+    use crate::shaders::layout_tests::mirror;
+    vec![mirror!(
+        shaders::WARP,
+        "Params",
+        WarpParams { width, height, input_width, input_height, tolerance, offset, _pad1, _pad2, m_row0, m_row1, m_row2, e }
+    )]
 }

@@ -18,7 +18,7 @@ use super::timing::{Stage, Stopwatch, Timings};
 use super::weights;
 use crate::camera::Camera;
 use crate::raster::{Raster, RgbRaster, ScalarRaster};
-use crate::view_ranking::{rank_views, view_score};
+use crate::view_ranking::{ChosenViews, choose_views};
 
 /// What one [`FrameJob::step`] achieved.
 #[derive(Debug)]
@@ -55,11 +55,8 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
     pub fn new(params: RenderParams, camera: Camera, inputs: I, previous: Option<P>) -> Result<Self, RenderError> {
         check_inputs(&params, &camera, inputs.borrow())?;
         let poses: Vec<_> = inputs.borrow().views.iter().map(|v| v.camera.camera_from_world).collect();
-        let chosen = rank_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views);
-        // The color initial guess weights views by their rank score r_F (relative to the best).
-        let scores: Vec<f64> = chosen.iter().map(|&s| view_score(&camera.camera_from_world, &poses[s], f64::from(params.sigma))).collect();
-        let best = scores.iter().copied().fold(f64::MIN_POSITIVE, f64::max);
-        let init_weights = scores.iter().map(|s| (s / best).max(1e-6) as f32).collect();
+        let ChosenViews { indices: chosen, blend_weights: init_weights } =
+            choose_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views);
         let previous = if params.method == Method::Full { previous } else { None };
         let next_level = Some(if params.method.is_variational() { params.levels - 1 } else { 0 });
         Ok(Self {

@@ -3,7 +3,7 @@
 // (1) isolated front samples: none within `ratio` of its depth, at least two clearly behind;
 // (2) occluded samples: a remaining sample nearer by more than the factor 1 + ratio.
 // Entry points, in order: count (covered before), isolated, occluded, apply (also counts the
-// covered pixels after, for the temporal terms' coverage scaling).
+// covered pixels after, for the temporal terms' coverage scaling). Infinity: common/float_bits.wgsl.
 
 struct Params {
     width: u32,
@@ -11,10 +11,6 @@ struct Params {
     ratio: f32,
     _pad: u32,
 };
-
-// +infinity at run time: WGSL forbids an infinite constant (Tint rejects a constant-folded
-// bitcast), so the bits come from a variable.
-var<private> infinity_bits: u32 = 0x7f800000u;
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read_write> depth: array<f32>;

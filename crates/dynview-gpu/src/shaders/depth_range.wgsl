@@ -19,10 +19,6 @@ struct Params {
 // Out: the low and high end of the range, in metres.
 @group(0) @binding(4) var<storage, read_write> range: array<f32, 2>;
 
-fn is_finite(d: f32) -> bool {
-    return (bitcast<u32>(d) & 0x7f800000u) != 0x7f800000u;
-}
-
 // A u32 that orders as the float does.
 fn key(d: f32) -> u32 {
     let b = bitcast<u32>(d);

@@ -41,10 +41,6 @@ fn rgb_at(x: u32, y: u32) -> vec3<f32> {
     return vec3<f32>(color[i], color[i + 1u], color[i + 2u]);
 }
 
-fn is_finite(d: f32) -> bool {
-    return (bitcast<u32>(d) & 0x7f800000u) != 0x7f800000u;
-}
-
 fn to_linear(c: vec3<f32>) -> vec3<f32> {
     let low = c / 12.92;
     let high = pow((c + vec3<f32>(0.055)) / 1.055, vec3<f32>(2.4));

@@ -1,6 +1,6 @@
 // Push-pull hole filling, following dynview-core's render::pushpull::fill term by term.
 // Pull: premultiplied 2x2 sums down to one pixel, weights saturating at 1. Push: from coarse to
-// fine, each level keeps its known share and takes the bilinear upsampled coarser fill for the
+// fine, each level keeps its known share and takes the bilinear upsampled coarser fill (common/bilinear.wgsl) for the
 // missing share. Values are flat arrays of `channels` floats per pixel; weights one float.
 
 struct Dims {
@@ -23,8 +23,8 @@ struct Dims {
 // Pull: the finer level's premultiplied values and weights. Push: this level's.
 @group(0) @binding(1) var<storage, read> values: array<f32>;
 @group(0) @binding(2) var<storage, read> weights: array<f32>;
-// Push: the coarser level's fill. Pull and premultiply: unused (bound to the weights).
-@group(0) @binding(3) var<storage, read> coarse: array<f32>;
+// Push: the coarser level's fill. Premultiply, pull and top: unused (bound to the weights).
+@group(0) @binding(3) var<storage, read> coarse_fill: array<f32>;
 @group(0) @binding(4) var<storage, read_write> out_values: array<f32>;
 @group(0) @binding(5) var<storage, read_write> out_weights: array<f32>;
 
@@ -86,7 +86,7 @@ fn top(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 
 fn coarse_at(x: u32, y: u32, c: u32) -> f32 {
-    return coarse[(y * dims.other_width + x) * dims.channels + c];
+    return coarse_fill[(y * dims.other_width + x) * dims.channels + c];
 }
 
 @compute @workgroup_size(8, 8)
@@ -94,21 +94,12 @@ fn push(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= dims.width || id.y >= dims.height) {
         return;
     }
-    let fy = clamp((f32(id.y) + 0.5) * dims.scale_y - 0.5, 0.0, f32(dims.other_height - 1u));
-    let fx = clamp((f32(id.x) + 0.5) * dims.scale_x - 0.5, 0.0, f32(dims.other_width - 1u));
-    let y0 = u32(floor(fy));
-    let x0 = u32(floor(fx));
-    let y1 = min(y0 + 1u, dims.other_height - 1u);
-    let x1 = min(x0 + 1u, dims.other_width - 1u);
-    let ty = fy - f32(y0);
-    let tx = fx - f32(x0);
+    let t = bilinear_taps(id.x, id.y, vec2<f32>(dims.scale_x, dims.scale_y), vec2<u32>(dims.other_width, dims.other_height));
     let i = id.y * dims.width + id.x;
     let w = weights[i];
     let wi = min(w, 1.0);
     for (var c = 0u; c < dims.channels; c = c + 1u) {
-        let top = coarse_at(x0, y0, c) * (1.0 - tx) + coarse_at(x1, y0, c) * tx;
-        let bottom = coarse_at(x0, y1, c) * (1.0 - tx) + coarse_at(x1, y1, c) * tx;
-        let up = top * (1.0 - ty) + bottom * ty;
+        let up = bilinear_mix(t, coarse_at(t.x0, t.y0, c), coarse_at(t.x1, t.y0, c), coarse_at(t.x0, t.y1, c), coarse_at(t.x1, t.y1, c));
         let v = values[i * dims.channels + c];
         var result: f32;
         if (w >= 1.0) {

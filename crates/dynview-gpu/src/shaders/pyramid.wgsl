@@ -1,6 +1,6 @@
 // Image pyramid resampling, following dynview-core's render::pyramid term by term: 2x2 box
 // downsampling (edge pixels of odd sizes average what exists) and bilinear upsampling with
-// pixel centres aligned. Images are flat arrays of `channels` floats per pixel.
+// pixel centres aligned (common/bilinear.wgsl). Images are flat arrays of `channels` floats per pixel.
 
 struct Dims {
     src_width: u32,
@@ -42,17 +42,9 @@ fn upsample(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= dims.dst_width || id.y >= dims.dst_height) {
         return;
     }
-    let fy = clamp((f32(id.y) + 0.5) * dims.scale_y - 0.5, 0.0, f32(dims.src_height - 1u));
-    let fx = clamp((f32(id.x) + 0.5) * dims.scale_x - 0.5, 0.0, f32(dims.src_width - 1u));
-    let y0 = u32(floor(fy));
-    let x0 = u32(floor(fx));
-    let y1 = min(y0 + 1u, dims.src_height - 1u);
-    let x1 = min(x0 + 1u, dims.src_width - 1u);
-    let ty = fy - f32(y0);
-    let tx = fx - f32(x0);
+    let t = bilinear_taps(id.x, id.y, vec2<f32>(dims.scale_x, dims.scale_y), vec2<u32>(dims.src_width, dims.src_height));
     for (var c = 0u; c < dims.channels; c = c + 1u) {
-        let top = at(x0, y0, c) * (1.0 - tx) + at(x1, y0, c) * tx;
-        let bottom = at(x0, y1, c) * (1.0 - tx) + at(x1, y1, c) * tx;
-        dst[(id.y * dims.dst_width + id.x) * dims.channels + c] = top * (1.0 - ty) + bottom * ty;
+        dst[(id.y * dims.dst_width + id.x) * dims.channels + c] =
+            bilinear_mix(t, at(t.x0, t.y0, c), at(t.x1, t.y0, c), at(t.x0, t.y1, c), at(t.x1, t.y1, c));
     }
 }

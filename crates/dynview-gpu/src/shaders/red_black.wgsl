@@ -12,6 +12,9 @@ struct Params {
     parity: u32,
     channels: u32,
     omega: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 };
 
 @group(0) @binding(0) var<uniform> params: Params;

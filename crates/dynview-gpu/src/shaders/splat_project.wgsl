@@ -20,8 +20,6 @@ struct Params {
     extra: vec4<f32>,
 };
 
-const OUTSIDE: u32 = 0xffffffffu;
-
 @group(0) @binding(0) var<uniform> params: Params;
 // project_points: positions (3 floats per point). project_pixels: source depth.
 @group(0) @binding(1) var<storage, read> source_geometry: array<f32>;
@@ -80,7 +78,7 @@ fn project_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     element_target[e] = OUTSIDE;
     let d = source_geometry[e];
-    if (!(d > 0.0 && d <= 0x1.fffffep+127f)) {
+    if (!(d > 0.0 && d <= MAX_FINITE)) {
         return;
     }
     let x = f32(e % params.source_width);

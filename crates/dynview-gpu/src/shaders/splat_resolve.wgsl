@@ -9,13 +9,6 @@ struct Params {
     _pad1: u32,
 };
 
-const OUTSIDE: u32 = 0xffffffffu;
-const INFINITE_DEPTH_BITS: u32 = 0x7f800000u;
-
-// +infinity at run time: WGSL forbids an infinite constant (Tint rejects a constant-folded
-// bitcast), so the bits come from a variable.
-var<private> infinity_bits: u32 = 0x7f800000u;
-
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> element_target: array<u32>;
 @group(0) @binding(2) var<storage, read> element_depth: array<f32>;
@@ -33,7 +26,7 @@ fn clear(@builtin(global_invocation_id) id: vec3<u32>) {
     if (i >= params.pixels) {
         return;
     }
-    atomicStore(&zbuf[i], INFINITE_DEPTH_BITS);
+    atomicStore(&zbuf[i], INFINITY_BITS);
     atomicStore(&winner[i], OUTSIDE);
     out_depth[i] = bitcast<f32>(infinity_bits);
     out_color[i * 3u] = 0.0;

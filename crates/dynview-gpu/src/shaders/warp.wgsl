@@ -23,9 +23,6 @@ struct Params {
     e: vec4<f32>,
 };
 
-const OUTSIDE: u32 = 0xffffffffu;
-const INFINITE_DEPTH_BITS: u32 = 0x7f800000u;
-
 @group(0) @binding(0) var<uniform> params: Params;
 // Novel-view z-depth.
 @group(0) @binding(1) var<storage, read> depth: array<f32>;
@@ -46,7 +43,7 @@ const INFINITE_DEPTH_BITS: u32 = 0x7f800000u;
 @compute @workgroup_size(64)
 fn clear_zbuf(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x < params.input_width * params.input_height) {
-        atomicStore(&zbuf[id.x], INFINITE_DEPTH_BITS);
+        atomicStore(&zbuf[id.x], INFINITY_BITS);
     }
 }
 
@@ -69,7 +66,7 @@ fn warp(@builtin(global_invocation_id) id: vec3<u32>) {
     target_pixel[i] = OUTSIDE;
     depth_in_input[i] = 0.0;
     let d = depth[i];
-    if (!(d > 0.0 && d <= 0x1.fffffep+127f)) {
+    if (!(d > 0.0 && d <= MAX_FINITE)) {
         return;
     }
     let fx = f32(x);

@@ -1,0 +1,68 @@
+//! The sparse consistency filter on the GPU (`shaders/consistency.wgsl`), as dynview-core's
+//! `SplatMaps::drop_inconsistent`.
+
+use crate::context::{GpuContext, GpuError};
+use crate::image::GpuImage;
+use crate::kernel::Kernel;
+use crate::shaders;
+use crate::splat::GpuSplat;
+
+/// `consistency.wgsl`'s uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ConsistencyParams {
+    width: u32,
+    height: u32,
+    ratio: f32,
+    _pad: u32,
+}
+
+/// The consistency filter's kernels, compiled once per device.
+#[derive(Debug)]
+pub struct ConsistencyKernels {
+    count: Kernel,
+    isolated: Kernel,
+    occluded: Kernel,
+    apply: Kernel,
+}
+
+impl ConsistencyKernels {
+    /// Compiles the kernels on `ctx`'s device.
+    pub fn new(ctx: &GpuContext) -> Self {
+        let module = shaders::module(ctx, shaders::CONSISTENCY);
+        let bindings = [false, false, false, false];
+        Self {
+            count: Kernel::new(ctx, &module, "count", &bindings, 8),
+            isolated: Kernel::new(ctx, &module, "isolated", &bindings, 8),
+            occluded: Kernel::new(ctx, &module, "occluded", &bindings, 8),
+            apply: Kernel::new(ctx, &module, "apply", &bindings, 8),
+        }
+    }
+
+    /// Drops the inconsistent samples of `sparse` with `ratio`, in place (skipped when `ratio`
+    /// is 0), and returns the counters: covered pixels before (`[0]`) and after (`[1]`).
+    pub fn drop_inconsistent(&self, ctx: &GpuContext, sparse: &GpuSplat, ratio: f32) -> Result<GpuImage, GpuError> {
+        let (w, h) = (sparse.mask.width, sparse.mask.height);
+        let flags = GpuImage::zeroed(ctx, w, 2 * h, 1)?;
+        let counters = GpuImage::zeroed(ctx, 2, 1, 1)?;
+        let params = ConsistencyParams { width: w as u32, height: h as u32, ratio, _pad: 0 };
+        let buffers = [&sparse.depth.buffer, &sparse.mask.buffer, &flags.buffer, &counters.buffer];
+        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("consistency") });
+        let uniform = bytemuck::bytes_of(&params);
+        self.count.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
+        if ratio > 0.0 {
+            self.isolated.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
+            self.occluded.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
+        }
+        self.apply.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
+        ctx.queue.submit([encoder.finish()]);
+        Ok(counters)
+    }
+}
+
+/// The uniform block's mirror, checked against the WGSL (`shaders/layout_tests.rs`).
+#[cfg(test)]
+pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
+    use crate::shaders::layout_tests::mirror;
+    vec![mirror!(shaders::CONSISTENCY, "Params", ConsistencyParams { width, height, ratio, _pad })]
+}

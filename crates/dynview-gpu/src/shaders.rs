@@ -1,0 +1,87 @@
+//! The crate's WGSL, composed: a shader is its own file in `shaders/` after the shared code it
+//! needs from `shaders/common/`, joined at compile time. The WGSL is the single source of truth
+//! for the uniform blocks; the Rust mirrors are checked against naga's reflection of it
+//! (`shaders/layout_tests.rs`).
+
+use crate::context::GpuContext;
+
+/// A shader: its name (its own file under `shaders/`) and its composed source.
+pub(crate) type Shader = (&'static str, &'static str);
+
+/// The sources of `shaders/` files, joined in order (shared code first).
+macro_rules! wgsl {
+    ($($file:literal),+ $(,)?) => {
+        concat!($(include_str!(concat!("shaders/", $file))),+)
+    };
+}
+
+/// `(name, composed source)` of one shader: the shared files, then the shader's own file.
+macro_rules! shader {
+    ($file:literal $(, $common:literal)* $(,)?) => {
+        ($file, wgsl!($($common,)* $file))
+    };
+}
+
+/// Red-black sweeps of a grid system.
+pub(crate) const RED_BLACK: Shader = shader!("red_black.wgsl");
+/// 2x2 box downsampling and bilinear upsampling.
+pub(crate) const PYRAMID: Shader = shader!("pyramid.wgsl", "common/bilinear.wgsl");
+/// Push-pull hole filling.
+pub(crate) const PUSHPULL: Shader = shader!("pushpull.wgsl", "common/bilinear.wgsl");
+/// Backward warps of the input views and their visibility.
+pub(crate) const WARP: Shader = shader!("warp.wgsl", "common/float_bits.wgsl", "common/outside.wgsl");
+/// `w_P^s` of every view.
+pub(crate) const PROJECTION_WEIGHTS: Shader = shader!("assemble/projection_weights.wgsl", "assemble/params.wgsl", "common/agreement.wgsl");
+/// `w_D` and the sparse attachment `lambda_PC w_H`.
+pub(crate) const DEPTH_WEIGHTS: Shader = shader!("assemble/depth_weights.wgsl", "assemble/params.wgsl", "common/agreement.wgsl");
+/// The depth system.
+pub(crate) const DEPTH_SYSTEM: Shader = shader!("assemble/depth_system.wgsl", "assemble/params.wgsl", "common/float_bits.wgsl");
+/// The color system.
+pub(crate) const COLOR_SYSTEM: Shader = shader!("assemble/color_system.wgsl", "assemble/params.wgsl");
+/// Projection of splat sources (cloud points, frame pixels) into a camera.
+pub(crate) const SPLAT_PROJECT: Shader = shader!("splat_project.wgsl", "common/float_bits.wgsl", "common/outside.wgsl");
+/// The z-buffer resolve of a splat.
+pub(crate) const SPLAT_RESOLVE: Shader = shader!("splat_resolve.wgsl", "common/float_bits.wgsl", "common/outside.wgsl");
+/// The sparse maps' color and mask as one RGBA image.
+pub(crate) const SPLAT_PACK: Shader = shader!("splat_pack.wgsl");
+/// The sparse consistency filter.
+pub(crate) const CONSISTENCY: Shader = shader!("consistency.wgsl", "common/float_bits.wgsl");
+/// The color initial guess: the weighted blend of the visible warps.
+pub(crate) const BLEND: Shader = shader!("blend.wgsl");
+/// `w_T`.
+pub(crate) const TEMPORAL_WEIGHTS: Shader = shader!("temporal_weights.wgsl", "common/agreement.wgsl");
+/// The temporal terms of both systems.
+pub(crate) const TEMPORAL_TERMS: Shader = shader!("temporal_terms.wgsl");
+/// The range of the false-color depth display.
+pub(crate) const DEPTH_RANGE: Shader = shader!("depth_range.wgsl", "common/float_bits.wgsl");
+/// Drawing a frame into a render target.
+pub(crate) const DISPLAY: Shader = shader!("display.wgsl", "common/float_bits.wgsl");
+
+/// Every WGSL shader of the crate as `(name, composed source)` (validated by naga in the tests).
+pub const SHADERS: &[(&str, &str)] = &[
+    RED_BLACK,
+    PYRAMID,
+    PUSHPULL,
+    WARP,
+    PROJECTION_WEIGHTS,
+    DEPTH_WEIGHTS,
+    DEPTH_SYSTEM,
+    COLOR_SYSTEM,
+    SPLAT_PROJECT,
+    SPLAT_RESOLVE,
+    SPLAT_PACK,
+    CONSISTENCY,
+    BLEND,
+    TEMPORAL_WEIGHTS,
+    TEMPORAL_TERMS,
+    DEPTH_RANGE,
+    DISPLAY,
+];
+
+/// Compiles `shader` on `ctx`'s device.
+pub(crate) fn module(ctx: &GpuContext, (name, source): Shader) -> wgpu::ShaderModule {
+    ctx.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(source.into()) })
+}
+
+#[cfg(test)]
+pub(crate) mod layout_tests;

@@ -1,0 +1,95 @@
+//! The temporal terms on the GPU (`shaders/temporal_weights.wgsl`,
+//! `shaders/temporal_terms.wgsl`): `w_T` as dynview-core's `render::weights::temporal_weights`,
+//! and the terms `(lambda_T w_T, previous)` the depth and color systems take.
+
+use crate::context::{GpuContext, GpuError};
+use crate::image::GpuImage;
+use crate::kernel::Kernel;
+use crate::shaders;
+use crate::splat::GpuSplat;
+use crate::warp::GpuWarps;
+
+/// `temporal_weights.wgsl`'s uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct WeightsParams {
+    width: u32,
+    height: u32,
+    views: u32,
+    sigma: f32,
+}
+
+/// `temporal_terms.wgsl`'s uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct TermsParams {
+    width: u32,
+    height: u32,
+    coverage_scaling: u32,
+    lambda_t: f32,
+}
+
+/// The temporal kernels, compiled once per device.
+#[derive(Debug)]
+pub struct TemporalKernels {
+    weights: Kernel,
+    terms: Kernel,
+}
+
+fn submit(ctx: &GpuContext, kernel: &Kernel, uniform: &[u8], buffers: &[&wgpu::Buffer], width: usize, height: usize) {
+    let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("temporal") });
+    kernel.dispatch(ctx, &mut encoder, uniform, buffers, width, height);
+    ctx.queue.submit([encoder.finish()]);
+}
+
+impl TemporalKernels {
+    /// Compiles the kernels on `ctx`'s device.
+    pub fn new(ctx: &GpuContext) -> Self {
+        let weights = shaders::module(ctx, shaders::TEMPORAL_WEIGHTS);
+        let terms = shaders::module(ctx, shaders::TEMPORAL_TERMS);
+        Self {
+            weights: Kernel::new(ctx, &weights, "temporal_weights", &[true, true, true, true, false], 8),
+            terms: Kernel::new(ctx, &terms, "temporal_terms", &[true, true, true, true, false, false], 8),
+        }
+    }
+
+    /// `w_T` from the previous frame splatted here and the current warps.
+    pub fn temporal_weights(&self, ctx: &GpuContext, previous: &GpuSplat, warps: &GpuWarps, sigma: f32) -> Result<GpuImage, GpuError> {
+        let (w, h) = (previous.mask.width, previous.mask.height);
+        let w_t = GpuImage::zeroed(ctx, w, h, 1)?;
+        let params = WeightsParams { width: w as u32, height: h as u32, views: warps.count as u32, sigma };
+        let buffers = [&warps.colors.buffer, &warps.valid.buffer, &previous.color.buffer, &previous.mask.buffer, &w_t.buffer];
+        submit(ctx, &self.weights, bytemuck::bytes_of(&params), &buffers, w, h);
+        Ok(w_t)
+    }
+
+    /// The temporal terms `(lambda_T w_T, Dprev)` and `(lambda_T w_T, Iprev)`; `counters` are
+    /// the consistency filter's (coverage after it in `[1]`).
+    pub fn temporal_terms(
+        &self,
+        ctx: &GpuContext,
+        w_t: &GpuImage,
+        previous: &GpuSplat,
+        counters: &GpuImage,
+        lambda_t: f32,
+        coverage_scaling: bool,
+    ) -> Result<(GpuImage, GpuImage), GpuError> {
+        let (w, h) = (w_t.width, w_t.height);
+        let (depth_terms, color_terms) = (GpuImage::zeroed(ctx, w, h, 2)?, GpuImage::zeroed(ctx, w, h, 4)?);
+        let params = TermsParams { width: w as u32, height: h as u32, coverage_scaling: u32::from(coverage_scaling), lambda_t };
+        let buffers =
+            [&w_t.buffer, &previous.depth.buffer, &previous.color.buffer, &counters.buffer, &depth_terms.buffer, &color_terms.buffer];
+        submit(ctx, &self.terms, bytemuck::bytes_of(&params), &buffers, w, h);
+        Ok((depth_terms, color_terms))
+    }
+}
+
+/// The uniform blocks' mirrors, checked against the WGSL (`shaders/layout_tests.rs`).
+#[cfg(test)]
+pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
+    use crate::shaders::layout_tests::mirror;
+    vec![
+        mirror!(shaders::TEMPORAL_WEIGHTS, "Params", WeightsParams { width, height, views, sigma }),
+        mirror!(shaders::TEMPORAL_TERMS, "Params", TermsParams { width, height, coverage_scaling, lambda_t }),
+    ]
+}
