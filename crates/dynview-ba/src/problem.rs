@@ -3,8 +3,9 @@
 
 use crate::error::BaError;
 
-/// Intrinsics of one physical camera, shared by all its images: OpenCV pinhole with radial
-/// distortion, pixel centres at integer coordinates.
+/// Intrinsics of one physical camera, shared by all its images: COLMAP's `RADIAL` model
+/// ([`dynview_camera::Radial`], which computes the projection and its Jacobians), pixel centres
+/// at integer coordinates.
 ///
 /// With `(X, Y, Z)` the point in the camera frame: `x_n = X/Z`, `y_n = Y/Z`,
 /// `r2 = x_n^2 + y_n^2`, `d = 1 + k1 r2 + k2 r2^2`, `u = f d x_n + cx`, `v = f d y_n + cy`.
@@ -21,6 +22,18 @@ pub struct CameraIntrinsics {
     pub k1: f64,
     /// Second radial distortion coefficient (multiplies `r2^2`).
     pub k2: f64,
+}
+
+impl From<CameraIntrinsics> for dynview_camera::Radial {
+    fn from(k: CameraIntrinsics) -> Self {
+        Self { f: k.focal_px, cx: k.cx_px, cy: k.cy_px, k1: k.k1, k2: k.k2 }
+    }
+}
+
+impl From<dynview_camera::Radial> for CameraIntrinsics {
+    fn from(k: dynview_camera::Radial) -> Self {
+        Self { focal_px: k.f, cx_px: k.cx, cy_px: k.cy, k1: k.k1, k2: k.k2 }
+    }
 }
 
 /// One image's pose: the camera_from_world rotation as an angle-axis vector (radians) and the

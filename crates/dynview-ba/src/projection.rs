@@ -1,12 +1,16 @@
-//! The camera model's projection and its exact Jacobians with respect to every parameter block.
+//! The projection of a world point and its exact Jacobians with respect to every parameter
+//! block; the camera model's own part (pixel from normalized point, and its derivatives) is
+//! [`dynview_camera::Radial`]'s.
 
-use nalgebra::{Matrix2x3, Matrix3, SMatrix, Vector2, Vector3};
+use dynview_camera::{Model, Radial};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, SMatrix, Vector2, Vector3};
 
 use crate::problem::{CameraIntrinsics, ImagePose, Problem};
-use crate::rotation::{right_jacobian, rotation_from_angle_axis, skew};
+use crate::rotation::{right_jacobian, rotation_from_angle_axis};
 
-/// Number of intrinsic parameters, in the order `[focal_px, cx_px, cy_px, k1, k2]`.
-pub(crate) const INTRINSIC_COUNT: usize = 5;
+/// Number of intrinsic parameters, in the order `[focal_px, cx_px, cy_px, k1, k2]` (the
+/// `RADIAL` model's `f, cx, cy, k1, k2`).
+pub(crate) const INTRINSIC_COUNT: usize = dynview_camera::radial::PARAM_COUNT;
 
 /// One image's pose prepared for projecting many points: `R`, `R Jr` and the centre.
 #[derive(Debug, Clone, Copy)]
@@ -39,11 +43,8 @@ pub(crate) fn pixel_from_camera(camera: &CameraIntrinsics, point_camera: &Vector
     if point_camera.z.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
-    let x = point_camera.x / point_camera.z;
-    let y = point_camera.y / point_camera.z;
-    let r2 = x * x + y * y;
-    let scale = camera.focal_px * (1.0 + camera.k1 * r2 + camera.k2 * r2 * r2);
-    Some(Vector2::new(scale * x + camera.cx_px, scale * y + camera.cy_px))
+    let normalized = [point_camera.x / point_camera.z, point_camera.y / point_camera.z];
+    Some(Vector2::from(Radial::from(*camera).pixel_from_normalized(normalized)))
 }
 
 /// Projects a world point into an image; `None` when the point is not in front of the camera.
@@ -102,35 +103,16 @@ pub(crate) fn residual_jacobians(
     let inverse_depth = 1.0 / point_camera.z;
     let x = point_camera.x * inverse_depth;
     let y = point_camera.y * inverse_depth;
-    let r2 = x * x + y * y;
-    let distortion = 1.0 + camera.k1 * r2 + camera.k2 * r2 * r2;
-    let f = camera.focal_px;
-    // d distortion / d r2, and d pixel / d (x, y).
-    let d_distortion = camera.k1 + 2.0 * camera.k2 * r2;
-    let d_pixel_d_normalized = nalgebra::Matrix2::new(
-        f * (distortion + 2.0 * x * x * d_distortion),
-        f * 2.0 * x * y * d_distortion,
-        f * 2.0 * x * y * d_distortion,
-        f * (distortion + 2.0 * y * y * d_distortion),
-    );
+    let radial = Radial::from(*camera);
+    let [[u_x, u_y], [v_x, v_y]] = radial.d_pixel_d_normalized([x, y]);
+    let d_pixel_d_normalized = Matrix2::new(u_x, u_y, v_x, v_y);
     // d (x, y) / d point_camera.
     let d_normalized_d_camera = Matrix2x3::new(inverse_depth, 0.0, -x * inverse_depth, 0.0, inverse_depth, -y * inverse_depth);
     let d_pixel_d_camera = d_pixel_d_normalized * d_normalized_d_camera;
     let d_point = d_pixel_d_camera * frame.camera_from_world;
-    let d_angle_axis = -(d_pixel_d_camera * skew(&point_camera)) * frame.rotation_times_right_jacobian;
-    let r4 = r2 * r2;
-    let d_intrinsics = SMatrix::<f64, 2, INTRINSIC_COUNT>::new(
-        distortion * x,
-        1.0,
-        0.0,
-        f * r2 * x,
-        f * r4 * x,
-        distortion * y,
-        0.0,
-        1.0,
-        f * r2 * y,
-        f * r4 * y,
-    );
+    let d_angle_axis = -(d_pixel_d_camera * point_camera.cross_matrix()) * frame.rotation_times_right_jacobian;
+    let [u_params, v_params] = radial.d_pixel_d_params([x, y]);
+    let d_intrinsics = SMatrix::<f64, 2, INTRINSIC_COUNT>::from_fn(|row, column| [u_params, v_params][row][column]);
     Some(ResidualJacobians { residual_px: pixel - measured_px, d_angle_axis, d_center: -d_point, d_point, d_intrinsics })
 }
 

@@ -12,11 +12,6 @@ use nalgebra::{Matrix3, Vector3};
 /// Below this squared angle (radians^2) the trigonometric coefficients use their Taylor series.
 const SMALL_ANGLE_SQ_RAD2: f64 = 1e-8;
 
-/// The cross-product matrix `[v]x` with `[v]x w = v x w`.
-pub(crate) fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
-}
-
 /// The coefficients `(sin t / t, (1 - cos t) / t^2, (t - sin t) / t^3)` for `t^2 = theta_sq`.
 fn coefficients(theta_sq: f64) -> (f64, f64, f64) {
     if theta_sq < SMALL_ANGLE_SQ_RAD2 {
@@ -35,14 +30,14 @@ fn coefficients(theta_sq: f64) -> (f64, f64, f64) {
 /// The rotation matrix of an angle-axis vector (Rodrigues' formula).
 pub(crate) fn rotation_from_angle_axis(angle_axis: &Vector3<f64>) -> Matrix3<f64> {
     let (a, b, _) = coefficients(angle_axis.norm_squared());
-    let k = skew(angle_axis);
+    let k = angle_axis.cross_matrix();
     Matrix3::identity() + k * a + k * k * b
 }
 
 /// The right Jacobian `Jr(a)` of SO(3) at the angle-axis vector `a`.
 pub(crate) fn right_jacobian(angle_axis: &Vector3<f64>) -> Matrix3<f64> {
     let (_, b, c) = coefficients(angle_axis.norm_squared());
-    let k = skew(angle_axis);
+    let k = angle_axis.cross_matrix();
     Matrix3::identity() - k * b + k * k * c
 }
 
@@ -54,7 +49,7 @@ mod tests {
 
     fn check_derivative(angle_axis: Vector3<f64>, point: Vector3<f64>) {
         let rotation = rotation_from_angle_axis(&angle_axis);
-        let analytic = -skew(&(rotation * point)) * rotation * right_jacobian(&angle_axis);
+        let analytic = -(rotation * point).cross_matrix() * rotation * right_jacobian(&angle_axis);
         for axis in 0..3 {
             let mut delta = Vector3::zeros();
             delta[axis] = STEP;

@@ -1,10 +1,12 @@
-//! The pinhole camera model and rigid transforms (OpenCV convention).
+//! The pinhole camera model and rigid transforms (OpenCV convention). The pinhole maths is
+//! [`dynview_camera::Pinhole`]'s; [`Intrinsics`] is the same model with glam types and serde.
 //!
 //! Axes: x right, y down, z forward (into the scene). A world point maps into the camera as
 //! `X_c = R X_w + t` (`camera_from_world`); the camera centre is `C = -R^T t`. Pixel centres
 //! sit at integer coordinates, so the top-left pixel's centre is `(0, 0)` and a `W x H` image
 //! spans `[-0.5, W - 0.5] x [-0.5, H - 0.5]`. Depth is z-depth in the camera, not ray length.
 
+use dynview_camera::Pinhole;
 use glam::{DMat3, DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
@@ -43,17 +45,15 @@ impl Intrinsics {
 
     /// Projects a point in camera coordinates to pixel coordinates. Returns `None` for points
     /// at or behind the camera plane (`z <= 0`).
+    #[inline]
     pub fn project(&self, point_camera: DVec3) -> Option<DVec2> {
-        if point_camera.z <= 0.0 {
-            return None;
-        }
-        let inv_z = 1.0 / point_camera.z;
-        Some(DVec2::new(self.fx * point_camera.x * inv_z + self.cx, self.fy * point_camera.y * inv_z + self.cy))
+        Pinhole::from(*self).pixel_from_camera(point_camera.to_array()).map(DVec2::from_array)
     }
 
     /// Lifts a pixel with z-depth `depth_m` back to camera coordinates.
+    #[inline]
     pub fn unproject(&self, pixel: DVec2, depth_m: f64) -> DVec3 {
-        DVec3::new((pixel.x - self.cx) / self.fx * depth_m, (pixel.y - self.cy) / self.fy * depth_m, depth_m)
+        DVec3::from_array(Pinhole::from(*self).camera_from_pixel(pixel.to_array(), depth_m))
     }
 
     /// The 3x3 calibration matrix `K` (column-major, as glam stores it).
@@ -64,6 +64,20 @@ impl Intrinsics {
     /// True when every parameter is finite and the focal lengths are positive.
     pub fn is_valid(&self) -> bool {
         [self.fx, self.fy, self.cx, self.cy].iter().all(|v| v.is_finite()) && self.fx > 0.0 && self.fy > 0.0
+    }
+}
+
+impl From<Intrinsics> for Pinhole {
+    #[inline]
+    fn from(k: Intrinsics) -> Self {
+        Self { fx: k.fx, fy: k.fy, cx: k.cx, cy: k.cy }
+    }
+}
+
+impl From<Pinhole> for Intrinsics {
+    #[inline]
+    fn from(k: Pinhole) -> Self {
+        Self { fx: k.fx, fy: k.fy, cx: k.cx, cy: k.cy }
     }
 }
 

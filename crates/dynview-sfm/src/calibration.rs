@@ -49,13 +49,7 @@ pub fn calibration_for<'a>(given: &'a EventPoses, path: &Path, frames: &EventFra
 
 /// Known intrinsics by camera name (undistorted: the frames are undistorted first).
 pub fn known_intrinsics(calibration: &[&CameraPoses]) -> BTreeMap<String, Intrinsics> {
-    calibration
-        .iter()
-        .map(|c| {
-            let k = &c.intrinsics;
-            (c.name.clone(), Intrinsics { focal_px: 0.5 * (k.fx + k.fy), cx_px: k.cx, cy_px: k.cy, k1: 0.0, k2: 0.0 })
-        })
-        .collect()
+    calibration.iter().map(|c| (c.name.clone(), Intrinsics::from_pinhole(&c.intrinsics))).collect()
 }
 
 /// Undistorts the frames of every camera whose calibration has a distortion into

@@ -11,7 +11,7 @@ use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
 use crate::Progress;
 use crate::error::{SfmError, SfmResult};
-use crate::steps::{SETTINGS_FILE, StepSettings, cloud_path, frame_path, is_step_done, read_cloud, resized_intrinsics, working_size};
+use crate::timesteps::{SETTINGS_FILE, StepSettings, cloud_path, frame_path, is_step_done, read_cloud, resized_intrinsics, working_size};
 use crate::work::WorkDir;
 
 /// Share of points cut at each end of each axis when the quantisation box is chosen, so that a
@@ -167,7 +167,7 @@ fn choose_bounds(source_of: &[&Source], event: &EventPoses) -> SfmResult<Bounds>
     let mut total = 0;
     for (t, s) in source_of.iter().enumerate() {
         let path = cloud_path(&s.work, t);
-        total += crate::steps::cloud_point_count(std::fs::metadata(&path).map_err(SfmError::io(&path))?.len());
+        total += crate::timesteps::cloud_point_count(std::fs::metadata(&path).map_err(SfmError::io(&path))?.len());
     }
     let stride = total.div_ceil(BOUNDS_SAMPLES).max(1);
     let mut axes: [Vec<f32>; 3] = Default::default();

@@ -86,10 +86,6 @@ mod tests {
     use super::*;
     use nalgebra::{Rotation3, Vector3};
 
-    fn skew(v: Vector3<f64>) -> Matrix3<f64> {
-        Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
-    }
-
     #[test]
     fn recovers_the_focal_of_general_motion() {
         let size = (960, 540);
@@ -99,7 +95,7 @@ mod tests {
             [(Vector3::new(0.1, 0.3, 0.05), Vector3::new(1.0, 0.2, 0.3)), (Vector3::new(-0.2, 0.1, 0.1), Vector3::new(0.3, -1.0, 0.5))]
         {
             let r = Rotation3::from_scaled_axis(axis).into_inner();
-            let e = skew(t) * r;
+            let e = t.cross_matrix() * r;
             let f = k.transpose().try_inverse().unwrap() * e * k.try_inverse().unwrap();
             let f = f / f.norm();
             let mut row = [0.0; 9];

@@ -1,11 +1,13 @@
 //! Multi-view geometry in f64 (nalgebra): the camera model shared with bundle adjustment,
 //! projection, undistortion and multi-view triangulation.
 
+use dynview_camera::{Model, Radial};
 use nalgebra::{Matrix3, Matrix4, Rotation3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-/// A physical camera's intrinsics: pinhole with two radial distortion terms, pixel centres at
-/// integers (the model of `dynview_ba::CameraIntrinsics`).
+/// A physical camera's intrinsics: COLMAP's `RADIAL` model ([`dynview_camera::Radial`], pinhole
+/// with two radial distortion terms), pixel centres at integers (the model of
+/// `dynview_ba::CameraIntrinsics`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Intrinsics {
     /// Focal length (px), equal in x and y.
@@ -23,27 +25,54 @@ pub struct Intrinsics {
 impl Intrinsics {
     /// A centred principal point and no distortion.
     pub fn centred(focal_px: f64, width: u32, height: u32) -> Self {
-        Self { focal_px, cx_px: 0.5 * (f64::from(width) - 1.0), cy_px: 0.5 * (f64::from(height) - 1.0), k1: 0.0, k2: 0.0 }
+        Radial::centred(focal_px, width, height).into()
+    }
+
+    /// A calibration's pinhole intrinsics without distortion (the frames are undistorted).
+    /// Our model has `fx = fy`; a calibration's tiny difference is averaged.
+    pub fn from_pinhole(k: &dynview_core::Intrinsics) -> Self {
+        Self { focal_px: 0.5 * (k.fx + k.fy), cx_px: k.cx, cy_px: k.cy, k1: 0.0, k2: 0.0 }
+    }
+
+    /// dynview's pinhole intrinsics and OpenCV distortion `[k1, k2, p1, p2]` of this camera
+    /// (as `poses.json` stores them).
+    pub fn to_pinhole_and_distortion(&self) -> (dynview_core::Intrinsics, [f64; 4]) {
+        let opencv = Radial::from(*self).to_opencv();
+        (opencv.pinhole.into(), opencv.distortion.to_array())
     }
 
     /// Pixel of a normalized image point (applies the distortion).
     pub fn pixel(&self, normalized: Vector2<f64>) -> Vector2<f64> {
-        let r2 = normalized.norm_squared();
-        let d = 1.0 + self.k1 * r2 + self.k2 * r2 * r2;
-        Vector2::new(self.focal_px * d * normalized.x + self.cx_px, self.focal_px * d * normalized.y + self.cy_px)
+        Vector2::from(Radial::from(*self).pixel_from_normalized(normalized.into()))
     }
 
     /// Normalized, undistorted image point of a pixel (fixed-point inversion of the distortion).
     pub fn normalized(&self, pixel: Vector2<f64>) -> Vector2<f64> {
-        let distorted = Vector2::new((pixel.x - self.cx_px) / self.focal_px, (pixel.y - self.cy_px) / self.focal_px);
-        let mut p = distorted;
-        if self.k1 != 0.0 || self.k2 != 0.0 {
-            for _ in 0..20 {
-                let r2 = p.norm_squared();
-                p = distorted / (1.0 + self.k1 * r2 + self.k2 * r2 * r2);
-            }
-        }
-        p
+        Vector2::from(Radial::from(*self).normalized_from_pixel(pixel.into()))
+    }
+}
+
+impl From<Intrinsics> for Radial {
+    fn from(k: Intrinsics) -> Self {
+        Self { f: k.focal_px, cx: k.cx_px, cy: k.cy_px, k1: k.k1, k2: k.k2 }
+    }
+}
+
+impl From<Radial> for Intrinsics {
+    fn from(k: Radial) -> Self {
+        Self { focal_px: k.f, cx_px: k.cx, cy_px: k.cy, k1: k.k1, k2: k.k2 }
+    }
+}
+
+impl From<Intrinsics> for dynview_ba::CameraIntrinsics {
+    fn from(k: Intrinsics) -> Self {
+        Radial::from(k).into()
+    }
+}
+
+impl From<dynview_ba::CameraIntrinsics> for Intrinsics {
+    fn from(k: dynview_ba::CameraIntrinsics) -> Self {
+        Radial::from(k).into()
     }
 }
 

@@ -307,11 +307,7 @@ impl Mapper<'_> {
         }
         let point_ids: Vec<usize> = (0..self.points.len()).filter(|&p| self.points[p].is_some()).collect();
         let mut problem = dynview_ba::Problem {
-            cameras: self
-                .intrinsics
-                .iter()
-                .map(|k| dynview_ba::CameraIntrinsics { focal_px: k.focal_px, cx_px: k.cx_px, cy_px: k.cy_px, k1: k.k1, k2: k.k2 })
-                .collect(),
+            cameras: self.intrinsics.iter().copied().map(dynview_ba::CameraIntrinsics::from).collect(),
             images: image_ids
                 .iter()
                 .map(|&i| {
@@ -351,7 +347,7 @@ impl Mapper<'_> {
             }
         }
         for (c, k) in problem.cameras.iter().enumerate() {
-            self.intrinsics[c] = Intrinsics { focal_px: k.focal_px, cx_px: k.cx_px, cy_px: k.cy_px, k1: k.k1, k2: k.k2 };
+            self.intrinsics[c] = Intrinsics::from(*k);
         }
         self.filter_outliers();
         Ok(())
@@ -393,7 +389,7 @@ impl Mapper<'_> {
 pub fn refine_pose(k: &Intrinsics, pose: Pose, correspondences: &[([f64; 3], [f64; 2])], loss_scale_px: f64) -> SfmResult<Pose> {
     let aa = pose.angle_axis();
     let mut problem = dynview_ba::Problem {
-        cameras: vec![dynview_ba::CameraIntrinsics { focal_px: k.focal_px, cx_px: k.cx_px, cy_px: k.cy_px, k1: k.k1, k2: k.k2 }],
+        cameras: vec![dynview_ba::CameraIntrinsics::from(*k)],
         images: vec![dynview_ba::ImagePose { angle_axis: aa.into(), center_world: pose.center_world.into() }],
         image_camera: vec![0],
         image_fixed: vec![false],

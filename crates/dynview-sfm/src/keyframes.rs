@@ -7,8 +7,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use rayon::prelude::*;
 
+use dynview_camera::{Model, Radial};
 use dynview_core::fsutil::write_atomic;
-use dynview_interchange::colmap::{CameraModel, ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
+use dynview_interchange::colmap::{ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
 
 use crate::Progress;
 use crate::error::{SfmError, SfmResult};
@@ -214,15 +215,12 @@ pub fn to_colmap(model: &KeyframeModel, frames: &EventFrames, features: &[Featur
     let mut out = ColmapModel::default();
     let r = &model.reconstruction;
     for (c, camera) in frames.cameras.iter().enumerate() {
-        let k = &r.intrinsics[c];
+        let k = Radial::from(r.intrinsics[c]);
+        // COLMAP puts pixel centres at +0.5.
+        let colmap = Radial { cx: k.cx + 0.5, cy: k.cy + 0.5, ..k };
         out.cameras.insert(
             c as u32 + 1,
-            ColmapCamera {
-                model: CameraModel::Radial,
-                width: camera.width,
-                height: camera.height,
-                params: vec![k.focal_px, k.cx_px + 0.5, k.cy_px + 0.5, k.k1, k.k2],
-            },
+            ColmapCamera { model: Radial::MODEL, width: camera.width, height: camera.height, params: colmap.params() },
         );
     }
     let counts: Vec<usize> = features.iter().map(Features::len).collect();

@@ -9,7 +9,7 @@
 //!    ([`incremental`], solved by `dynview-ba`);
 //! 3. [`refine`]: every other frame matched only with its neighbour in time, posed with the
 //!    keyframes fixed and the paper's smoothness priors;
-//! 4. [`steps`]: per time step, the frames matched across cameras only and triangulated with
+//! 4. [`timesteps`]: per time step, the frames matched across cameras only and triangulated with
 //!    the poses fixed ([`points`], METHOD.md step 3), PatchMatch stereo grows those points into
 //!    a denser cloud ([`densify`], step 4), frames reduced to the working size;
 //! 5. [`export`]: the scene package from the prepared steps of one run or of several range
@@ -34,7 +34,7 @@ pub mod pipeline;
 pub mod pnp;
 pub mod points;
 pub mod refine;
-pub mod steps;
+pub mod timesteps;
 pub mod tracks;
 pub mod work;
 

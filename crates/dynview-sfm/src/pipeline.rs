@@ -24,8 +24,8 @@ use crate::keyframes::{
     Keyframe, KeyframeModel, keyframe_features, keyframes, match_all_pairs, reconstruct_keyframes, to_colmap, write_colmap_text,
 };
 use crate::matching::MatchOptions;
-use crate::refine::{CameraTrack, RefineOptions, RefineReport, refine_camera};
-use crate::steps::{StepOptions, StepSettings, StepsReport, run_steps};
+use crate::refine::{CameraTrack, KeyframeView, RefineOptions, RefineReport, refine_camera};
+use crate::timesteps::{StepOptions, StepSettings, StepsReport, run_steps};
 use crate::work::WorkDir;
 
 /// The stages, in order.
@@ -442,7 +442,7 @@ fn refine_all<K: Serialize>(
             if k.camera == c
                 && let Some(pose) = r.poses[i]
             {
-                keyframes[k.frame] = Some((pose, &features[i], point_of[i].clone()));
+                keyframes[k.frame] = Some(KeyframeView { pose, features: &features[i], point_of_feature: point_of[i].clone() });
             }
         }
         if keyframes.iter().all(Option::is_none) {
@@ -473,13 +473,13 @@ pub fn event_poses(frames: &EventFrames, model: &KeyframeModel, poses: &[Vec<Pos
             .iter()
             .enumerate()
             .map(|(c, camera)| {
-                let k = &r.intrinsics[c];
+                let (intrinsics, distortion) = r.intrinsics[c].to_pinhole_and_distortion();
                 CameraPoses {
                     name: camera.name.clone(),
                     width: camera.width,
                     height: camera.height,
-                    intrinsics: dynview_core::Intrinsics { fx: k.focal_px, fy: k.focal_px, cx: k.cx_px, cy: k.cy_px },
-                    distortion: [k.k1, k.k2, 0.0, 0.0],
+                    intrinsics,
+                    distortion,
                     frames: (0..camera.files.len())
                         .map(|t| FramePose {
                             file: camera.file_name(t),

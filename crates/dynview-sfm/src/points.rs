@@ -55,15 +55,11 @@ pub struct TimestepCloud {
     pub views: Vec<u8>,
 }
 
-fn skew(v: Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
-}
-
 /// The essential matrix `E` with `n_b^T E n_a = 0` for normalized points of poses `a` and `b`.
 pub fn essential_between(a: &Pose, b: &Pose) -> Matrix3<f64> {
     let rotation = b.rotation * a.rotation.transpose();
     let translation = b.translation() - rotation * a.translation();
-    skew(translation) * rotation
+    translation.cross_matrix() * rotation
 }
 
 /// Symmetric epipolar distance (px at the two focal lengths) of a normalized match.

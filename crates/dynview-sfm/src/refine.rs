@@ -41,9 +41,17 @@ impl Default for RefineOptions {
     }
 }
 
-/// A registered keyframe as refinement sees it: its pose, its features and the keyframe
-/// model's point seen by each feature.
-pub type KeyframeView<'a> = (Pose, &'a Features, Vec<Option<u32>>);
+/// A registered keyframe as refinement sees it.
+#[derive(Clone, Debug)]
+pub struct KeyframeView<'a> {
+    /// Its pose in the keyframe model.
+    pub pose: Pose,
+    /// Its features.
+    pub features: &'a Features,
+    /// Per feature, the keyframe model's point it sees (an index into
+    /// [`CameraTrack::points_world`]), if any.
+    pub point_of_feature: Vec<Option<u32>>,
+}
 
 /// One camera's input to refinement.
 pub struct CameraTrack<'a> {
@@ -53,7 +61,7 @@ pub struct CameraTrack<'a> {
     pub files: &'a [std::path::PathBuf],
     /// Its intrinsics (fixed).
     pub intrinsics: Intrinsics,
-    /// Per frame: `Some((pose, features, point per feature))` for registered keyframes.
+    /// Per frame: the keyframe's view for registered keyframes.
     pub keyframes: Vec<Option<KeyframeView<'a>>>,
     /// The keyframe model's points.
     pub points_world: &'a [Vector3<f64>],
@@ -189,8 +197,9 @@ pub fn refine_camera(
             Ok(f)
         })
         .collect::<SfmResult<Vec<_>>>()?;
-    let features: Vec<&Features> =
-        (0..n).map(|t| camera.keyframes[t].as_ref().map_or_else(|| owned[t].as_ref().unwrap_or_else(|| unreachable!()), |k| k.1)).collect();
+    let features: Vec<&Features> = (0..n)
+        .map(|t| camera.keyframes[t].as_ref().map_or_else(|| owned[t].as_ref().unwrap_or_else(|| unreachable!()), |k| k.features))
+        .collect();
     // Frames in chunks sharing their last frame: each frame's index serves both of its pairs,
     // and only a chunk's indices are in memory at once.
     let mut matches: Vec<Vec<[u32; 2]>> = Vec::with_capacity(n);
@@ -210,14 +219,15 @@ pub fn refine_camera(
             .collect::<SfmResult<Vec<_>>>()?;
         matches.extend(chunk);
     }
-    let mut point_at: Vec<Vec<Option<u32>>> =
-        (0..n).map(|t| camera.keyframes[t].as_ref().map_or_else(|| vec![None; features[t].len()], |k| k.2.clone())).collect();
+    let mut point_at: Vec<Vec<Option<u32>>> = (0..n)
+        .map(|t| camera.keyframes[t].as_ref().map_or_else(|| vec![None; features[t].len()], |k| k.point_of_feature.clone()))
+        .collect();
     propagate(&mut point_at, &matches, &is_keyframe);
 
     let mut report = RefineReport::default();
     let mut poses: Vec<Option<Pose>> = (0..n)
         .map(|t| match &camera.keyframes[t] {
-            Some(k) => Ok(Some(k.0)),
+            Some(k) => Ok(Some(k.pose)),
             None => pnp(&camera.intrinsics, features[t], &point_at[t], camera.points_world, options.max_reprojection_px),
         })
         .collect::<SfmResult<Vec<_>>>()?;
@@ -250,13 +260,7 @@ pub fn refine_camera(
         used_points.dedup();
         let slot = |p: u32| used_points.binary_search(&p).unwrap_or_else(|_| unreachable!());
         let mut problem = dynview_ba::Problem {
-            cameras: vec![dynview_ba::CameraIntrinsics {
-                focal_px: camera.intrinsics.focal_px,
-                cx_px: camera.intrinsics.cx_px,
-                cy_px: camera.intrinsics.cy_px,
-                k1: camera.intrinsics.k1,
-                k2: camera.intrinsics.k2,
-            }],
+            cameras: vec![camera.intrinsics.into()],
             images: poses
                 .iter()
                 .map(|p| dynview_ba::ImagePose { angle_axis: p.angle_axis().into(), center_world: p.center_world.into() })

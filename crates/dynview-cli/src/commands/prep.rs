@@ -9,7 +9,7 @@ use anyhow::{Context, bail};
 use std::ops::Range;
 
 use dynview_sfm::densify::DensifyOptions;
-use dynview_sfm::steps::StepOptions;
+use dynview_sfm::timesteps::StepOptions;
 use dynview_sfm::{PrepOptions, Stage};
 
 use crate::progress::StageBars;

@@ -19,7 +19,13 @@ pub mod text;
 
 use std::collections::BTreeMap;
 
+use dynview_camera::{Camera, Model, OpenCv, Pinhole};
 use dynview_core::camera::{Intrinsics, Rigid3};
+
+/// COLMAP's camera models, names and ids (the models themselves are `dynview_camera`'s).
+pub use dynview_camera::CameraModel;
+/// OpenCV-style distortion `k1, k2, p1, p2` (zero for pinhole models).
+pub use dynview_camera::OpenCvDistortion as Distortion;
 
 pub use binary::{parse_cameras_bin, parse_images_bin, parse_points3d_bin};
 pub use text::{parse_cameras_txt, parse_images_txt, parse_points3d_txt};
@@ -120,69 +126,6 @@ impl std::fmt::Display for ColmapFormat {
     }
 }
 
-/// COLMAP camera models dynview understands. Parameter order as in COLMAP's `models.h`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CameraModel {
-    /// `f, cx, cy`.
-    SimplePinhole,
-    /// `fx, fy, cx, cy`.
-    Pinhole,
-    /// `f, cx, cy, k`.
-    SimpleRadial,
-    /// `f, cx, cy, k1, k2`.
-    Radial,
-    /// `fx, fy, cx, cy, k1, k2, p1, p2`.
-    OpenCv,
-}
-
-impl CameraModel {
-    /// Every supported model.
-    pub const ALL: [Self; 5] = [Self::SimplePinhole, Self::Pinhole, Self::SimpleRadial, Self::Radial, Self::OpenCv];
-
-    /// COLMAP's name of the model.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::SimplePinhole => "SIMPLE_PINHOLE",
-            Self::Pinhole => "PINHOLE",
-            Self::SimpleRadial => "SIMPLE_RADIAL",
-            Self::Radial => "RADIAL",
-            Self::OpenCv => "OPENCV",
-        }
-    }
-
-    /// COLMAP's numeric id of the model (binary files).
-    pub fn id(self) -> i32 {
-        match self {
-            Self::SimplePinhole => 0,
-            Self::Pinhole => 1,
-            Self::SimpleRadial => 2,
-            Self::Radial => 3,
-            Self::OpenCv => 4,
-        }
-    }
-
-    /// The model with COLMAP name `name`.
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|m| m.name() == name)
-    }
-
-    /// The model with COLMAP id `id`.
-    pub fn from_id(id: i32) -> Option<Self> {
-        Self::ALL.into_iter().find(|m| m.id() == id)
-    }
-
-    /// Number of parameters.
-    pub fn param_count(self) -> usize {
-        match self {
-            Self::SimplePinhole => 3,
-            Self::Pinhole => 4,
-            Self::SimpleRadial => 4,
-            Self::Radial => 5,
-            Self::OpenCv => 8,
-        }
-    }
-}
-
 /// A COLMAP camera (intrinsics shared by images).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ColmapCamera {
@@ -196,52 +139,16 @@ pub struct ColmapCamera {
     pub params: Vec<f64>,
 }
 
-/// OpenCV-style distortion `k1, k2, p1, p2` (zero for pinhole models).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Distortion {
-    /// Radial k1.
-    pub k1: f64,
-    /// Radial k2.
-    pub k2: f64,
-    /// Tangential p1.
-    pub p1: f64,
-    /// Tangential p2.
-    pub p2: f64,
-}
-
-impl Distortion {
-    /// The coefficients in OpenCV's order `[k1, k2, p1, p2]`.
-    pub fn to_array(self) -> [f64; 4] {
-        [self.k1, self.k2, self.p1, self.p2]
-    }
-
-    /// Distortion from coefficients in OpenCV's order `[k1, k2, p1, p2]`.
-    pub fn from_array([k1, k2, p1, p2]: [f64; 4]) -> Self {
-        Self { k1, k2, p1, p2 }
-    }
-
-    /// True when every coefficient is zero (no distortion).
-    pub fn is_zero(self) -> bool {
-        self.to_array().iter().all(|&v| v == 0.0)
-    }
-}
-
 impl ColmapCamera {
     /// A `PINHOLE` camera from dynview intrinsics.
     pub fn pinhole(intrinsics: &Intrinsics, width: u32, height: u32) -> Self {
-        Self {
-            model: CameraModel::Pinhole,
-            width,
-            height,
-            params: vec![intrinsics.fx, intrinsics.fy, intrinsics.cx + 0.5, intrinsics.cy + 0.5],
-        }
+        Self { model: CameraModel::Pinhole, width, height, params: colmap_pinhole(intrinsics).params() }
     }
 
     /// An `OPENCV` camera from dynview intrinsics and distortion.
     pub fn opencv(intrinsics: &Intrinsics, distortion: Distortion, width: u32, height: u32) -> Self {
-        let mut params = Self::pinhole(intrinsics, width, height).params;
-        params.extend(distortion.to_array());
-        Self { model: CameraModel::OpenCv, width, height, params }
+        let camera = OpenCv { pinhole: colmap_pinhole(intrinsics), distortion };
+        Self { model: CameraModel::OpenCv, width, height, params: camera.params() }
     }
 
     /// True when `params` holds exactly the model's number of parameters (always so for
@@ -254,19 +161,23 @@ impl ColmapCamera {
     /// parameters (a hand-built camera with too few, see
     /// [`ColmapCamera::has_valid_param_count`]) read as zero.
     pub fn intrinsics(&self) -> (Intrinsics, Distortion) {
-        let p = |i: usize| self.params.get(i).copied().unwrap_or(0.0);
-        let (fx, fy, cx, cy, rest) = match self.model {
-            CameraModel::SimplePinhole | CameraModel::SimpleRadial | CameraModel::Radial => (p(0), p(0), p(1), p(2), 3),
-            CameraModel::Pinhole | CameraModel::OpenCv => (p(0), p(1), p(2), p(3), 4),
-        };
-        let distortion = match self.model {
-            CameraModel::SimpleRadial => Distortion { k1: p(rest), ..Distortion::default() },
-            CameraModel::Radial => Distortion { k1: p(rest), k2: p(rest + 1), ..Distortion::default() },
-            CameraModel::OpenCv => Distortion { k1: p(rest), k2: p(rest + 1), p1: p(rest + 2), p2: p(rest + 3) },
-            CameraModel::SimplePinhole | CameraModel::Pinhole => Distortion::default(),
-        };
-        (Intrinsics { fx, fy, cx: cx - 0.5, cy: cy - 0.5 }, distortion)
+        let mut params = self.params.clone();
+        params.resize(self.model.param_count(), 0.0);
+        // Every model is a special case of OpenCV's; `params` now has the model's count.
+        let (pinhole, distortion) = Camera::from_params(self.model, &params).map_or(
+            (Pinhole { fx: 0.0, fy: 0.0, cx: 0.0, cy: 0.0 }, Distortion::default()),
+            |camera| {
+                let opencv = camera.to_opencv();
+                (opencv.pinhole, opencv.distortion)
+            },
+        );
+        (Intrinsics { cx: pinhole.cx - 0.5, cy: pinhole.cy - 0.5, ..pinhole.into() }, distortion)
     }
+}
+
+/// dynview intrinsics (pixel centres at integers) as a pinhole in COLMAP's convention.
+fn colmap_pinhole(intrinsics: &Intrinsics) -> Pinhole {
+    Pinhole { cx: intrinsics.cx + 0.5, cy: intrinsics.cy + 0.5, ..Pinhole::from(*intrinsics) }
 }
 
 /// One 2D observation of an image.

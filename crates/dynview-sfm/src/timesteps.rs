@@ -260,9 +260,7 @@ fn run_step(work: &WorkDir, files: &[&[PathBuf]], event: &EventPoses, settings: 
             path: work.path().to_path_buf(),
             problem: format!("camera {} has no pose at frame {t}", camera.name),
         })?;
-        let k = &camera.intrinsics;
-        // Our own and COLMAP's pinhole models have fx = fy; a calibration's tiny difference is averaged.
-        let intrinsics = Intrinsics { focal_px: 0.5 * (k.fx + k.fy), cx_px: k.cx, cy_px: k.cy, k1: 0.0, k2: 0.0 };
+        let intrinsics = Intrinsics::from_pinhole(&camera.intrinsics);
         views.push(TimestepView { intrinsics, pose: Pose::from_rigid(&rigid), image_bgr: image });
     }
     let sparse = timestep_points(&views, &settings.options.features, &settings.options.points)?;

@@ -1,0 +1,108 @@
+//! dynview's camera models: the pinhole model and the COLMAP distortion models dynview reads
+//! and writes, one model per file with its parameter order documented, as COLMAP's
+//! `src/colmap/sensor/models.h` does.
+//!
+//! | [`CameraModel`] | COLMAP id | parameters | type |
+//! |---|---|---|---|
+//! | `SIMPLE_PINHOLE` | 0 | `f, cx, cy` | [`SimplePinhole`] |
+//! | `PINHOLE` | 1 | `fx, fy, cx, cy` | [`Pinhole`] |
+//! | `SIMPLE_RADIAL` | 2 | `f, cx, cy, k` | [`SimpleRadial`] |
+//! | `RADIAL` | 3 | `f, cx, cy, k1, k2` | [`Radial`] (what `dynview-ba` optimises) |
+//! | `OPENCV` | 4 | `fx, fy, cx, cy, k1, k2, p1, p2` | [`OpenCv`] |
+//!
+//! Every model maps a *normalized* image point `(x, y) = (X/Z, Y/Z)` of a camera-frame point
+//! `(X, Y, Z)` to a pixel: [`Model::distort`] applies the lens distortion to normalized
+//! coordinates, [`Model::pixel_from_normalized`] distorts and applies the focal lengths and
+//! principal point; [`Model::undistort`] and [`Model::normalized_from_pixel`] invert them (by
+//! fixed-point iteration where the distortion has no closed-form inverse).
+//!
+//! The models do not fix a pixel convention: the principal point is in whatever convention the
+//! caller uses (dynview puts pixel centres at integers, COLMAP at `+0.5`; `dynview-core`'s
+//! COLMAP conversions shift by half a pixel). [`Camera`] holds any model, built from COLMAP's
+//! `(model, params)` pair; [`pixel_from_normalized`] projects with such a pair.
+//!
+//! ```
+//! use dynview_camera::{CameraModel, Model, Radial, pixel_from_normalized};
+//!
+//! let radial = Radial { f: 500.0, cx: 320.0, cy: 240.0, k1: -0.1, k2: 0.01 };
+//! let pixel = radial.pixel_from_normalized([0.2, -0.1]);
+//! let back = radial.normalized_from_pixel(pixel);
+//! assert!((back[0] - 0.2).abs() < 1e-12 && (back[1] + 0.1).abs() < 1e-12);
+//! let same = pixel_from_normalized(CameraModel::Radial, &radial.params(), [0.2, -0.1]).unwrap();
+//! assert!((same[0] - pixel[0]).abs() < 1e-9 && (same[1] - pixel[1]).abs() < 1e-9);
+//! ```
+//!
+//! No dependencies; builds for `wasm32`.
+
+mod any;
+mod model_id;
+pub mod opencv;
+pub mod pinhole;
+pub mod radial;
+pub mod simple_pinhole;
+pub mod simple_radial;
+
+pub use any::{Camera, normalized_from_pixel, pixel_from_normalized};
+pub use model_id::CameraModel;
+pub use opencv::{OpenCv, OpenCvDistortion};
+pub use pinhole::Pinhole;
+pub use radial::Radial;
+pub use simple_pinhole::SimplePinhole;
+pub use simple_radial::SimpleRadial;
+
+/// Fixed-point iterations of the undistortion of the radial and OpenCV models. The iteration
+/// contracts by about `|d distortion / d r| r`, far below one for real lenses, so 20 iterations
+/// reach double precision.
+pub const UNDISTORT_ITERATIONS: usize = 20;
+
+/// One camera model: its COLMAP identity, its parameters in COLMAP's order and its mapping
+/// between normalized image points and pixels.
+pub trait Model: Copy + Sized {
+    /// The COLMAP model this type implements.
+    const MODEL: CameraModel;
+
+    /// The model from its parameters in COLMAP's order; `None` unless `params` holds exactly
+    /// [`CameraModel::param_count`] values.
+    fn from_params(params: &[f64]) -> Option<Self>;
+
+    /// The parameters in COLMAP's order.
+    fn params(&self) -> Vec<f64>;
+
+    /// Distorted normalized coordinates of the undistorted normalized point `normalized`.
+    fn distort(&self, normalized: [f64; 2]) -> [f64; 2];
+
+    /// Undistorted normalized coordinates of the distorted normalized point `distorted`
+    /// (the inverse of [`Model::distort`]).
+    fn undistort(&self, distorted: [f64; 2]) -> [f64; 2];
+
+    /// The pixel of an undistorted normalized point: distortion, then focal lengths and
+    /// principal point.
+    fn pixel_from_normalized(&self, normalized: [f64; 2]) -> [f64; 2];
+
+    /// The undistorted normalized point of a pixel (the inverse of
+    /// [`Model::pixel_from_normalized`]).
+    fn normalized_from_pixel(&self, pixel: [f64; 2]) -> [f64; 2];
+
+    /// The same camera as an [`OpenCv`] model (every model here is a special case of it).
+    fn to_opencv(&self) -> OpenCv;
+}
+
+/// `params` as an array of `N` values, or `None` when its length is not `N`.
+fn params_array<const N: usize>(params: &[f64]) -> Option<[f64; N]> {
+    params.try_into().ok()
+}
+
+/// `distorted / factor(p)` iterated from `p = distorted`: the inverse of a purely radial
+/// distortion `p -> factor(p) p`.
+fn undistort_radial(distorted: [f64; 2], factor: impl Fn(f64) -> f64) -> [f64; 2] {
+    let mut p = distorted;
+    for _ in 0..UNDISTORT_ITERATIONS {
+        let r2 = p[0] * p[0] + p[1] * p[1];
+        let d = factor(r2);
+        p = [distorted[0] / d, distorted[1] / d];
+    }
+    p
+}
+
+#[cfg(test)]
+mod tests;
