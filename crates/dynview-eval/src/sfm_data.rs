@@ -5,8 +5,9 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::{Context, bail};
+use dynview_camera::pixel_from_normalized;
 use dynview_core::Rigid3;
-use dynview_interchange::colmap::{CameraModel, ColmapModel};
+use dynview_interchange::colmap::ColmapModel;
 use glam::DVec3;
 
 /// `camera_from_world` poses keyed by image name.
@@ -48,7 +49,9 @@ pub fn mean_reprojection_error_px(model: &ColmapModel) -> anyhow::Result<Option<
             if in_camera.z <= 0.0 {
                 bail!("point {point_id} lies behind image {image_id} ({})", image.name);
             }
-            let projected = colmap_project(camera.model, &camera.params, in_camera.x / in_camera.z, in_camera.y / in_camera.z);
+            let normalized = [in_camera.x / in_camera.z, in_camera.y / in_camera.z];
+            let projected = pixel_from_normalized(camera.model, &camera.params, normalized)
+                .with_context(|| format!("camera {}: {} parameters for {}", image.camera_id, camera.params.len(), camera.model))?;
             sum += ((projected[0] - observed.xy[0]).powi(2) + (projected[1] - observed.xy[1]).powi(2)).sqrt();
             count += 1;
         }
@@ -63,33 +66,10 @@ pub fn track_weighted_error_px(model: &ColmapModel) -> Option<f64> {
     (count > 0).then(|| sum / count as f64)
 }
 
-/// Pixel position (COLMAP's convention) of the normalised image point `(u, v)`, as COLMAP's
-/// `models.h` maps it, parameters in its order.
-fn colmap_project(model: CameraModel, params: &[f64], u: f64, v: f64) -> [f64; 2] {
-    let r2 = u * u + v * v;
-    let (fx, fy, cx, cy, du, dv) = match model {
-        CameraModel::SimplePinhole => (params[0], params[0], params[1], params[2], 0.0, 0.0),
-        CameraModel::Pinhole => (params[0], params[1], params[2], params[3], 0.0, 0.0),
-        CameraModel::SimpleRadial => (params[0], params[0], params[1], params[2], u * params[3] * r2, v * params[3] * r2),
-        CameraModel::Radial => {
-            let radial = params[3] * r2 + params[4] * r2 * r2;
-            (params[0], params[0], params[1], params[2], u * radial, v * radial)
-        }
-        CameraModel::OpenCv => {
-            let (k1, k2, p1, p2) = (params[4], params[5], params[6], params[7]);
-            let radial = k1 * r2 + k2 * r2 * r2;
-            let du = u * radial + 2.0 * p1 * u * v + p2 * (r2 + 2.0 * u * u);
-            let dv = v * radial + 2.0 * p2 * u * v + p1 * (r2 + 2.0 * v * v);
-            (params[0], params[1], params[2], params[3], du, dv)
-        }
-    };
-    [fx * (u + du) + cx, fy * (v + dv) + cy]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dynview_interchange::colmap::{ColmapCamera, ColmapImage, ColmapPoint3D, Point2D};
+    use dynview_interchange::colmap::{CameraModel, ColmapCamera, ColmapImage, ColmapPoint3D, Point2D};
 
     #[test]
     fn reprojection_error_is_recomputed_with_distortion() {

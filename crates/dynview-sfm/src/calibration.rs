@@ -11,10 +11,10 @@ use opencv::imgcodecs;
 use opencv::prelude::*;
 use rayon::prelude::*;
 
+use dynview_core::StageProgress;
 use dynview_core::fsutil::write_atomic;
 use dynview_interchange::poses::{CameraPoses, EventPoses};
 
-use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 use crate::geometry::Intrinsics;
 use crate::input::{EventFrames, read_bgr};
@@ -59,7 +59,7 @@ pub fn undistort_frames(
     frames: &EventFrames,
     calibration: &[&CameraPoses],
     out_dir: &Path,
-    progress: Progress,
+    progress: StageProgress,
     interrupt: &AtomicBool,
 ) -> SfmResult<EventFrames> {
     let mut out = frames.clone();

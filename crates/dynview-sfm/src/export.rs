@@ -5,11 +5,11 @@
 
 use std::path::{Path, PathBuf};
 
+use dynview_core::StageProgress;
 use dynview_core::scene::manifest::{FORMAT_NAME, FORMAT_VERSION};
 use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, PointCloud, SceneWriter, StartView};
 use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
-use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 use crate::timesteps::{SETTINGS_FILE, StepSettings, cloud_path, frame_path, is_step_done, read_cloud, resized_intrinsics, working_size};
 use crate::work::WorkDir;
@@ -91,7 +91,7 @@ fn open_source(root: &Path) -> SfmResult<Source> {
 /// Writes the scene package `scene_dir` (named `name`) from the prepared steps of `sources`
 /// (prep output folders of one event: equal `poses.json` and step settings, every time step
 /// prepared in at least one of them).
-pub fn export_package(sources: &[PathBuf], scene_dir: &Path, name: &str, progress: Progress) -> SfmResult<ExportReport> {
+pub fn export_package(sources: &[PathBuf], scene_dir: &Path, name: &str, progress: StageProgress) -> SfmResult<ExportReport> {
     let Some(first) = sources.first() else {
         return Err(SfmError::Input { path: scene_dir.to_path_buf(), problem: "no prep output folders to join".into() });
     };

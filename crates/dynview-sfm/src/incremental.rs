@@ -1,12 +1,12 @@
 //! Incremental structure from motion on keyframes: initial pair, registration by PnP,
 //! triangulation of tracks, bundle adjustment with a robust loss, outlier filtering.
 
+use dynview_core::StageProgress;
 use nalgebra::{Matrix3, Vector2, Vector3};
 use opencv::calib3d;
 use opencv::core::{Mat, Point2d, Point3d, Vector};
 use opencv::prelude::*;
 
-use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 use crate::geometry::{Intrinsics, Pose, Ray, ray_angle_rad, reprojection_error_px, triangulate_robust};
 use crate::matching::{MatchOptions, TwoView};
@@ -419,7 +419,7 @@ pub fn reconstruct(
     intrinsics: Vec<Intrinsics>,
     match_options: &MatchOptions,
     options: &MapperOptions,
-    progress: Progress,
+    progress: StageProgress,
     interrupt: &std::sync::atomic::AtomicBool,
 ) -> SfmResult<Reconstruction> {
     let counts: Vec<usize> = images.iter().map(|i| i.xy.len()).collect();

@@ -12,10 +12,10 @@ use opencv::prelude::*;
 use opencv::{imgcodecs, videoio};
 use serde::{Deserialize, Serialize};
 
+use dynview_core::StageProgress;
 use dynview_core::fsutil::write_atomic;
 use dynview_core::scene::manifest::is_safe_name;
 
-use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 
 /// File extensions read as videos.
@@ -169,7 +169,7 @@ pub fn read_bgr(path: &Path) -> SfmResult<Mat> {
 
 /// Decodes `video` into `out_dir/<t:05>.jpg`; returns the frame files. A finished camera (its
 /// `done.json` names the same video size) is not decoded again.
-fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: Progress, interrupt: &AtomicBool) -> SfmResult<Vec<PathBuf>> {
+fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: StageProgress, interrupt: &AtomicBool) -> SfmResult<Vec<PathBuf>> {
     let decode = |problem: String| SfmError::Decode { path: video.to_path_buf(), problem };
     let video_bytes = fs::metadata(video).map_err(SfmError::io(video))?.len();
     let done_file = out_dir.join("done.json");
@@ -233,7 +233,7 @@ pub fn decode_frames(
     cameras: &[DiscoveredCamera],
     frames_dir: &Path,
     trim: bool,
-    progress: Progress,
+    progress: StageProgress,
     interrupt: &AtomicBool,
 ) -> SfmResult<(EventFrames, Option<String>)> {
     let mut out = Vec::new();

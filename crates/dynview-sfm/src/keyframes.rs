@@ -8,10 +8,10 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use rayon::prelude::*;
 
 use dynview_camera::{Model, Radial};
+use dynview_core::StageProgress;
 use dynview_core::fsutil::write_atomic;
 use dynview_interchange::colmap::{ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
 
-use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features};
 use crate::focal::{PRIOR_FOCAL_FACTOR, PairGeometry, estimate_focal_factor};
@@ -66,7 +66,7 @@ pub fn keyframe_features(
     frames: &EventFrames,
     keys: &[Keyframe],
     options: &FeatureOptions,
-    progress: Progress,
+    progress: StageProgress,
     interrupt: &AtomicBool,
 ) -> SfmResult<Vec<Features>> {
     let done = AtomicU64::new(0);
@@ -96,7 +96,7 @@ pub fn keyframe_features(
 pub fn match_all_pairs(
     features: &[Features],
     options: &MatchOptions,
-    progress: Progress,
+    progress: StageProgress,
     interrupt: &AtomicBool,
 ) -> SfmResult<Vec<(usize, usize, TwoView)>> {
     let mats = features.iter().map(Features::descriptor_mat).collect::<SfmResult<Vec<_>>>()?;
@@ -169,7 +169,7 @@ pub fn reconstruct_keyframes(
     known: &BTreeMap<String, Intrinsics>,
     match_options: &MatchOptions,
     mapper_options: &MapperOptions,
-    progress: Progress,
+    progress: StageProgress,
     interrupt: &AtomicBool,
 ) -> SfmResult<KeyframeModel> {
     let (intrinsics, mut focal_source) = initial_intrinsics(frames, keys, pairs, known, match_options);

@@ -40,6 +40,3 @@ pub mod work;
 
 pub use error::{SfmError, SfmResult};
 pub use pipeline::{PrepOptions, PrepReport, Stage, run};
-
-/// Progress of a run: stage name, items done, items in the stage.
-pub type Progress<'a> = &'a (dyn Fn(&str, u64, u64) + Sync);

@@ -9,10 +9,10 @@ use std::sync::atomic::AtomicBool;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
+use dynview_core::StageProgress;
 use dynview_core::scene::manifest::PoseEntry;
 use dynview_interchange::poses::{CameraPoses, EventPoses, FramePose, POSES_FILE};
 
-use crate::Progress;
 use crate::calibration::{calibration_for, known_intrinsics, read_poses, undistort_frames};
 use crate::error::{SfmError, SfmResult};
 use crate::export::{ExportReport, export_package, usable_poses};
@@ -197,7 +197,7 @@ pub const SCENE_DIR: &str = "scene";
 
 /// Runs `prep` from `input` into `out`: the pose stages, the time steps, the package
 /// (`out/scene`) and the report (`out/report.json`); work files under `out/work`.
-pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: Progress, interrupt: &AtomicBool) -> SfmResult<PrepReport> {
+pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: StageProgress, interrupt: &AtomicBool) -> SfmResult<PrepReport> {
     options.validate()?;
     let work = WorkDir::new(out);
     std::fs::create_dir_all(work.path()).map_err(SfmError::io(work.path()))?;
@@ -264,7 +264,7 @@ fn undistorted_for(
     work: &WorkDir,
     frames: &EventFrames,
     event: &EventPoses,
-    progress: Progress,
+    progress: StageProgress,
     interrupt: &AtomicBool,
 ) -> SfmResult<EventFrames> {
     let mut kept =
@@ -287,7 +287,7 @@ fn pose_stages(
     options: &PrepOptions,
     report: &mut PrepReport,
     lap: &mut Lap,
-    progress: Progress,
+    progress: StageProgress,
     interrupt: &AtomicBool,
 ) -> SfmResult<Option<(EventFrames, EventPoses)>> {
     let (mut frames, trimmed) = decode_frames(cameras, &work.join("frames"), options.trim, progress, interrupt)?;
@@ -419,7 +419,7 @@ fn refine_all<K: Serialize>(
     options: &PrepOptions,
     key_stage: &K,
     report: &mut PrepReport,
-    progress: Progress,
+    progress: StageProgress,
     interrupt: &AtomicBool,
 ) -> SfmResult<Vec<Vec<Pose>>> {
     let r = &model.reconstruction;

@@ -7,11 +7,11 @@
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
+use dynview_core::StageProgress;
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
 use opencv::core::{Point2d, Point3d, Vector};
 use rayon::prelude::*;
 
-use crate::Progress;
 use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features};
 use crate::geometry::{Intrinsics, Pose, reprojection_error_px};
@@ -173,7 +173,7 @@ pub fn refine_camera(
     feature_options: &FeatureOptions,
     match_options: &MatchOptions,
     options: &RefineOptions,
-    progress: Progress,
+    progress: StageProgress,
     interrupt: &AtomicBool,
 ) -> SfmResult<(Vec<Pose>, RefineReport)> {
     let n = camera.files.len();

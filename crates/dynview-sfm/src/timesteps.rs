@@ -14,11 +14,11 @@ use opencv::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use dynview_core::StageProgress;
 use dynview_core::scene::PointCloud;
 use dynview_core::scene::manifest::PoseEntry;
 use dynview_interchange::poses::EventPoses;
 
-use crate::Progress;
 use crate::densify::{DensifyOptions, densify};
 use crate::error::{SfmError, SfmResult};
 use crate::features::FeatureOptions;
@@ -208,7 +208,7 @@ pub fn run_steps(
     event: &EventPoses,
     range: Range<usize>,
     settings: &StepSettings,
-    progress: Progress,
+    progress: StageProgress,
     interrupt: &AtomicBool,
 ) -> SfmResult<StepsReport> {
     work.write_json(SETTINGS_FILE, settings)?;
