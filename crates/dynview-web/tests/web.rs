@@ -3,9 +3,10 @@
 //! progressive steps, camera path export and import, errors for a corrupted package, and the
 //! GPU path on the browser's WebGPU.
 //!
-//! The fixture bundle (a small synthetic package, its held-out camera path and the native
-//! renders of that path by `dynview render`) is made by `cargo xtask test`, which sets
-//! `DYNVIEW_WASM_FIXTURE`.
+//! The fixture (a small synthetic package, its held-out camera path and the native renders of
+//! that path) is made on the host by the build script of `dynview-web-fixture`, so
+//! `wasm-pack test --headless --chrome crates/dynview-web` needs no preparation; `cargo xtask
+//! test` runs that same command.
 #![cfg(target_arch = "wasm32")]
 
 use dynview_core::metrics::psnr;
@@ -17,8 +18,6 @@ use wasm_bindgen_test::*;
 
 wasm_bindgen_test_configure!(run_in_browser);
 
-const BUNDLE: &[u8] = include_bytes!(env!("DYNVIEW_WASM_FIXTURE"));
-
 /// PSNR the wasm render must reach against the native render of the same frame. The code is
 /// the same; `exp`, `powf` and `atan` come from different math libraries (Rust's libm in wasm,
 /// glibc natively), which differ in the last bit, and the camera goes through the page's
@@ -27,37 +26,22 @@ const MIN_PSNR_VS_NATIVE_DB: f64 = 45.0;
 /// Share of pixels whose channels may differ by more than 2 levels of 255.
 const MAX_SHARE_OFF_BY_MORE_THAN_2: f64 = 0.002;
 
-/// The bundle's files: (path, bytes).
-fn bundle() -> Vec<(String, Vec<u8>)> {
-    let mut files = Vec::new();
-    let mut rest = BUNDLE;
-    while !rest.is_empty() {
-        let name_len = u32::from_le_bytes(rest[..4].try_into().unwrap()) as usize;
-        let name = String::from_utf8(rest[4..4 + name_len].to_vec()).unwrap();
-        rest = &rest[4 + name_len..];
-        let len = u64::from_le_bytes(rest[..8].try_into().unwrap()) as usize;
-        files.push((name, rest[8..8 + len].to_vec()));
-        rest = &rest[8 + len..];
-    }
-    files
-}
-
 fn file(name: &str, bytes: &[u8]) -> web_sys::File {
     let parts = Array::of1(&Uint8Array::from(bytes));
     web_sys::File::new_with_u8_array_sequence(&parts, name).unwrap()
 }
 
-fn read(name: &str) -> Vec<u8> {
-    bundle().into_iter().find(|(n, _)| n == name).unwrap_or_else(|| panic!("{name} not in the fixture")).1
+fn read(name: &str) -> &'static [u8] {
+    dynview_web_fixture::file(name).unwrap_or_else(|| panic!("{name} not in the fixture"))
 }
 
-/// Opens the bundle's package as dropped files under `drop/` (as a folder drop gives them),
+/// Opens the fixture's package as dropped files under `drop/` (as a folder drop gives them),
 /// with `edit` applied to the files first.
 async fn open_scene(edit: impl Fn(&str, Vec<u8>) -> Vec<u8>) -> Result<Viewer, JsValue> {
     let (mut files, mut paths) = (Vec::new(), Vec::new());
-    for (name, bytes) in bundle() {
+    for (name, bytes) in dynview_web_fixture::FILES {
         if let Some(rel) = name.strip_prefix("scene/") {
-            let bytes = edit(rel, bytes);
+            let bytes = edit(rel, bytes.to_vec());
             files.push(file(rel, &bytes));
             paths.push(format!("drop/scene/{rel}"));
         }
@@ -85,7 +69,7 @@ fn get(value: &JsValue, key: &str) -> JsValue {
 
 /// `{view, time_step, width, height, streaming}` of frame `i` of the fixture's held-out path.
 fn path_request(viewer: &Viewer, i: u32, streaming: bool) -> JsValue {
-    let frames = viewer.import_camera_path(std::str::from_utf8(&read("camera_path.json")).unwrap(), "camera_path.json").unwrap();
+    let frames = viewer.import_camera_path(std::str::from_utf8(read("camera_path.json")).unwrap(), "camera_path.json").unwrap();
     let frame = Array::from(&frames).get(i);
     let request = js_sys::Object::new();
     for key in ["view", "time_step", "width", "height"] {
@@ -104,7 +88,7 @@ async fn renders_equal_the_native_renderer_frame_by_frame_with_streaming() {
         wait(viewer.load_step(t, None)).await.unwrap();
         let image = viewer.render_now(request, "color", None).unwrap();
         let wasm = image_raster(&image);
-        let native = png_raster(&read(&format!("native/{i:05}.png")));
+        let native = png_raster(read(&format!("native/{i:05}.png")));
         assert_eq!((wasm.width, wasm.height), (native.width, native.height));
         let db = psnr(&wasm, &native);
         let off = wasm.data.iter().zip(&native.data).filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 2.5 / 255.0)).count();
@@ -183,7 +167,7 @@ async fn a_corrupted_package_is_refused_with_the_file_and_field() {
 #[wasm_bindgen_test]
 async fn camera_paths_export_in_the_format_dynview_render_reads() {
     let viewer = open_scene(|_, b| b).await.unwrap();
-    let frames = viewer.import_camera_path(std::str::from_utf8(&read("camera_path.json")).unwrap(), "camera_path.json").unwrap();
+    let frames = viewer.import_camera_path(std::str::from_utf8(read("camera_path.json")).unwrap(), "camera_path.json").unwrap();
     let keyframes = Array::new();
     for f in Array::from(&frames).iter().take(2) {
         let k = js_sys::Object::new();
@@ -193,12 +177,12 @@ async fn camera_paths_export_in_the_format_dynview_render_reads() {
     }
     let json = viewer.export_camera_path(keyframes.into(), 320, 180, 30.0).unwrap();
     let parsed = dynview_interchange::camera_path::parse_path(json.as_bytes(), "export", None).unwrap();
-    let original = dynview_interchange::camera_path::parse_path(&read("camera_path.json"), "fixture", None).unwrap();
+    let original = dynview_interchange::camera_path::parse_path(read("camera_path.json"), "fixture", None).unwrap();
     assert_eq!(parsed.len(), 2);
     for (a, b) in parsed.iter().zip(&original) {
         let (ca, cb) = (a.camera.center_world(), b.camera.center_world());
         assert!((ca - cb).length() < 1e-9, "{ca} vs {cb}");
-        assert_eq!(a.time.time_step(4), b.time.time_step(4));
+        assert_eq!(a.time.time_step(dynview_web_fixture::FRAMES), b.time.time_step(dynview_web_fixture::FRAMES));
     }
 }
 
@@ -228,7 +212,7 @@ async fn the_gpu_path_renders_the_native_frames_in_the_browser_and_reports_a_los
         assert_eq!(get(&report, "temporal_used").as_bool(), Some(i > 0), "frame {i}");
         let image: web_sys::ImageData = get(&report, "image").dyn_into().unwrap();
         let gpu = image_raster(&image);
-        let native = png_raster(&read(&format!("native/{i:05}.png")));
+        let native = png_raster(read(&format!("native/{i:05}.png")));
         assert_eq!((gpu.width, gpu.height), (native.width, native.height));
         let db = psnr(&gpu, &native);
         let off = gpu.data.iter().zip(&native.data).filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 2.5 / 255.0)).count();

@@ -18,6 +18,7 @@ pub fn run() -> anyhow::Result<()> {
     setup::ensure_node()?;
     setup::ensure_rust_tools()?;
     web::ensure_wasm_bindgen()?;
+    web::ensure_wasm_pack()?;
     web::ensure_npm_packages()?;
     let mut timings = Vec::new();
 
@@ -46,19 +47,12 @@ pub fn run() -> anyhow::Result<()> {
     let fixture = fixture()?;
 
     let mut clippy_wasm = cargo();
-    clippy_wasm
-        .args(["clippy", "-p", "dynview-web", "--all-targets", "--target", "wasm32-unknown-unknown", "--", "-D", "warnings"])
-        .env("DYNVIEW_WASM_FIXTURE", &fixture.bundle);
+    clippy_wasm.args(["clippy", "-p", "dynview-web", "--all-targets", "--target", "wasm32-unknown-unknown", "--", "-D", "warnings"]);
     timings.push(("clippy (wasm32)", run_step("clippy of the wasm crate and its tests for wasm32", clippy_wasm)?));
 
     let chromedriver = which("chromedriver").unwrap_or_else(|| "/usr/bin/chromedriver".into());
-    let mut wasm_tests = cargo();
-    wasm_tests
-        .args(["test", "-p", "dynview-web", "--target", "wasm32-unknown-unknown"])
-        .env("CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER", "wasm-bindgen-test-runner")
-        .env("CHROMEDRIVER", chromedriver)
-        .env("DYNVIEW_WASM_FIXTURE", &fixture.bundle);
-    timings.push(("wasm API tests (Chromium)", run_step("wasm API tests in headless Chromium", wasm_tests)?));
+    let wasm_tests = web::wasm_pack_test(&chromedriver);
+    timings.push(("wasm API tests (Chromium)", run_step("wasm API tests in headless Chromium (wasm-pack test)", wasm_tests)?));
 
     let mut unit = Command::new("node");
     unit.current_dir(web::web_dir()).args(["--test", "tests/unit/"]);

@@ -31,6 +31,43 @@ pub fn ensure_wasm_bindgen() -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The wasm-pack version `cargo xtask test` installs (from crates.io) to run the wasm API's
+/// browser tests as users of wasm crates do.
+pub const WASM_PACK_VERSION: &str = "0.15.1";
+
+/// The version of the `wasm-pack` on PATH, if any.
+fn wasm_pack_version() -> Option<String> {
+    let out = Command::new("wasm-pack").arg("--version").output().ok()?;
+    String::from_utf8_lossy(&out.stdout).split_whitespace().nth(1).map(str::to_owned)
+}
+
+/// Installs wasm-pack from crates.io unless the pinned version is already on PATH. It finds
+/// the installed wasm-bindgen-test-runner (same version as the pinned wasm-bindgen) and
+/// chromedriver on PATH and downloads nothing; [`wasm_pack_test`] runs it with `--mode
+/// no-install` so that it fails rather than downloads.
+pub fn ensure_wasm_pack() -> anyhow::Result<()> {
+    match wasm_pack_version() {
+        Some(v) if v == WASM_PACK_VERSION => return Ok(()),
+        Some(v) => println!("wasm-pack {v} found, {WASM_PACK_VERSION} wanted"),
+        None => println!("wasm-pack not found"),
+    }
+    let mut install = cargo();
+    install.args(["install", "wasm-pack", "--version", WASM_PACK_VERSION]);
+    run_step("install wasm-pack (a few minutes, once)", install)?;
+    Ok(())
+}
+
+/// `wasm-pack test --headless --chrome crates/dynview-web`: the wasm API's tests in headless
+/// Chromium (flags in `crates/dynview-web/webdriver.json`), driven by `chromedriver`, with no
+/// downloads. Returns the command to run.
+pub fn wasm_pack_test(chromedriver: &str) -> Command {
+    let mut test = Command::new("wasm-pack");
+    test.current_dir(workspace_root());
+    test.args(["test", "--headless", "--chrome", "--mode", "no-install", "--chromedriver", chromedriver]);
+    test.arg("crates/dynview-web");
+    test
+}
+
 /// The folder of the page.
 pub fn web_dir() -> PathBuf {
     workspace_root().join("web")
