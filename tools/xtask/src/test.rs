@@ -37,8 +37,12 @@ pub fn run() -> anyhow::Result<()> {
     timings.push(("native tests", run_step("native tests", tests)?));
 
     let mut wasm = cargo();
-    wasm.args(["build", "-p", "dynview-core", "--no-default-features", "--target", "wasm32-unknown-unknown"]);
-    timings.push(("wasm32 build of dynview-core", run_step("wasm32 build of the core", wasm)?));
+    wasm.args(["build", "-p", "dynview-core", "--no-default-features", "-p", "dynview-camera", "-p", "dynview-interchange"]);
+    wasm.args(["--target", "wasm32-unknown-unknown"]);
+    timings.push((
+        "wasm32 build of the pure crates",
+        run_step("wasm32 build of the core, the camera models and the interchange formats", wasm)?,
+    ));
 
     let mut wasm_gpu = cargo();
     wasm_gpu.args(["clippy", "-p", "dynview-gpu", "--lib", "--target", "wasm32-unknown-unknown", "--", "-D", "warnings"]);
