@@ -17,7 +17,7 @@
 //! fixed-point iteration where the distortion has no closed-form inverse).
 //!
 //! The models do not fix a pixel convention: the principal point is in whatever convention the
-//! caller uses (dynview puts pixel centres at integers, COLMAP at `+0.5`; `dynview-core`'s
+//! caller uses (dynview puts pixel centres at integers, COLMAP at `+0.5`; `dynview-interchange`'s
 //! COLMAP conversions shift by half a pixel). [`Camera`] holds any model, built from COLMAP's
 //! `(model, params)` pair; [`pixel_from_normalized`] projects with such a pair.
 //!
