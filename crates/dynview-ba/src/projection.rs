@@ -122,8 +122,9 @@ mod tests {
 
     const STEP: f64 = 1e-6;
 
-    /// Parameters of one observation flattened as `[angle_axis(3), center(3), point(3), intrinsics(5)]`.
-    fn residual_of(parameters: &[f64; 14], measured: &Vector2<f64>) -> Vector2<f64> {
+    /// The pose, point and camera of one observation's parameters flattened as
+    /// `[angle_axis(3), center(3), point(3), intrinsics(5)]`.
+    fn unpack(parameters: &[f64; 14]) -> (ImagePose, Vector3<f64>, CameraIntrinsics) {
         let pose = ImagePose {
             angle_axis: [parameters[0], parameters[1], parameters[2]],
             center_world: [parameters[3], parameters[4], parameters[5]],
@@ -136,23 +137,17 @@ mod tests {
             k1: parameters[12],
             k2: parameters[13],
         };
+        (pose, point, camera)
+    }
+
+    fn residual_of(parameters: &[f64; 14], measured: &Vector2<f64>) -> Vector2<f64> {
+        let (pose, point, camera) = unpack(parameters);
         pixel_from_camera(&camera, &ImageFrame::new(&pose).point_camera(&point)).map(|pixel| pixel - measured).unwrap_or_default()
     }
 
     fn check(parameters: [f64; 14]) {
         let measured = Vector2::new(310.0, 250.0);
-        let pose = ImagePose {
-            angle_axis: [parameters[0], parameters[1], parameters[2]],
-            center_world: [parameters[3], parameters[4], parameters[5]],
-        };
-        let camera = CameraIntrinsics {
-            focal_px: parameters[9],
-            cx_px: parameters[10],
-            cy_px: parameters[11],
-            k1: parameters[12],
-            k2: parameters[13],
-        };
-        let point = Vector3::new(parameters[6], parameters[7], parameters[8]);
+        let (pose, point, camera) = unpack(&parameters);
         let jacobians = residual_jacobians(&camera, &ImageFrame::new(&pose), &point, &measured).expect("in front");
         assert!((jacobians.residual_px - residual_of(&parameters, &measured)).norm() < 1e-12);
         for index in 0..14 {

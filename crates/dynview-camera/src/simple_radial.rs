@@ -3,7 +3,7 @@
 //! For the normalized point `(x, y) = (X/Z, Y/Z)` and `r2 = x^2 + y^2`:
 //! `d = 1 + k r2`, `u = f d x + cx`, `v = f d y + cy`.
 
-use crate::{CameraModel, Model, OpenCv, OpenCvDistortion, Pinhole, params_array, undistort_radial};
+use crate::{CameraModel, Model, OpenCv, Radial, params_array};
 
 /// The pinhole model with one radial distortion term. Parameter order `f, cx, cy, k`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -19,9 +19,10 @@ pub struct SimpleRadial {
 }
 
 impl SimpleRadial {
-    /// The distortion factor `1 + k r2`.
-    fn factor(&self, r2: f64) -> f64 {
-        1.0 + self.k * r2
+    /// The same camera as `RADIAL` with `k2 = 0`, whose formulas it shares (`0 * r2^2` adds
+    /// exactly zero, so the results are bit for bit those of `1 + k r2`).
+    fn as_radial(&self) -> Radial {
+        Radial { f: self.f, cx: self.cx, cy: self.cy, k1: self.k, k2: 0.0 }
     }
 }
 
@@ -38,32 +39,22 @@ impl Model for SimpleRadial {
     }
 
     fn distort(&self, normalized: [f64; 2]) -> [f64; 2] {
-        let [x, y] = normalized;
-        let d = self.factor(x * x + y * y);
-        [d * x, d * y]
+        self.as_radial().distort(normalized)
     }
 
     fn undistort(&self, distorted: [f64; 2]) -> [f64; 2] {
-        if self.k == 0.0 {
-            return distorted;
-        }
-        undistort_radial(distorted, |r2| self.factor(r2))
+        self.as_radial().undistort(distorted)
     }
 
     fn pixel_from_normalized(&self, normalized: [f64; 2]) -> [f64; 2] {
-        let [x, y] = normalized;
-        let scale = self.f * self.factor(x * x + y * y);
-        [scale * x + self.cx, scale * y + self.cy]
+        self.as_radial().pixel_from_normalized(normalized)
     }
 
     fn normalized_from_pixel(&self, pixel: [f64; 2]) -> [f64; 2] {
-        self.undistort([(pixel[0] - self.cx) / self.f, (pixel[1] - self.cy) / self.f])
+        self.as_radial().normalized_from_pixel(pixel)
     }
 
     fn to_opencv(&self) -> OpenCv {
-        OpenCv {
-            pinhole: Pinhole { fx: self.f, fy: self.f, cx: self.cx, cy: self.cy },
-            distortion: OpenCvDistortion { k1: self.k, ..OpenCvDistortion::default() },
-        }
+        self.as_radial().to_opencv()
     }
 }

@@ -58,19 +58,7 @@ pub fn inward_ring(images: usize, points: usize, seed: u64) -> Problem {
             }
         }
     }
-    let mut image_fixed = vec![false; images];
-    image_fixed[0] = true;
-    image_fixed[1] = true;
-    Problem {
-        cameras: vec![CAMERA],
-        image_camera: vec![0; images],
-        image_fixed,
-        images: poses,
-        point_fixed: vec![false; points],
-        points_world,
-        observations,
-        priors: Vec::new(),
-    }
+    problem_with_two_fixed_images(poses, points_world, observations)
 }
 
 /// `images` cameras on a circle of radius 10 looking outwards at a wall of `points` points at
@@ -103,19 +91,7 @@ pub fn outward_ring(images: usize, points: usize, seed: u64) -> Problem {
         }
         points_world.push(p);
     }
-    let mut image_fixed = vec![false; images];
-    image_fixed[0] = true;
-    image_fixed[1] = true;
-    Problem {
-        cameras: vec![CAMERA],
-        image_camera: vec![0; images],
-        image_fixed,
-        images: poses,
-        point_fixed: vec![false; points],
-        points_world,
-        observations,
-        priors: Vec::new(),
-    }
+    problem_with_two_fixed_images(poses, points_world, observations)
 }
 
 /// Standard deviations of a perturbation of the unknowns.
@@ -191,4 +167,22 @@ pub fn pose_errors(estimate: &[ImagePose], truth: &[ImagePose]) -> (f64, f64) {
         center += (Vector3::from(e.center_world) - Vector3::from(t.center_world)).norm();
     }
     (rotation / estimate.len() as f64, center / estimate.len() as f64)
+}
+
+/// A problem with one camera ([`CAMERA`]) for every image and images 0 and 1 fixed (the gauge).
+fn problem_with_two_fixed_images(poses: Vec<ImagePose>, points_world: Vec<[f64; 3]>, observations: Vec<Observation>) -> Problem {
+    let (images, points) = (poses.len(), points_world.len());
+    let mut image_fixed = vec![false; images];
+    image_fixed[0] = true;
+    image_fixed[1] = true;
+    Problem {
+        cameras: vec![CAMERA],
+        image_camera: vec![0; images],
+        image_fixed,
+        images: poses,
+        point_fixed: vec![false; points],
+        points_world,
+        observations,
+        priors: Vec::new(),
+    }
 }
