@@ -1,6 +1,6 @@
 //! Images on the GPU (flat `f32` storage buffers, `channels` per pixel) and the image kernels
 //! of the renderer: pyramid resampling (`shaders/pyramid.wgsl`) and push-pull hole filling
-//! (`shaders/pushpull.wgsl`).
+//! (`shaders/pushpull_pull.wgsl`, `shaders/pushpull_push.wgsl`).
 
 use wgpu::util::DeviceExt;
 
@@ -149,14 +149,28 @@ struct PyramidDims {
     _pad: u32,
 }
 
-/// `pushpull.wgsl`'s uniform block.
+/// `pushpull_pull.wgsl`'s uniform block.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct PushPullDims {
-    width: u32,
-    height: u32,
-    other_width: u32,
-    other_height: u32,
+struct PullDims {
+    fine_width: u32,
+    fine_height: u32,
+    coarse_width: u32,
+    coarse_height: u32,
+    channels: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+/// `pushpull_push.wgsl`'s uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct PushDims {
+    fine_width: u32,
+    fine_height: u32,
+    coarse_width: u32,
+    coarse_height: u32,
     channels: u32,
     scale_x: f32,
     scale_y: f32,
@@ -173,15 +187,17 @@ impl ImageKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
         let pyramid = shaders::module(ctx, shaders::PYRAMID);
-        let pushpull = shaders::module(ctx, shaders::PUSHPULL);
-        let pp = [true, true, true, false, false];
+        let pull = shaders::module(ctx, shaders::PUSHPULL_PULL);
+        let push = shaders::module(ctx, shaders::PUSHPULL_PUSH);
+        let pull_bindings = [true, true, false, false];
+        let push_bindings = [true, true, true, false];
         Self {
             downsample: Kernel::new(ctx, &pyramid, "downsample", &[true, false], 8),
             upsample: Kernel::new(ctx, &pyramid, "upsample", &[true, false], 8),
-            premultiply: Kernel::new(ctx, &pushpull, "premultiply", &pp, 8),
-            pull: Kernel::new(ctx, &pushpull, "pull", &pp, 8),
-            top: Kernel::new(ctx, &pushpull, "top", &pp, 1),
-            push: Kernel::new(ctx, &pushpull, "push", &pp, 8),
+            premultiply: Kernel::new(ctx, &pull, "premultiply", &pull_bindings, 8),
+            pull: Kernel::new(ctx, &pull, "pull", &pull_bindings, 8),
+            top: Kernel::new(ctx, &push, "top", &push_bindings, 1),
+            push: Kernel::new(ctx, &push, "push", &push_bindings, 8),
         }
     }
 
@@ -223,29 +239,37 @@ impl ImageKernels {
             )));
         }
         let channels = values.channels;
-        let dims = |width: usize, height: usize, other: (usize, usize)| PushPullDims {
-            width: width as u32,
-            height: height as u32,
-            other_width: other.0 as u32,
-            other_height: other.1 as u32,
+        let pull_dims = |fine: (usize, usize), coarse: (usize, usize)| PullDims {
+            fine_width: fine.0 as u32,
+            fine_height: fine.1 as u32,
+            coarse_width: coarse.0 as u32,
+            coarse_height: coarse.1 as u32,
             channels: channels as u32,
-            scale_x: other.0 as f32 / width as f32,
-            scale_y: other.1 as f32 / height as f32,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
+        };
+        let push_dims = |fine: (usize, usize), coarse: (usize, usize)| PushDims {
+            fine_width: fine.0 as u32,
+            fine_height: fine.1 as u32,
+            coarse_width: coarse.0 as u32,
+            coarse_height: coarse.1 as u32,
+            channels: channels as u32,
+            scale_x: coarse.0 as f32 / fine.0 as f32,
+            scale_y: coarse.1 as f32 / fine.1 as f32,
             _pad: 0,
             fallback: [fallback[0], fallback[1], fallback[2], 0.0],
         };
-        let scratch = GpuImage::zeroed(ctx, 1, 1, 1)?;
         let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("push-pull") });
         // Pull: premultiplied levels down to 1x1.
         let (w, h) = (values.width, values.height);
         let mut levels = vec![(GpuImage::zeroed(ctx, w, h, channels)?, GpuImage::zeroed(ctx, w, h, 1)?)];
-        let d = dims(w, h, (w, h));
         let (v0, w0) = &levels[0];
         self.premultiply.dispatch(
             ctx,
             &mut encoder,
-            bytemuck::bytes_of(&d),
-            &[&values.buffer, &weights.buffer, &weights.buffer, &v0.buffer, &w0.buffer],
+            bytemuck::bytes_of(&pull_dims((w, h), (w, h))),
+            &[&values.buffer, &weights.buffer, &v0.buffer, &w0.buffer],
             w,
             h,
         );
@@ -253,36 +277,37 @@ impl ImageKernels {
             let (fine_v, fine_w) = &levels[levels.len() - 1];
             let (nw, nh) = (half(fine_v.width), half(fine_v.height));
             let (cv, cw) = (GpuImage::zeroed(ctx, nw, nh, channels)?, GpuImage::zeroed(ctx, nw, nh, 1)?);
-            let d = dims(nw, nh, (fine_v.width, fine_v.height));
+            let d = pull_dims((fine_v.width, fine_v.height), (nw, nh));
             self.pull.dispatch(
                 ctx,
                 &mut encoder,
                 bytemuck::bytes_of(&d),
-                &[&fine_v.buffer, &fine_w.buffer, &fine_w.buffer, &cv.buffer, &cw.buffer],
+                &[&fine_v.buffer, &fine_w.buffer, &cv.buffer, &cw.buffer],
                 nw,
                 nh,
             );
             levels.push((cv, cw));
         }
-        // Push: the 1x1 top, then each finer level from the coarser fill.
+        // Push: the 1x1 top (no coarser fill: its binding takes the top's weights, unread), then
+        // each finer level from the coarser fill.
         let (top_v, top_w) = &levels[levels.len() - 1];
         let mut filled = GpuImage::zeroed(ctx, 1, 1, channels)?;
         self.top.dispatch(
             ctx,
             &mut encoder,
-            bytemuck::bytes_of(&dims(1, 1, (1, 1))),
-            &[&top_v.buffer, &top_w.buffer, &top_w.buffer, &filled.buffer, &scratch.buffer],
+            bytemuck::bytes_of(&push_dims((1, 1), (1, 1))),
+            &[&top_v.buffer, &top_w.buffer, &top_w.buffer, &filled.buffer],
             1,
             1,
         );
         for (v, wt) in levels.iter().rev().skip(1) {
             let next = GpuImage::zeroed(ctx, v.width, v.height, channels)?;
-            let d = dims(v.width, v.height, (filled.width, filled.height));
+            let d = push_dims((v.width, v.height), (filled.width, filled.height));
             self.push.dispatch(
                 ctx,
                 &mut encoder,
                 bytemuck::bytes_of(&d),
-                &[&v.buffer, &wt.buffer, &filled.buffer, &next.buffer, &scratch.buffer],
+                &[&v.buffer, &wt.buffer, &filled.buffer, &next.buffer],
                 v.width,
                 v.height,
             );
@@ -300,9 +325,14 @@ pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
     vec![
         mirror!(shaders::PYRAMID, "Dims", PyramidDims { src_width, src_height, dst_width, dst_height, channels, scale_x, scale_y, _pad }),
         mirror!(
-            shaders::PUSHPULL,
+            shaders::PUSHPULL_PULL,
             "Dims",
-            PushPullDims { width, height, other_width, other_height, channels, scale_x, scale_y, _pad, fallback }
+            PullDims { fine_width, fine_height, coarse_width, coarse_height, channels, _pad0, _pad1, _pad2 }
+        ),
+        mirror!(
+            shaders::PUSHPULL_PUSH,
+            "Dims",
+            PushDims { fine_width, fine_height, coarse_width, coarse_height, channels, scale_x, scale_y, _pad, fallback }
         ),
     ]
 }

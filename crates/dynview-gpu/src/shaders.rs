@@ -26,8 +26,10 @@ macro_rules! shader {
 pub(crate) const RED_BLACK: Shader = shader!("red_black.wgsl");
 /// 2x2 box downsampling and bilinear upsampling.
 pub(crate) const PYRAMID: Shader = shader!("pyramid.wgsl", "common/bilinear.wgsl");
-/// Push-pull hole filling.
-pub(crate) const PUSHPULL: Shader = shader!("pushpull.wgsl", "common/bilinear.wgsl");
+/// Push-pull hole filling: the pull (premultiplied 2x2 sums).
+pub(crate) const PUSHPULL_PULL: Shader = shader!("pushpull_pull.wgsl");
+/// Push-pull hole filling: the push (the coarser fill where a level is unknown).
+pub(crate) const PUSHPULL_PUSH: Shader = shader!("pushpull_push.wgsl", "common/bilinear.wgsl");
 /// Backward warps of the input views and their visibility.
 pub(crate) const WARP: Shader = shader!("warp.wgsl", "common/float_bits.wgsl", "common/outside.wgsl");
 /// `w_P^s` of every view.
@@ -38,8 +40,11 @@ pub(crate) const DEPTH_WEIGHTS: Shader = shader!("assemble/depth_weights.wgsl", 
 pub(crate) const DEPTH_SYSTEM: Shader = shader!("assemble/depth_system.wgsl", "assemble/params.wgsl", "common/float_bits.wgsl");
 /// The color system.
 pub(crate) const COLOR_SYSTEM: Shader = shader!("assemble/color_system.wgsl", "assemble/params.wgsl");
-/// Projection of splat sources (cloud points, frame pixels) into a camera.
-pub(crate) const SPLAT_PROJECT: Shader = shader!("splat_project.wgsl", "common/float_bits.wgsl", "common/outside.wgsl");
+/// Projection of the sparse cloud's points into a camera.
+pub(crate) const SPLAT_POINTS: Shader = shader!("splat_points.wgsl", "common/outside.wgsl", "common/splat_emit.wgsl");
+/// Forward warp of a rendered frame's pixels into a camera.
+pub(crate) const SPLAT_PIXELS: Shader =
+    shader!("splat_pixels.wgsl", "common/float_bits.wgsl", "common/outside.wgsl", "common/splat_emit.wgsl");
 /// The z-buffer resolve of a splat.
 pub(crate) const SPLAT_RESOLVE: Shader = shader!("splat_resolve.wgsl", "common/float_bits.wgsl", "common/outside.wgsl");
 /// The sparse maps' color and mask as one RGBA image.
@@ -61,13 +66,15 @@ pub(crate) const DISPLAY: Shader = shader!("display.wgsl", "common/float_bits.wg
 pub const SHADERS: &[(&str, &str)] = &[
     RED_BLACK,
     PYRAMID,
-    PUSHPULL,
+    PUSHPULL_PULL,
+    PUSHPULL_PUSH,
     WARP,
     PROJECTION_WEIGHTS,
     DEPTH_WEIGHTS,
     DEPTH_SYSTEM,
     COLOR_SYSTEM,
-    SPLAT_PROJECT,
+    SPLAT_POINTS,
+    SPLAT_PIXELS,
     SPLAT_RESOLVE,
     SPLAT_PACK,
     CONSISTENCY,

@@ -1,5 +1,5 @@
-//! Splatting with a z-buffer on the GPU (`shaders/splat_project.wgsl`,
-//! `shaders/splat_resolve.wgsl`): the sparse cloud into a camera (`D^`, `I^`, `m`) and a rendered
+//! Splatting with a z-buffer on the GPU (`shaders/splat_points.wgsl`,
+//! `shaders/splat_pixels.wgsl`, `shaders/splat_resolve.wgsl`): the sparse cloud into a camera (`D^`, `I^`, `m`) and a rendered
 //! frame into the next camera (the temporal terms' `D_{t-1}^{proj}`, `I_{t-1}^{proj}`), as
 //! dynview-core's `sparse::project_cloud` and `sparse::warp_frame`; and the sparse maps' color
 //! and mask packed for the depth weights (`shaders/splat_pack.wgsl`).
@@ -56,18 +56,32 @@ impl GpuCloud {
     }
 }
 
-/// `splat_project.wgsl`'s uniform block.
+/// `splat_points.wgsl`'s uniform block.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct ProjectParams {
+struct PointsParams {
+    count: u32,
+    width: u32,
+    height: u32,
+    _pad0: u32,
+    camera_from_world_row0: [f32; 4],
+    camera_from_world_row1: [f32; 4],
+    camera_from_world_row2: [f32; 4],
+    focal_principal_px: [f32; 4],
+}
+
+/// `splat_pixels.wgsl`'s uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct PixelsParams {
     count: u32,
     width: u32,
     height: u32,
     source_width: u32,
-    row0: [f32; 4],
-    row1: [f32; 4],
-    row2: [f32; 4],
-    extra: [f32; 4],
+    transfer_row0: [f32; 4],
+    transfer_row1: [f32; 4],
+    transfer_row2: [f32; 4],
+    transfer_offset: [f32; 4],
 }
 
 /// `splat_resolve.wgsl`'s uniform block.
@@ -105,14 +119,15 @@ pub struct SplatKernels {
 impl SplatKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
-        let project = shaders::module(ctx, shaders::SPLAT_PROJECT);
+        let points = shaders::module(ctx, shaders::SPLAT_POINTS);
+        let pixels = shaders::module(ctx, shaders::SPLAT_PIXELS);
         let resolve = shaders::module(ctx, shaders::SPLAT_RESOLVE);
         let pack = shaders::module(ctx, shaders::SPLAT_PACK);
         let p = [true, true, false, false, false];
         let r = [true, true, true, false, false, false, false, false];
         Self {
-            project_points: Kernel::new(ctx, &project, "project_points", &p, 64),
-            project_pixels: Kernel::new(ctx, &project, "project_pixels", &p, 64),
+            project_points: Kernel::new(ctx, &points, "project_points", &p, 64),
+            project_pixels: Kernel::new(ctx, &pixels, "project_pixels", &p, 64),
             clear: Kernel::new(ctx, &resolve, "clear", &r, 64),
             nearest_depth: Kernel::new(ctx, &resolve, "nearest_depth", &r, 64),
             first_index: Kernel::new(ctx, &resolve, "first_index", &r, 64),
@@ -131,17 +146,18 @@ impl SplatKernels {
             let row = r.row(i);
             [row.x as f32, row.y as f32, row.z as f32, t[i] as f32]
         };
-        let params = ProjectParams {
+        let params = PointsParams {
             count: cloud.count as u32,
             width: camera.width_px,
             height: camera.height_px,
-            source_width: 1,
-            row0: row(0),
-            row1: row(1),
-            row2: row(2),
-            extra: [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32],
+            _pad0: 0,
+            camera_from_world_row0: row(0),
+            camera_from_world_row1: row(1),
+            camera_from_world_row2: row(2),
+            focal_principal_px: [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32],
         };
-        self.splat(ctx, &self.project_points, &params, &cloud.positions, &cloud.colors, camera)
+        let project = Projection { kernel: &self.project_points, params: bytemuck::bytes_of(&params), count: cloud.count };
+        self.splat(ctx, project, &cloud.positions, &cloud.colors, camera)
     }
 
     /// Forward-warps a rendered frame (`source` camera, depth, RGB color) into `camera`
@@ -161,17 +177,19 @@ impl SplatKernels {
             )));
         }
         let (m, e) = PixelTransfer::new(source, camera).coefficients();
-        let params = ProjectParams {
-            count: (depth.width * depth.height) as u32,
+        let count = depth.width * depth.height;
+        let params = PixelsParams {
+            count: count as u32,
             width: camera.width_px,
             height: camera.height_px,
             source_width: depth.width as u32,
-            row0: [m[0], m[1], m[2], 0.0],
-            row1: [m[3], m[4], m[5], 0.0],
-            row2: [m[6], m[7], m[8], 0.0],
-            extra: [e[0], e[1], e[2], 0.0],
+            transfer_row0: [m[0], m[1], m[2], 0.0],
+            transfer_row1: [m[3], m[4], m[5], 0.0],
+            transfer_row2: [m[6], m[7], m[8], 0.0],
+            transfer_offset: [e[0], e[1], e[2], 0.0],
         };
-        self.splat(ctx, &self.project_pixels, &params, &depth.buffer, &color.buffer, camera)
+        let project = Projection { kernel: &self.project_pixels, params: bytemuck::bytes_of(&params), count };
+        self.splat(ctx, project, &depth.buffer, &color.buffer, camera)
     }
 
     /// `sparse`'s color and mask as one RGBA image (RGB, then the mask), as the depth weights
@@ -190,14 +208,13 @@ impl SplatKernels {
     fn splat(
         &self,
         ctx: &GpuContext,
-        project: &Kernel,
-        params: &ProjectParams,
+        project: Projection<'_>,
         geometry: &wgpu::Buffer,
         colors: &wgpu::Buffer,
         camera: &Camera,
     ) -> Result<GpuSplat, GpuError> {
         let (w, h) = (camera.width_px as usize, camera.height_px as usize);
-        let count = (params.count as usize).max(1);
+        let count = project.count.max(1);
         let out = GpuSplat {
             depth: GpuImage::zeroed(ctx, w, h, 1)?,
             color: GpuImage::zeroed(ctx, w, h, 3)?,
@@ -210,25 +227,32 @@ impl SplatKernels {
         let winner = GpuImage::zeroed(ctx, w, h, 1)?;
         let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("splat") });
         let elements = [&element_target.buffer, &element_depth.buffer, &element_color.buffer];
-        project.dispatch(
+        project.kernel.dispatch(
             ctx,
             &mut encoder,
-            bytemuck::bytes_of(params),
+            project.params,
             &[geometry, colors, elements[0], elements[1], elements[2]],
-            params.count as usize,
+            project.count,
             1,
         );
-        let resolve = ResolveParams { count: params.count, pixels: (w * h) as u32, _pad0: 0, _pad1: 0 };
+        let resolve = ResolveParams { count: project.count as u32, pixels: (w * h) as u32, _pad0: 0, _pad1: 0 };
         let buffers =
             [elements[0], elements[1], elements[2], &zbuf.buffer, &winner.buffer, &out.depth.buffer, &out.color.buffer, &out.mask.buffer];
         let uniform = bytemuck::bytes_of(&resolve);
         self.clear.dispatch(ctx, &mut encoder, uniform, &buffers, w * h, 1);
         for kernel in [&self.nearest_depth, &self.first_index, &self.write] {
-            kernel.dispatch(ctx, &mut encoder, uniform, &buffers, params.count as usize, 1);
+            kernel.dispatch(ctx, &mut encoder, uniform, &buffers, project.count, 1);
         }
         ctx.queue.submit([encoder.finish()]);
         Ok(out)
     }
+}
+
+/// One projection kernel with its uniform block and the number of source elements.
+struct Projection<'a> {
+    kernel: &'a Kernel,
+    params: &'a [u8],
+    count: usize,
 }
 
 /// The uniform blocks' mirrors, checked against the WGSL (`shaders/layout_tests.rs`).
@@ -236,7 +260,25 @@ impl SplatKernels {
 pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
     use crate::shaders::layout_tests::mirror;
     vec![
-        mirror!(shaders::SPLAT_PROJECT, "Params", ProjectParams { count, width, height, source_width, row0, row1, row2, extra }),
+        mirror!(
+            shaders::SPLAT_POINTS,
+            "Params",
+            PointsParams {
+                count,
+                width,
+                height,
+                _pad0,
+                camera_from_world_row0,
+                camera_from_world_row1,
+                camera_from_world_row2,
+                focal_principal_px
+            }
+        ),
+        mirror!(
+            shaders::SPLAT_PIXELS,
+            "Params",
+            PixelsParams { count, width, height, source_width, transfer_row0, transfer_row1, transfer_row2, transfer_offset }
+        ),
         mirror!(shaders::SPLAT_RESOLVE, "Params", ResolveParams { count, pixels, _pad0, _pad1 }),
         mirror!(shaders::SPLAT_PACK, "Params", PackParams { width, height, _pad0, _pad1 }),
     ]
