@@ -108,20 +108,39 @@ pub const UNCHANGED_THRESHOLD: f32 = 2.0 / 255.0;
 /// beyond the truth's own; returns `None` when fewer than two frames or no unchanged pixel.
 pub fn flicker(output: &[RgbRaster], truth: &[RgbRaster]) -> Option<f64> {
     assert_eq!(output.len(), truth.len(), "flicker of sequences of different lengths");
-    let mut out_sum = 0.0f64;
-    let mut truth_sum = 0.0f64;
-    let mut count = 0usize;
+    let mut sum = FlickerSum::default();
     for t in 1..output.len() {
-        for i in 0..truth[t].data.len() {
-            let dt = mean_abs_diff(truth[t].data[i], truth[t - 1].data[i]);
+        sum.add(&output[t - 1], &output[t], &truth[t - 1], &truth[t]);
+    }
+    sum.value()
+}
+
+/// [`flicker`] summed one frame pair at a time, for sequences too long to keep in memory.
+#[derive(Clone, Debug, Default)]
+pub struct FlickerSum {
+    out_sum: f64,
+    truth_sum: f64,
+    count: usize,
+}
+
+impl FlickerSum {
+    /// Adds the change from frame `t - 1` to frame `t` of the output and of the truth.
+    pub fn add(&mut self, output_before: &RgbRaster, output: &RgbRaster, truth_before: &RgbRaster, truth: &RgbRaster) {
+        assert_eq!(output.data.len(), truth.data.len(), "flicker of images of different sizes");
+        for i in 0..truth.data.len() {
+            let dt = mean_abs_diff(truth.data[i], truth_before.data[i]);
             if dt < UNCHANGED_THRESHOLD {
-                out_sum += f64::from(mean_abs_diff(output[t].data[i], output[t - 1].data[i]));
-                truth_sum += f64::from(dt);
-                count += 1;
+                self.out_sum += f64::from(mean_abs_diff(output.data[i], output_before.data[i]));
+                self.truth_sum += f64::from(dt);
+                self.count += 1;
             }
         }
     }
-    (count > 0).then(|| (out_sum - truth_sum) / count as f64)
+
+    /// The flicker of the pairs added so far (`None` before any unchanged pixel).
+    pub fn value(&self) -> Option<f64> {
+        (self.count > 0).then(|| (self.out_sum - self.truth_sum) / self.count as f64)
+    }
 }
 
 fn mean_abs_diff(a: [f32; 3], b: [f32; 3]) -> f32 {

@@ -1,104 +1,167 @@
-//! `cargo xtask eval --real`: leave-one-camera-out on the Pose2Sim capture. For each camera k,
-//! `dynview prep` runs on the other three (calibrated poses, the first frames of every video),
-//! and camera k's view is rendered at every time step and compared with camera k's real frame.
+//! `cargo xtask eval --real`: leave-one-camera-out on the real captures ([`RealCapture`]). For
+//! each camera k left out, `dynview prep` runs on the others (calibrated poses, the first frames),
+//! and camera k's view is rendered at every time step with the full method and the baselines,
+//! and compared with camera k's real frame; the floor is the nearest input camera's own frame
+//! shown as is (what a viewer would show without any synthesis).
 //!
 //! Camera k's intrinsics, pose and reference frames come from a package prepared the same way
-//! with all four cameras: same working size, same undistortion, same (calibrated) world, so no
-//! alignment is needed. Results in `docs/results/real.md` and `real_strip_<camera>.png`.
+//! with all cameras: same working size, same undistortion, same (calibrated) world, so no
+//! alignment is needed. Results in `docs/results/real.md` and `real_strip_<capture>_<camera>.png`.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
+use dynview_core::RgbRaster;
 use dynview_core::display::colorize_depth;
-use dynview_core::metrics::{psnr, ssim};
+use dynview_core::metrics::{FlickerSum, psnr, ssim};
 use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer};
 use dynview_core::scene::ScenePackage;
-use dynview_core::{RgbRaster, ScalarRaster};
+use dynview_core::view_ranking::rank_views;
 
 use crate::paths::{results_dir, workspace_root};
-use crate::pose2sim::{WORKING_WIDTH_PX, calibration, extract_first_frames, write_calibrated_poses};
 use crate::prep_runs::{PrepRun, prep_once, stage_seconds};
+use crate::real_captures::RealCapture;
 use crate::sfm_runners::dynview_binary;
 
-/// Frames of each video used by default (the capture has 100).
+/// Frames of each camera used by default (the captures have 75 and 100).
 const DEFAULT_FRAMES: u32 = 20;
-/// Methods rendered: the full method and the plain blend as a baseline.
-const METHODS: [Method; 2] = [Method::Full, Method::Blend];
+/// Methods rendered, the full method first.
+const METHODS: [Method; 4] = [Method::Full, Method::NoTemporal, Method::Blend, Method::BestView];
+/// The floor's label: the nearest input camera's frame shown as is.
+const FLOOR: &str = "nearest input as is";
 /// Largest strip PNG wanted, bytes.
-const STRIP_MAX_BYTES: usize = 400_000;
+const STRIP_MAX_BYTES: usize = 600_000;
 /// Width of one strip panel to start from, pixels (shrunk until the PNG fits).
-const STRIP_PANEL_WIDTH_PX: u32 = 270;
+const STRIP_PANEL_WIDTH_PX: u32 = 320;
 
 /// Options of `dynview-eval eval-real` (`cargo xtask eval --real`).
 #[derive(Debug, clap::Args)]
 pub struct Options {
-    /// Frames of each video used, from the first.
-    #[arg(long, default_value_t = DEFAULT_FRAMES, value_parser = clap::value_parser!(u32).range(1..))]
+    /// The captures to evaluate (all when not given); the report keeps the last results of
+    /// the others.
+    #[arg(long, value_enum)]
+    pub capture: Vec<RealCapture>,
+    /// Frames of each camera used, from the first.
+    #[arg(long, default_value_t = DEFAULT_FRAMES, value_parser = clap::value_parser!(u32).range(2..))]
     pub frames: u32,
     /// Redo the prep runs even when their packages exist.
     #[arg(long)]
     pub fresh: bool,
+    /// Prepare without the static cloud (`dynview prep --no-static`), for comparison.
+    #[arg(long)]
+    pub no_static: bool,
     /// Folder of the written results.
     #[arg(long, default_value_os_t = results_dir())]
     pub out: PathBuf,
 }
 
+/// PSNR, SSIM and flicker of one way of showing the held-out camera, averaged over time.
+struct Score {
+    label: &'static str,
+    psnr_db: f64,
+    ssim: f64,
+    flicker: f64,
+}
+
 /// Scores of one held-out camera.
 struct CameraResult {
     name: String,
-    /// (method, mean PSNR, mean SSIM).
-    scores: Vec<(Method, f64, f64)>,
+    /// The methods' scores in [`METHODS`] order, then the floor's.
+    scores: Vec<Score>,
+    /// The input camera the floor shows (the best ranked at the middle time step).
+    nearest: String,
     prep_secs: f64,
     ms_per_frame: f64,
     /// Mean points per time step of the package of the other cameras.
     points_per_step: f64,
 }
 
-/// The leave-one-out evaluation: writes `real.md` and one strip per camera into `options.out`.
+/// The leave-one-out evaluation: writes `real.md` and one strip per held-out camera into
+/// `options.out`.
 pub fn run(options: Options) -> anyhow::Result<()> {
-    let root = workspace_root().join("target/eval/real");
+    let captures = if options.capture.is_empty() { RealCapture::ALL.to_vec() } else { options.capture.clone() };
+    let work = workspace_root().join("target/eval/real");
+    for capture in captures {
+        let section = evaluate_capture(capture, &options, &work.join(capture.label()))?;
+        println!("\n{section}");
+        let path = section_path(&work, capture);
+        dynview_core::fsutil::write_atomic(&path, section.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+    }
+    let mut report = String::from("# Leave-one-camera-out on real captures\n\n");
+    report.push_str(
+        "For each camera left out, `dynview prep` runs on the others with their calibrated poses, and the left-out camera is \
+         rendered at each time step from that package and compared with its real frame. Its intrinsics, pose and reference frames \
+         come from a package prepared the same way from all cameras (same undistortion and size). PSNR and SSIM are averaged over \
+         the time steps, on the whole frame; flicker is the mean frame-to-frame change of the output where the real frame does not \
+         change, minus the real frame's own (x1000, lower is steadier). The floor is the nearest input camera's frame shown as is \
+         (ranked as the renderer ranks views): a rendering worse than it is worse than showing no synthesis at all.\n\n",
+    );
+    for capture in RealCapture::ALL {
+        let path = section_path(&work, capture);
+        match std::fs::read_to_string(&path) {
+            Ok(section) => report.push_str(&section),
+            Err(_) => {
+                let _ = writeln!(report, "## {}\n\nNot evaluated in this run (`--capture {}`).\n", capture.label(), capture.label());
+            }
+        }
+    }
+    std::fs::create_dir_all(&options.out)?;
+    let path = options.out.join("real.md");
+    dynview_core::fsutil::write_atomic(&path, report.as_bytes())?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+fn section_path(work: &Path, capture: RealCapture) -> PathBuf {
+    work.join(capture.label()).join("section.md")
+}
+
+/// Prepares the packages of `capture` in `root` and scores every held-out camera; returns the
+/// report's section and writes the strips.
+fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path) -> anyhow::Result<String> {
     let frames_dir = root.join(format!("frames{}", options.frames));
-    println!("==> first {} frames of the Pose2Sim videos into {}", options.frames, frames_dir.display());
-    extract_first_frames(&frames_dir, options.frames)?;
-    let cameras: Vec<String> = calibration()?.into_iter().map(|c| c.serial).collect();
+    println!("==> {}: first {} frames into {}", capture.label(), options.frames, frames_dir.display());
+    capture.write_frames(&frames_dir, options.frames)?;
+    let cameras = capture.cameras()?;
     let dynview = dynview_binary()?;
-    let width = ["--working-width".to_string(), WORKING_WIDTH_PX.to_string()];
+    let mut prep_args = vec!["--working-width".to_string(), capture.working_width_px().to_string()];
+    if options.no_static {
+        prep_args.push("--no-static".to_string());
+    }
 
     let all_poses = root.join("poses_all.json");
-    write_calibrated_poses(&all_poses, None)?;
+    capture.write_poses(&all_poses, None)?;
     let mut args = vec!["--poses".to_string(), all_poses.display().to_string()];
-    args.extend(width.iter().cloned());
+    args.extend(prep_args.iter().cloned());
     let reference_run = prep_once(&dynview, &frames_dir, &root.join(format!("all{}", options.frames)), &args, options.fresh)?;
     let reference = open(&reference_run)?;
 
     let mut results = Vec::new();
-    for held_out in &cameras {
-        let others: Vec<&str> = cameras.iter().filter(|c| *c != held_out).map(String::as_str).collect();
+    for held_out in capture.held_out()? {
+        let others: Vec<&str> = cameras.iter().filter(|c| **c != held_out).map(String::as_str).collect();
         let dir = root.join(format!("without_{held_out}_{}", options.frames));
         let input = dir.join("input");
         for camera in &others {
             copy_folder_once(&frames_dir.join(camera), &input.join(camera))?;
         }
         let poses = dir.join("poses.json");
-        write_calibrated_poses(&poses, Some(&others))?;
+        capture.write_poses(&poses, Some(&others))?;
         let mut args = vec!["--poses".to_string(), poses.display().to_string()];
-        args.extend(width.iter().cloned());
+        args.extend(prep_args.iter().cloned());
         let run = prep_once(&dynview, &input, &dir.join("out"), &args, options.fresh)?;
         let package = open(&run)?;
-        let (result, strip) = evaluate_camera(held_out, &reference, &package, &run)?;
-        write_strip(&options.out.join(format!("real_strip_{held_out}.png")), &strip)?;
+        let (result, strip) = evaluate_camera(&held_out, &reference, &package, &run)?;
+        write_strip(&options.out.join(strip_name(capture, &held_out)), &strip)?;
         results.push(result);
     }
     let reference_secs: f64 = stage_seconds(&reference_run.out)?.iter().map(|(_, s)| s).sum();
-    let report = markdown(&results, &options, &reference, reference_secs);
-    println!("\n{report}");
-    std::fs::create_dir_all(&options.out)?;
-    let path = options.out.join("real.md");
-    dynview_core::fsutil::write_atomic(&path, report.as_bytes())?;
-    println!("wrote {}", path.display());
-    Ok(())
+    Ok(markdown(capture, &results, options, &reference, reference_secs))
+}
+
+fn strip_name(capture: RealCapture, camera: &str) -> String {
+    format!("real_strip_{}_{camera}.png", capture.label())
 }
 
 fn open(run: &PrepRun) -> anyhow::Result<ScenePackage> {
@@ -120,11 +183,36 @@ fn copy_folder_once(from: &Path, to: &Path) -> anyhow::Result<()> {
     std::fs::rename(&partial, to).with_context(|| format!("cannot rename {} to {}", partial.display(), to.display()))
 }
 
-/// The three panels of a strip: real frame, rendered (full method), its depth.
-type Strip = [RgbRaster; 3];
+/// The panels of a strip: real frame, nearest input as is, blend, full method, its depth.
+type Strip = [RgbRaster; 5];
+
+/// Running sums of one way of showing the held-out camera.
+#[derive(Default)]
+struct Sums {
+    psnr_db: f64,
+    ssim: f64,
+    flicker: FlickerSum,
+    previous: Option<RgbRaster>,
+}
+
+impl Sums {
+    fn add(&mut self, shown: RgbRaster, truth: &RgbRaster, truth_before: Option<&RgbRaster>) {
+        self.psnr_db += psnr(&shown, truth);
+        self.ssim += ssim(&shown, truth);
+        if let (Some(before), Some(truth_before)) = (&self.previous, truth_before) {
+            self.flicker.add(before, &shown, truth_before, truth);
+        }
+        self.previous = Some(shown);
+    }
+
+    fn score(&self, label: &'static str, steps: u32) -> Score {
+        let n = f64::from(steps.max(1));
+        Score { label, psnr_db: self.psnr_db / n, ssim: self.ssim / n, flicker: self.flicker.value().unwrap_or(f64::NAN) }
+    }
+}
 
 /// Renders camera `held_out` of `reference` from `package` at every time step with each of
-/// [`METHODS`]; returns the scores and the middle frame's strip.
+/// [`METHODS`] and shows the nearest input as is; returns the scores and the middle frame's strip.
 fn evaluate_camera(
     held_out: &str,
     reference: &ScenePackage,
@@ -138,42 +226,66 @@ fn evaluate_camera(
         .position(|c| c.name == held_out)
         .with_context(|| format!("{}: no camera {held_out}", reference.root().display()))?;
     let steps = reference.time_step_count().min(package.time_step_count());
-    let levels = RenderParams::default().levels;
+    let defaults = RenderParams::default();
     let mut renderers: Vec<StreamingRenderer> = METHODS.iter().map(|_| StreamingRenderer::new()).collect();
-    let mut sums = vec![(0.0, 0.0); METHODS.len()];
+    let mut sums: Vec<Sums> = (0..=METHODS.len()).map(|_| Sums::default()).collect();
     let mut strip = None;
+    let mut nearest = String::new();
     let mut render_secs = 0.0;
+    let mut truth_before: Option<RgbRaster> = None;
     for t in 0..steps {
         let camera = reference.camera(k, t)?;
         let truth = reference.read_frame(k, t)?;
-        let inputs = package.time_step_inputs(t, levels)?;
+        let inputs = package.time_step_inputs(t, defaults.levels)?;
+        let mut shown = Vec::new();
         for (m, &method) in METHODS.iter().enumerate() {
-            let params = RenderParams { method, ..RenderParams::default() };
+            let params = RenderParams { method, ..defaults.clone() };
             let start = Instant::now();
             let out = renderers[m].render(&params, &camera, &inputs, &mut RenderHooks::default())?;
             if method == Method::Full {
                 render_secs += start.elapsed().as_secs_f64();
             }
-            sums[m].0 += psnr(&out.color, &truth);
-            sums[m].1 += ssim(&out.color, &truth);
-            if method == Method::Full && t == steps / 2 {
-                strip = Some([truth.clone(), out.color.clone(), depth_panel(&out.depth)]);
-            }
+            shown.push((out.color, out.depth));
         }
+        let input_poses: Vec<_> =
+            (0..package.camera_count()).map(|j| package.camera(j, t).map(|c| c.camera_from_world)).collect::<Result<_, _>>()?;
+        let j = rank_views(&camera.camera_from_world, &input_poses, f64::from(defaults.sigma), 1)
+            .first()
+            .copied()
+            .context("the package has no camera")?;
+        let floor = resized(package.read_frame(j, t)?, truth.width, truth.height);
+        if t == steps / 2 {
+            nearest.clone_from(&package.manifest().cameras[j].name);
+            let full = &shown[0];
+            let blend = &shown[METHODS.iter().position(|&m| m == Method::Blend).unwrap_or(0)].0;
+            strip = Some([truth.clone(), floor.clone(), blend.clone(), full.0.clone(), colorize_depth(&full.1)]);
+        }
+        for (m, (color, _)) in shown.into_iter().enumerate() {
+            sums[m].add(color, &truth, truth_before.as_ref());
+        }
+        sums[METHODS.len()].add(floor, &truth, truth_before.as_ref());
+        truth_before = Some(truth);
+    }
+    let mut scores: Vec<Score> = METHODS.iter().zip(&sums).map(|(m, s)| s.score(m.label(), steps)).collect();
+    scores.push(sums[METHODS.len()].score(FLOOR, steps));
+    for s in &scores {
+        println!("{held_out} held out, {}: PSNR {:.2} dB, SSIM {:.4}, flicker {:.2}", s.label, s.psnr_db, s.ssim, s.flicker * 1000.0);
     }
     let n = f64::from(steps.max(1));
-    let scores: Vec<(Method, f64, f64)> = METHODS.iter().zip(&sums).map(|(&m, (p, s))| (m, p / n, s / n)).collect();
-    for (m, p, s) in &scores {
-        println!("{held_out} held out, {}: PSNR {p:.2} dB, SSIM {s:.4}", m.label());
-    }
     let prep_secs = stage_seconds(&run.out)?.iter().map(|(_, s)| s).sum();
     let points_per_step = crate::prep_runs::cloud_point_counts(package).0 as f64 / n;
-    let result = CameraResult { name: held_out.to_string(), scores, prep_secs, ms_per_frame: render_secs * 1000.0 / n, points_per_step };
+    let result =
+        CameraResult { name: held_out.to_string(), scores, nearest, prep_secs, ms_per_frame: render_secs * 1000.0 / n, points_per_step };
     Ok((result, strip.context("no time step rendered")?))
 }
 
-fn depth_panel(depth: &ScalarRaster) -> RgbRaster {
-    colorize_depth(depth)
+/// `image` at `width x height` (bilinear), or as it is when it has that size.
+fn resized(image: RgbRaster, width: usize, height: usize) -> RgbRaster {
+    if (image.width, image.height) == (width, height) {
+        return image;
+    }
+    let small = image::imageops::resize(&image.to_rgb8(), width as u32, height as u32, image::imageops::FilterType::Triangle);
+    RgbRaster::from_rgb8(&small)
 }
 
 /// Writes the panels side by side, each downscaled until the PNG stays under
@@ -200,55 +312,55 @@ fn write_strip(path: &Path, panels: &Strip) -> anyhow::Result<()> {
     }
 }
 
-fn markdown(results: &[CameraResult], options: &Options, reference: &ScenePackage, reference_secs: f64) -> String {
+fn markdown(capture: RealCapture, results: &[CameraResult], options: &Options, reference: &ScenePackage, reference_secs: f64) -> String {
     let mut s = String::new();
     let size = reference.manifest().cameras.first().map_or((0, 0), |c| (c.width, c.height));
-    let _ = writeln!(s, "# Leave-one-camera-out on a real capture (Pose2Sim)\n");
+    let _ = writeln!(s, "## {}\n", capture.label());
     let _ = writeln!(
         s,
-        "Pose2Sim's multi-person lab capture (`../shared/data/pose2sim-multiperson`: 4 synchronized portrait cameras about 90 degrees \
-         apart, 1088x1920). For each camera k, `dynview prep` runs on the other three with the Qualisys calibration's poses \
-         (`--poses`, one per camera, distortion included) on the first {} frames (`--working-width {WORKING_WIDTH_PX}`: {}x{} frames), \
-         and camera k is rendered at each time step from that package. Camera k's intrinsics, pose and reference frames come from a \
-         package prepared the same way from all four cameras (same undistortion and size; {reference_secs:.0} s of prep). PSNR and SSIM \
-         are averaged over the time steps, on the whole frame.\n",
-        options.frames, size.0, size.1
+        "{} First {} frames, prepared at {}x{} (`--working-width {}`); the reference package of all cameras took {reference_secs:.0} s \
+         of prep.\n",
+        capture.description(),
+        options.frames,
+        size.0,
+        size.1,
+        capture.working_width_px()
     );
+    let labels: Vec<&str> = results.first().map(|r| r.scores.iter().map(|x| x.label).collect()).unwrap_or_default();
     let _ = writeln!(
         s,
-        "| held-out camera | (e) full PSNR (dB) | (e) full SSIM | (c) blend PSNR (dB) | (c) blend SSIM | points per step | prep of the other three (s) | (e) ms/frame |"
+        "| held-out camera | {} |",
+        labels.iter().map(|l| format!("{l} PSNR (dB) / SSIM / flicker")).collect::<Vec<_>>().join(" | ")
     );
-    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
-    let score = |r: &CameraResult, m: Method| r.scores.iter().find(|(x, _, _)| *x == m).map_or((f64::NAN, f64::NAN), |(_, p, q)| (*p, *q));
+    let _ = writeln!(s, "| --- |{}", " ---: |".repeat(labels.len()));
+    let cell = |x: &Score| format!("{:.2} / {:.4} / {:.2}", x.psnr_db, x.ssim, x.flicker * 1000.0);
     for r in results {
-        let (fp, fs) = score(r, Method::Full);
-        let (bp, bs) = score(r, Method::Blend);
-        let _ = writeln!(
-            s,
-            "| {} | {fp:.2} | {fs:.4} | {bp:.2} | {bs:.4} | {:.0} | {:.0} | {:.0} |",
-            r.name, r.points_per_step, r.prep_secs, r.ms_per_frame
-        );
+        let _ = writeln!(s, "| {} | {} |", r.name, r.scores.iter().map(cell).collect::<Vec<_>>().join(" | "));
     }
     let n = results.len().max(1) as f64;
-    let mean = |m: Method, i: usize| results.iter().map(|r| if i == 0 { score(r, m).0 } else { score(r, m).1 }).sum::<f64>() / n;
-    let _ = writeln!(
-        s,
-        "| **mean** | **{:.2}** | **{:.4}** | **{:.2}** | **{:.4}** | {:.0} | {:.0} | |",
-        mean(Method::Full, 0),
-        mean(Method::Full, 1),
-        mean(Method::Blend, 0),
-        mean(Method::Blend, 1),
-        results.iter().map(|r| r.points_per_step).sum::<f64>() / n,
-        results.iter().map(|r| r.prep_secs).sum::<f64>() / n
-    );
-    let _ = writeln!(s, "\nStrips (`real_strip_<camera>.png`, middle time step): real frame | rendered (e) | depth of (e).\n");
+    let means: Vec<String> = (0..labels.len())
+        .map(|i| {
+            let mean = |f: &dyn Fn(&Score) -> f64| results.iter().map(|r| f(&r.scores[i])).sum::<f64>() / n;
+            format!("**{:.2} / {:.4} / {:.2}**", mean(&|x| x.psnr_db), mean(&|x| x.ssim), mean(&|x| x.flicker * 1000.0))
+        })
+        .collect();
+    let _ = writeln!(s, "| **mean** | {} |", means.join(" | "));
+    let _ = writeln!(s, "\n| held-out camera | nearest input | points per step | prep of the others (s) | full ms/frame (CPU) |");
+    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: |");
     for r in results {
-        let _ = writeln!(s, "![{0}](real_strip_{0}.png)", r.name);
+        let _ = writeln!(s, "| {} | {} | {:.0} | {:.0} | {:.0} |", r.name, r.nearest, r.points_per_step, r.prep_secs, r.ms_per_frame);
+    }
+    let _ = writeln!(s, "\nStrips (middle time step): real frame | nearest input as is | blend | full | depth of full.\n");
+    for r in results {
+        let _ = writeln!(s, "![{}]({})", r.name, strip_name(capture, &r.name));
     }
     let _ = writeln!(
         s,
-        "\nReproduce: `cargo xtask eval --real [--frames {}]` (work in `target/eval/real/`; `--fresh` redoes the prep runs).",
-        options.frames
+        "\nReproduce: `cargo xtask eval --real --capture {} --frames {}` (work in `target/eval/real/{}/`; `--fresh` redoes the prep \
+         runs).\n",
+        capture.label(),
+        options.frames,
+        capture.label()
     );
     s
 }

@@ -17,7 +17,8 @@ enum Command {
     /// Quality of the renderer and its baselines on the synthetic event's held-out cameras,
     /// from the ground-truth package and through the full pipeline (`docs/results/eval.md`).
     Eval(eval::Options),
-    /// Leave-one-camera-out on the real Pose2Sim capture (`docs/results/real.md`).
+    /// Leave-one-camera-out on the real captures, Panoptic's arc and Pose2Sim's lab
+    /// (`docs/results/real.md`).
     EvalReal(eval_real::Options),
     /// Milliseconds per frame of the full method at 480x270, 960x540 and 1920x1080, per level
     /// and stage, on the CPU and on the GPU wgpu finds.

@@ -11,6 +11,7 @@ use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifes
 use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
 use crate::error::{SfmError, SfmResult};
+use crate::static_cloud::{CameraFrames, StaticCloud, StaticOptions, build_static_cloud, candidate_steps};
 use crate::timesteps::{SETTINGS_FILE, StepSettings, cloud_path, frame_path, is_step_done, read_cloud, resized_intrinsics, working_size};
 use crate::work::WorkDir;
 
@@ -35,6 +36,12 @@ pub struct ExportReport {
     pub points_outside_bounds: usize,
     /// Size of the package in bytes.
     pub bytes: u64,
+    /// Static points accumulated across time (`None` without the static cloud).
+    #[serde(default)]
+    pub static_points: Option<usize>,
+    /// Static points lent to the steps, summed over steps (each step's own points excluded).
+    #[serde(default)]
+    pub borrowed_points: usize,
     /// Problems worked around (cameras dropped, poses filled in).
     pub warnings: Vec<String>,
 }
@@ -90,8 +97,15 @@ fn open_source(root: &Path) -> SfmResult<Source> {
 
 /// Writes the scene package `scene_dir` (named `name`) from the prepared steps of `sources`
 /// (prep output folders of one event: equal `poses.json` and step settings, every time step
-/// prepared in at least one of them).
-pub fn export_package(sources: &[PathBuf], scene_dir: &Path, name: &str, progress: StageProgress) -> SfmResult<ExportReport> {
+/// prepared in at least one of them). With `statics`, static points accumulated across time
+/// ([`crate::static_cloud`]) are lent to every step where they agree with its frames.
+pub fn export_package(
+    sources: &[PathBuf],
+    scene_dir: &Path,
+    name: &str,
+    statics: Option<&StaticOptions>,
+    progress: StageProgress,
+) -> SfmResult<ExportReport> {
     let Some(first) = sources.first() else {
         return Err(SfmError::Input { path: scene_dir.to_path_buf(), problem: "no prep output folders to join".into() });
     };
@@ -134,8 +148,18 @@ pub fn export_package(sources: &[PathBuf], scene_dir: &Path, name: &str, progres
 
     let bounds = choose_bounds(&source_of, &event)?;
     let manifest = manifest(&event, settings, bounds, name);
+    let static_cloud = match statics {
+        Some(options) => Some(static_cloud(&source_of, &manifest, options, progress)?),
+        None => None,
+    };
     let mut writer = SceneWriter::create(scene_dir, manifest)?;
-    let mut report = ExportReport { time_steps: steps, cameras: event.cameras.len(), warnings, ..ExportReport::default() };
+    let mut report = ExportReport {
+        time_steps: steps,
+        cameras: event.cameras.len(),
+        warnings,
+        static_points: static_cloud.as_ref().map(|s| s.points.len()),
+        ..ExportReport::default()
+    };
     let (lo, hi) = (bounds.min.map(|v| v as f32), bounds.max.map(|v| v as f32));
     for (t, s) in source_of.iter().enumerate() {
         for (c, camera) in event.cameras.iter().enumerate() {
@@ -143,7 +167,13 @@ pub fn export_package(sources: &[PathBuf], scene_dir: &Path, name: &str, progres
             let bytes = std::fs::read(&path).map_err(SfmError::io(&path))?;
             writer.write_encoded_frame(c, t as u32, &bytes)?;
         }
-        let cloud = read_cloud(&cloud_path(&s.work, t))?;
+        let mut cloud = read_cloud(&cloud_path(&s.work, t))?;
+        if let Some(statics) = &static_cloud {
+            let borrowed = statics.borrowed(t);
+            report.borrowed_points += borrowed.len();
+            cloud.positions_world.extend(borrowed.positions_world);
+            cloud.colors.extend(borrowed.colors);
+        }
         let inside = |p: &[f32; 3]| (0..3).all(|i| p[i] >= lo[i] && p[i] <= hi[i]);
         let kept: Vec<usize> = (0..cloud.len()).filter(|&i| inside(&cloud.positions_world[i])).collect();
         report.points += kept.len();
@@ -157,6 +187,42 @@ pub fn export_package(sources: &[PathBuf], scene_dir: &Path, name: &str, progres
     writer.finish()?;
     report.bytes = dynview_core::scene::ScenePackage::open(scene_dir)?.size_on_disk()?;
     Ok(report)
+}
+
+/// The static cloud of the prepared steps, judged on the package's frames and cameras.
+fn static_cloud(source_of: &[&Source], manifest: &Manifest, options: &StaticOptions, progress: StageProgress) -> SfmResult<StaticCloud> {
+    let steps = source_of.len();
+    let mut cameras = Vec::with_capacity(manifest.cameras.len());
+    for (c, entry) in manifest.cameras.iter().enumerate() {
+        let mut frames = Vec::with_capacity(steps);
+        for (t, s) in source_of.iter().enumerate() {
+            let path = frame_path(&s.work, &entry.name, t);
+            let bytes = std::fs::read(&path).map_err(SfmError::io(&path))?;
+            let image = image::load_from_memory_with_format(&bytes, image::ImageFormat::Jpeg)
+                .map_err(|e| SfmError::WorkFile { path: path.clone(), problem: format!("cannot decode the frame: {e}") })?
+                .to_rgb8();
+            frames.push(image);
+        }
+        let cameras_at: Vec<dynview_core::Camera> = entry
+            .poses
+            .iter()
+            .map(|pose| dynview_core::Camera {
+                intrinsics: entry.intrinsics,
+                camera_from_world: pose.camera_from_world(),
+                width_px: entry.width,
+                height_px: entry.height,
+            })
+            .collect();
+        cameras.push(CameraFrames { cameras: cameras_at, frames });
+        progress("static cloud", c as u64 + 1, manifest.cameras.len() as u64 + 1);
+    }
+    let candidates = candidate_steps(steps, options.candidate_steps)
+        .into_iter()
+        .map(|t| Ok((t, read_cloud(&cloud_path(&source_of[t].work, t))?)))
+        .collect::<SfmResult<Vec<_>>>()?;
+    let statics = build_static_cloud(&cameras, &candidates, options);
+    progress("static cloud", manifest.cameras.len() as u64 + 1, manifest.cameras.len() as u64 + 1);
+    Ok(statics)
 }
 
 /// The quantisation box: per axis the [`BOUNDS_TAIL_FRACTION`] quantiles of every step's

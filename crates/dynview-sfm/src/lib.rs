@@ -12,7 +12,9 @@
 //! 4. [`timesteps`]: per time step, the frames matched across cameras only and triangulated with
 //!    the poses fixed ([`points`], METHOD.md step 3), PatchMatch stereo grows those points into
 //!    a denser cloud ([`densify`], step 4), frames reduced to the working size;
-//! 5. [`export`]: the scene package from the prepared steps of one run or of several range
+//! 5. [`static_cloud`]: static points accumulated across time, lent to the steps whose frames
+//!    agree with them;
+//! 6. [`export`]: the scene package from the prepared steps of one run or of several range
 //!    runs (`dynview merge`).
 //!
 //! Each stage's result is kept in the output's work folder ([`work`]), so a re-run skips what
@@ -34,6 +36,7 @@ pub mod pipeline;
 pub mod pnp;
 pub mod points;
 pub mod refine;
+pub mod static_cloud;
 pub mod timesteps;
 pub mod tracks;
 pub mod work;

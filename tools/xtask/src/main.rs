@@ -42,12 +42,12 @@ enum Task {
     /// Build the wasm package and serve the viewer with a scene package folder.
     Serve(demo::ServeArgs),
     /// Quality of the renderer and its baselines on the synthetic event (`dynview-eval eval`,
-    /// release build); with `--real`, leave-one-camera-out on the Pose2Sim capture
+    /// release build); with `--real`, leave-one-camera-out on the real captures (Panoptic, Pose2Sim)
     /// (`dynview-eval eval-real`). The arguments go to dynview-eval: `cargo xtask eval --help`
     /// and `cargo xtask eval --real --help` list them.
     #[command(disable_help_flag = true)]
     Eval {
-        /// Arguments for dynview-eval (`--real` picks the real capture).
+        /// Arguments for dynview-eval (`--real` picks the real captures).
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         args: Vec<OsString>,
     },

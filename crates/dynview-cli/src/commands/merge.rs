@@ -20,14 +20,19 @@ pub struct MergeArgs {
     /// The package's name (default: the --out folder's name).
     #[arg(long)]
     name: Option<String>,
+    /// Each time step keeps only its own points (no static points accumulated across time).
+    #[arg(long)]
+    no_static: bool,
 }
 
 /// Runs `dynview merge`.
 pub fn run_merge(args: MergeArgs) -> anyhow::Result<()> {
     let name = args.name.clone().unwrap_or_else(|| args.out.file_name().map_or("event".into(), |n| n.to_string_lossy().into_owned()));
     let bars = StageBars::new();
-    let result =
-        dynview_sfm::export::export_package(&args.outputs, &args.out, &name, &|stage, done, total| bars.update(stage, done, total));
+    let statics = (!args.no_static).then(dynview_sfm::static_cloud::StaticOptions::default);
+    let result = dynview_sfm::export::export_package(&args.outputs, &args.out, &name, statics.as_ref(), &|stage, done, total| {
+        bars.update(stage, done, total)
+    });
     bars.finish();
     let report = result.with_context(|| format!("dynview merge into {}", args.out.display()))?;
     for warning in &report.warnings {

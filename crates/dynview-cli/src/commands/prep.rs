@@ -75,6 +75,9 @@ pub struct Args {
     /// Keep only the triangulated points (no densification).
     #[arg(long)]
     no_densify: bool,
+    /// Each time step keeps only its own points (no static points accumulated across time).
+    #[arg(long)]
+    no_static: bool,
     /// Only time steps A..B (B excluded, from 0) after the pose stage, and no package: a range
     /// job of a scheduler array; `dynview merge` joins the ranges into the package.
     #[arg(long, value_name = "A..B", value_parser = parse_range)]
@@ -120,6 +123,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ..PrepOptions::default()
     };
     options.steps.working_width = args.working_width;
+    if args.no_static {
+        options.static_cloud = None;
+    }
     options.steps.densify = (!args.no_densify).then(|| DensifyOptions { target_points: args.target_points, ..DensifyOptions::default() });
     options.mapper.refine_distortion = args.refine_distortion;
     options.mapper.refine_principal_point = !args.centred_principal_point;
@@ -188,6 +194,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             package.points,
             package.bytes as f64 / 1e6
         );
+        if let Some(statics) = package.static_points {
+            println!(
+                "static cloud: {statics} points, {:.0} lent to each time step on average",
+                package.borrowed_points as f64 / package.time_steps.max(1) as f64
+            );
+        }
     } else if report.steps.is_some() {
         println!("time steps written to {}; join ranges with `dynview merge`", args.out.join("work/steps").display());
     }

@@ -1,0 +1,94 @@
+//! The real captures of `../shared/data` that `eval-real` judges the renderer on, each as
+//! `dynview prep` input: image folders of its first frames, and calibrated poses for any subset of
+//! its cameras.
+
+use std::path::Path;
+
+use anyhow::Context;
+
+use crate::{panoptic, pose2sim};
+
+/// A real capture of `../shared/data`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum RealCapture {
+    /// Panoptic's basketball arc: 8 cameras on an arc, neighbours 5-25 degrees apart (the
+    /// paper's regime); cam11, cam08 and cam27 are left out in turn.
+    Panoptic,
+    /// Pose2Sim's lab capture: 4 portrait cameras about 90 degrees apart (the hard,
+    /// wide-baseline case); every camera is left out in turn.
+    Pose2sim,
+}
+
+impl RealCapture {
+    /// Every capture, in report order.
+    pub const ALL: [RealCapture; 2] = [RealCapture::Panoptic, RealCapture::Pose2sim];
+
+    /// Short name for folders, files and the command line.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Panoptic => "panoptic",
+            Self::Pose2sim => "pose2sim",
+        }
+    }
+
+    /// One paragraph on what the capture is, for the report.
+    pub fn description(self) -> &'static str {
+        match self {
+            Self::Panoptic => {
+                "CMU Panoptic's basketball sequence as Dynamic 3D Gaussians prepared it (`../shared/data/panoptic-basketball-arc`): \
+                 8 calibrated cameras on an arc of about 120 degrees, neighbours 5-25 degrees apart, 640x360, two people passing a ball. \
+                 Each interior camera (cam11, cam08, cam27) is left out in turn; the other seven are prepared with their calibration."
+            }
+            Self::Pose2sim => {
+                "Pose2Sim's multi-person lab capture (`../shared/data/pose2sim-multiperson`): 4 synchronized portrait cameras about 90 \
+                 degrees apart, 1088x1920, people on a treadmill. Every camera is left out in turn; the other three are prepared with \
+                 the Qualisys calibration (distortion included)."
+            }
+        }
+    }
+
+    /// Every camera's name.
+    pub fn cameras(self) -> anyhow::Result<Vec<String>> {
+        Ok(match self {
+            Self::Panoptic => panoptic::calibration(None)?.cameras.into_iter().map(|c| c.name).collect(),
+            Self::Pose2sim => pose2sim::calibration()?.into_iter().map(|c| c.serial).collect(),
+        })
+    }
+
+    /// The cameras left out in turn.
+    pub fn held_out(self) -> anyhow::Result<Vec<String>> {
+        Ok(match self {
+            Self::Panoptic => panoptic::HELD_OUT.iter().map(|c| c.to_string()).collect(),
+            Self::Pose2sim => self.cameras()?,
+        })
+    }
+
+    /// The width prep works at (`--working-width`).
+    pub fn working_width_px(self) -> u32 {
+        match self {
+            Self::Panoptic => 640,
+            Self::Pose2sim => pose2sim::WORKING_WIDTH_PX,
+        }
+    }
+
+    /// Puts the first `frames` frames of every camera into `out/<camera>/` (kept when there).
+    pub fn write_frames(self, out: &Path, frames: u32) -> anyhow::Result<()> {
+        match self {
+            Self::Panoptic => panoptic::copy_first_frames(out, frames),
+            Self::Pose2sim => pose2sim::extract_first_frames(out, frames),
+        }
+    }
+
+    /// Writes the calibrated poses of the cameras in `keep` (all when `None`) as `poses.json`.
+    pub fn write_poses(self, path: &Path, keep: Option<&[&str]>) -> anyhow::Result<()> {
+        match self {
+            Self::Panoptic => {
+                if let Some(parent) = path.parent() {
+                    std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
+                }
+                panoptic::calibration(keep)?.write(path).with_context(|| format!("writing {}", path.display()))
+            }
+            Self::Pose2sim => pose2sim::write_calibrated_poses(path, keep),
+        }
+    }
+}

@@ -1,0 +1,365 @@
+//! Static surfaces accumulated across time (issue 15). The paper never matches points through
+//! time, but the static part of a scene is the same at every time step, and each step finds
+//! its points on different parts of it. Candidates are the points of some of the steps; a
+//! candidate is static when, in the cameras that saw it at its own step, the frames show the
+//! same color where it projects at (nearly) every other step. The static points, one per voxel,
+//! are then lent to every step where they agree with that step's frames: a borrowed point that
+//! disagrees at `t` (something moved in front of it, in most of its cameras) is left out at `t`.
+//!
+//! Colors are compared within one camera across time (never across cameras), so exposure and
+//! white balance that differ between cameras do not matter; a camera may move (its pose per
+//! step is used).
+
+use std::collections::{HashMap, HashSet};
+
+use dynview_core::Camera;
+use dynview_core::scene::PointCloud;
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// How the static cloud is built.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct StaticOptions {
+    /// Steps whose points are candidates, at most (spread evenly over the event).
+    pub candidate_steps: usize,
+    /// Mean absolute RGB difference (colors in `[0, 1]`) below which two samples of one camera
+    /// agree.
+    pub color_tolerance: f32,
+    /// Largest mean absolute RGB difference between a candidate's color and a camera's frame at
+    /// its own step for that camera to count as seeing it.
+    pub seen_tolerance: f32,
+    /// Share of (step, camera) samples that must agree for a candidate to be static.
+    pub min_static_share: f32,
+    /// Voxel edge in pixels of the first camera at the static points' median depth: the static
+    /// candidates of one voxel become one point (their mean position).
+    pub voxel_px: f64,
+    /// Candidate steps that must have found a static candidate in a voxel for it to count: a
+    /// surface found again and again is where it seems, a stray point of one step is not.
+    pub min_support_steps: usize,
+}
+
+impl Default for StaticOptions {
+    fn default() -> Self {
+        Self {
+            candidate_steps: 12,
+            color_tolerance: 0.06,
+            seen_tolerance: 0.15,
+            min_static_share: 0.8,
+            voxel_px: 2.0,
+            min_support_steps: 3,
+        }
+    }
+}
+
+/// One camera of the event: its pose and frame at every step.
+pub struct CameraFrames {
+    /// The camera at each step (working size).
+    pub cameras: Vec<Camera>,
+    /// Its frame at each step (working size).
+    pub frames: Vec<image::RgbImage>,
+}
+
+/// A static cloud and, per step, which of its points agree with the step's frames.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StaticCloud {
+    /// The static points, one per voxel.
+    pub points: PointCloud,
+    /// The step each static point was found at.
+    pub origin_step: Vec<u32>,
+    /// Per step, the indices of the static points that agree with its frames.
+    pub active: Vec<Vec<u32>>,
+    /// Candidates examined.
+    pub candidates: usize,
+}
+
+impl StaticCloud {
+    /// The points lent to step `t`: the active static points not found at `t` itself (its own
+    /// cloud has those).
+    pub fn borrowed(&self, t: usize) -> PointCloud {
+        let mut out = PointCloud::default();
+        for &i in self.active.get(t).map(Vec::as_slice).unwrap_or_default() {
+            let i = i as usize;
+            if self.origin_step[i] as usize != t {
+                out.positions_world.push(self.points.positions_world[i]);
+                out.colors.push(self.points.colors[i]);
+            }
+        }
+        out
+    }
+}
+
+/// The steps whose points are candidates: at most `n`, spread evenly over `steps`.
+pub fn candidate_steps(steps: usize, n: usize) -> Vec<usize> {
+    if steps == 0 || n == 0 {
+        return Vec::new();
+    }
+    let n = n.min(steps);
+    (0..n).map(|k| (k * steps + steps / 2) / n).collect()
+}
+
+/// Bilinear sample of `image` at `pixel` (pixel centres at integers), in `[0, 1]`; `None`
+/// outside the image.
+fn sample(image: &image::RgbImage, x: f64, y: f64) -> Option<[f32; 3]> {
+    let (w, h) = (f64::from(image.width()), f64::from(image.height()));
+    if !(x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0) {
+        return None;
+    }
+    let (x0, y0) = (x.floor() as u32, y.floor() as u32);
+    let (x1, y1) = ((x0 + 1).min(image.width() - 1), (y0 + 1).min(image.height() - 1));
+    let (fx, fy) = ((x - f64::from(x0)) as f32, (y - f64::from(y0)) as f32);
+    let (a, b, c, d) = (image.get_pixel(x0, y0), image.get_pixel(x1, y0), image.get_pixel(x0, y1), image.get_pixel(x1, y1));
+    let mut out = [0.0; 3];
+    for k in 0..3 {
+        let top = f32::from(a[k]) + (f32::from(b[k]) - f32::from(a[k])) * fx;
+        let bottom = f32::from(c[k]) + (f32::from(d[k]) - f32::from(c[k])) * fx;
+        out[k] = (top + (bottom - top) * fy) / 255.0;
+    }
+    Some(out)
+}
+
+fn difference(a: [f32; 3], b: [f32; 3]) -> f32 {
+    ((a[0] - b[0]).abs() + (a[1] - b[1]).abs() + (a[2] - b[2]).abs()) / 3.0
+}
+
+/// What one camera says about every candidate.
+struct CameraVotes {
+    /// Per candidate: whether the camera saw it at its own step.
+    seen: Vec<bool>,
+    /// Per candidate and step (`candidate * steps + t`): whether the camera's frame at `t`
+    /// shows the color it showed at the candidate's own step (false when not seen).
+    agrees: Vec<bool>,
+}
+
+fn camera_votes(camera: &CameraFrames, candidates: &PointCloud, origin: &[u32], options: &StaticOptions) -> CameraVotes {
+    let steps = camera.frames.len();
+    let n = candidates.len();
+    let mut seen = vec![false; n];
+    let mut agrees = vec![false; n * steps];
+    for i in 0..n {
+        let p = candidates.positions_world[i];
+        let point = DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
+        let at = |t: usize| {
+            let (pixel, _) = camera.cameras[t].project_world(point)?;
+            sample(&camera.frames[t], pixel.x, pixel.y)
+        };
+        let s = origin[i] as usize;
+        let Some(own) = at(s) else { continue };
+        let color = candidates.colors[i].map(|v| f32::from(v) / 255.0);
+        if difference(own, color) > options.seen_tolerance {
+            continue;
+        }
+        seen[i] = true;
+        for t in 0..steps {
+            agrees[i * steps + t] = at(t).is_some_and(|c| difference(c, own) <= options.color_tolerance);
+        }
+    }
+    CameraVotes { seen, agrees }
+}
+
+/// A static candidate: its index, the cameras that saw it, per step how many of them agree,
+/// and its share of agreeing samples.
+struct Static {
+    index: usize,
+    seen: usize,
+    agreeing: Vec<usize>,
+    share: f32,
+}
+
+/// Builds the static cloud of an event from the clouds of its `candidate` steps
+/// (`(step, cloud)`) and every camera's frames.
+pub fn build_static_cloud(cameras: &[CameraFrames], candidates: &[(usize, PointCloud)], options: &StaticOptions) -> StaticCloud {
+    let steps = cameras.first().map_or(0, |c| c.frames.len());
+    let mut all = PointCloud::default();
+    let mut origin = Vec::new();
+    for (t, cloud) in candidates {
+        all.positions_world.extend_from_slice(&cloud.positions_world);
+        all.colors.extend_from_slice(&cloud.colors);
+        origin.extend(std::iter::repeat_n(*t as u32, cloud.len()));
+    }
+    let votes: Vec<CameraVotes> = cameras.par_iter().map(|c| camera_votes(c, &all, &origin, options)).collect();
+    let n = all.len();
+    let mut statics = Vec::new();
+    for index in 0..n {
+        let seen = votes.iter().filter(|v| v.seen[index]).count();
+        if seen < 2 {
+            continue;
+        }
+        let agreeing: Vec<usize> = (0..steps).map(|t| votes.iter().filter(|v| v.agrees[index * steps + t]).count()).collect();
+        let share = agreeing.iter().sum::<usize>() as f32 / (seen * steps) as f32;
+        if share >= options.min_static_share {
+            statics.push(Static { index, seen, agreeing, share });
+        }
+    }
+    let mut out = StaticCloud { candidates: n, active: vec![Vec::new(); steps], ..StaticCloud::default() };
+    for voxel in voxels(cameras, &all, &statics, options.voxel_px) {
+        let support: HashSet<u32> = voxel.iter().map(|&k| origin[statics[k].index]).collect();
+        if support.len() < options.min_support_steps {
+            continue;
+        }
+        // The voxel's point: its candidates' mean position, the most static one's color and
+        // votes.
+        let mean = voxel.iter().map(|&k| point(&all, statics[k].index)).sum::<DVec3>() / voxel.len() as f64;
+        let Some(&best) = voxel.iter().max_by(|&&a, &&b| statics[a].share.total_cmp(&statics[b].share)) else { continue };
+        let best = &statics[best];
+        let k = out.points.len() as u32;
+        out.points.positions_world.push([mean.x as f32, mean.y as f32, mean.z as f32]);
+        out.points.colors.push(all.colors[best.index]);
+        out.origin_step.push(origin[best.index]);
+        for (t, &a) in best.agreeing.iter().enumerate() {
+            // Most of the cameras that saw it, and at least two, still see it at t.
+            if a >= 2 && 3 * a >= 2 * best.seen {
+                out.active[t].push(k);
+            }
+        }
+    }
+    out
+}
+
+fn point(cloud: &PointCloud, i: usize) -> DVec3 {
+    let p = cloud.positions_world[i];
+    DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))
+}
+
+/// The static candidates grouped by voxel (indices into `statics`, groups in the order of
+/// their first candidate), the voxel edge being `voxel_px` pixels of the first camera's first
+/// view at the candidates' median depth.
+fn voxels(cameras: &[CameraFrames], all: &PointCloud, statics: &[Static], voxel_px: f64) -> Vec<Vec<usize>> {
+    let Some(camera) = cameras.first().and_then(|c| c.cameras.first()) else {
+        return Vec::new();
+    };
+    let mut depths: Vec<f64> = statics.iter().map(|s| camera.camera_from_world.transform_point(point(all, s.index)).z.abs()).collect();
+    depths.sort_by(f64::total_cmp);
+    let median = depths.get(depths.len() / 2).copied().unwrap_or(1.0);
+    let edge = (median * voxel_px / camera.intrinsics.fx.max(1e-9)).max(1e-9);
+    let mut groups: HashMap<glam::IVec3, Vec<usize>> = HashMap::new();
+    for (k, s) in statics.iter().enumerate() {
+        groups.entry((point(all, s.index) / edge).floor().as_ivec3()).or_default().push(k);
+    }
+    let mut out: Vec<Vec<usize>> = groups.into_values().collect();
+    out.sort_by_key(|g| g[0]);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dynview_core::{Intrinsics, Rigid3};
+    use glam::{DMat3, DVec2};
+
+    const STEPS: usize = 6;
+    const OCCLUDED_STEP: usize = 3;
+    /// A static point on the wall that something dark passes in front of at [`OCCLUDED_STEP`].
+    const WALL_POINT: [f32; 3] = [0.0, 0.0, 5.0];
+    /// A point on a red thing that is only there at step 0.
+    const PASSING_POINT: [f32; 3] = [0.1, 0.4, 3.0];
+
+    fn camera(x_m: f64) -> Camera {
+        Camera {
+            intrinsics: Intrinsics { fx: 50.0, fy: 50.0, cx: 31.5, cy: 23.5 },
+            camera_from_world: Rigid3::new(DMat3::IDENTITY, DVec3::new(-x_m, 0.0, 0.0)),
+            width_px: 64,
+            height_px: 48,
+        }
+    }
+
+    /// The wall's color at a world point of the plane z = 5.
+    fn wall_color(p: DVec3) -> [u8; 3] {
+        let f = |v: f64| (255.0 * v).round() as u8;
+        [f(0.5 + 0.4 * (3.0 * p.x).sin()), f(0.5 + 0.4 * (2.0 * p.y).cos()), 128]
+    }
+
+    fn near(camera: &Camera, point: [f32; 3], pixel: DVec2, radius_px: f64) -> bool {
+        let p = DVec3::new(f64::from(point[0]), f64::from(point[1]), f64::from(point[2]));
+        camera.project_world(p).is_some_and(|(q, _)| q.distance(pixel) <= radius_px)
+    }
+
+    fn event() -> Vec<CameraFrames> {
+        [-0.5, 0.0, 0.5]
+            .into_iter()
+            .map(|x| {
+                let camera = camera(x);
+                let frames = (0..STEPS)
+                    .map(|t| {
+                        image::RgbImage::from_fn(64, 48, |u, v| {
+                            let pixel = DVec2::new(f64::from(u), f64::from(v));
+                            if t == OCCLUDED_STEP && near(&camera, WALL_POINT, pixel, 4.0) {
+                                return image::Rgb([10, 10, 10]);
+                            }
+                            if t == 0 && near(&camera, PASSING_POINT, pixel, 4.0) {
+                                return image::Rgb([230, 20, 20]);
+                            }
+                            image::Rgb(wall_color(camera.unproject_world(pixel, 5.0)))
+                        })
+                    })
+                    .collect();
+                CameraFrames { cameras: vec![camera; STEPS], frames }
+            })
+            .collect()
+    }
+
+    fn cloud(points: &[[f32; 3]], colors: &[[u8; 3]]) -> PointCloud {
+        PointCloud { positions_world: points.to_vec(), colors: colors.to_vec() }
+    }
+
+    fn wall(x: f32, y: f32) -> ([f32; 3], [u8; 3]) {
+        let p = [x, y, 5.0];
+        (p, wall_color(DVec3::new(f64::from(x), f64::from(y), 5.0)))
+    }
+
+    #[test]
+    fn static_points_found_again_are_kept_once_and_lent_only_where_the_frames_agree() {
+        let (q, q_color) = wall(WALL_POINT[0], WALL_POINT[1]);
+        let (a, a_color) = wall(-1.0, 0.6);
+        let (b, b_color) = wall(0.8, -0.5);
+        // A wall point found at one step only: not supported.
+        let (stray, stray_color) = wall(-0.6, -0.8);
+        let candidates = vec![
+            (0, cloud(&[q, a, PASSING_POINT], &[q_color, a_color, [230, 20, 20]])),
+            (2, cloud(&[q, b], &[q_color, b_color])),
+            (4, cloud(&[a, b, stray], &[a_color, b_color, stray_color])),
+        ];
+        let options = StaticOptions { min_support_steps: 2, ..StaticOptions::default() };
+        let statics = build_static_cloud(&event(), &candidates, &options);
+        assert_eq!(statics.candidates, 8);
+        // The three wall points found twice, each once; neither the passing red thing nor the
+        // stray point.
+        let mut found = statics.points.positions_world.clone();
+        found.sort_by(|x, y| x[0].total_cmp(&y[0]));
+        assert_eq!(found, vec![a, q, b]);
+        let q_index = statics.points.positions_world.iter().position(|p| *p == q).expect("the wall point") as u32;
+        for t in 0..STEPS {
+            let active = statics.active[t].contains(&q_index);
+            assert_eq!(active, t != OCCLUDED_STEP, "step {t}: the wall point is lent exactly where nothing covers it");
+            // A step's own points are not lent back to it.
+            let own = statics.active[t].iter().filter(|&&i| statics.origin_step[i as usize] as usize == t).count();
+            assert_eq!(statics.borrowed(t).len(), statics.active[t].len() - own);
+        }
+        assert_eq!(statics.borrowed(1).len(), 3);
+        assert_eq!(statics.borrowed(OCCLUDED_STEP).len(), 2);
+        // With the default support (three steps) none of them is kept.
+        assert!(build_static_cloud(&event(), &candidates, &StaticOptions::default()).points.is_empty());
+    }
+
+    #[test]
+    fn a_point_seen_by_one_camera_only_is_not_static() {
+        // Far to the side: inside the rightmost camera's image only.
+        let (p, color) = wall(3.5, 0.0);
+        let visible: Vec<bool> = [-0.5, 0.0, 0.5]
+            .iter()
+            .map(|&x| camera(x).project_world(DVec3::new(3.5, 0.0, 5.0)).is_some_and(|(q, _)| camera(x).contains(q)))
+            .collect();
+        assert_eq!(visible, [false, false, true]);
+        let statics = build_static_cloud(&event(), &[(0, cloud(&[p], &[color]))], &StaticOptions::default());
+        assert!(statics.points.is_empty());
+    }
+
+    #[test]
+    fn candidate_steps_are_spread_over_the_event() {
+        assert_eq!(candidate_steps(100, 4), vec![12, 37, 62, 87]);
+        assert_eq!(candidate_steps(3, 12), vec![0, 1, 2]);
+        assert!(candidate_steps(0, 12).is_empty());
+        assert!(candidate_steps(5, 0).is_empty());
+    }
+}
