@@ -21,6 +21,7 @@ use dynview_core::scene::ScenePackage;
 use dynview_core::view_ranking::rank_views;
 
 use crate::paths::{results_dir, workspace_root};
+use crate::plane_view::plane_view;
 use crate::prep_runs::{PrepRun, prep_once, stage_seconds};
 use crate::real_captures::RealCapture;
 use crate::sfm_runners::dynview_binary;
@@ -31,6 +32,8 @@ const DEFAULT_FRAMES: u32 = 20;
 const METHODS: [Method; 4] = [Method::Full, Method::NoTemporal, Method::Blend, Method::BestView];
 /// The floor's label: the nearest input camera's frame shown as is.
 const FLOOR: &str = "nearest input as is";
+/// The experimental fallback's label ([`crate::plane_view`]).
+const PLANE_VIEW: &str = "plane view";
 /// Largest strip PNG wanted, bytes.
 const STRIP_MAX_BYTES: usize = 600_000;
 /// Width of one strip panel to start from, pixels (shrunk until the PNG fits).
@@ -49,9 +52,10 @@ pub struct Options {
     /// Redo the prep runs even when their packages exist.
     #[arg(long)]
     pub fresh: bool,
-    /// Prepare without the static cloud (`dynview prep --no-static`), for comparison.
-    #[arg(long)]
-    pub no_static: bool,
+    /// An extra argument for every `dynview prep` run (repeatable; e.g. `--prep-arg=--no-static`
+    /// to compare). The runs then work in a folder of their own, named after the arguments.
+    #[arg(long = "prep-arg", allow_hyphen_values = true)]
+    pub prep_args: Vec<String>,
     /// Folder of the written results.
     #[arg(long, default_value_os_t = results_dir())]
     pub out: PathBuf,
@@ -68,7 +72,7 @@ struct Score {
 /// Scores of one held-out camera.
 struct CameraResult {
     name: String,
-    /// The methods' scores in [`METHODS`] order, then the floor's.
+    /// The methods' scores in [`METHODS`] order, then the plane view's and the floor's.
     scores: Vec<Score>,
     /// The input camera the floor shows (the best ranked at the middle time step).
     nearest: String,
@@ -82,7 +86,7 @@ struct CameraResult {
 /// `options.out`.
 pub fn run(options: Options) -> anyhow::Result<()> {
     let captures = if options.capture.is_empty() { RealCapture::ALL.to_vec() } else { options.capture.clone() };
-    let work = workspace_root().join("target/eval/real");
+    let work = workspace_root().join(work_folder(&options.prep_args));
     for capture in captures {
         let section = evaluate_capture(capture, &options, &work.join(capture.label()))?;
         println!("\n{section}");
@@ -96,7 +100,9 @@ pub fn run(options: Options) -> anyhow::Result<()> {
          come from a package prepared the same way from all cameras (same undistortion and size). PSNR and SSIM are averaged over \
          the time steps, on the whole frame; flicker is the mean frame-to-frame change of the output where the real frame does not \
          change, minus the real frame's own (x1000, lower is steadier). The floor is the nearest input camera's frame shown as is \
-         (ranked as the renderer ranks views): a rendering worse than it is worse than showing no synthesis at all.\n\n",
+         (ranked as the renderer ranks views): a rendering worse than it is worse than showing no synthesis at all. The plane view \
+         is an experiment, not in the renderer: that same input warped with one plane fitted to the sparse depth. What the \
+         figures show, and what was tried: [real_findings.md](real_findings.md).\n\n",
     );
     for capture in RealCapture::ALL {
         let path = section_path(&work, capture);
@@ -114,6 +120,17 @@ pub fn run(options: Options) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The work folder under the workspace: `target/eval/real`, or one named after the extra prep
+/// arguments (so that runs with different arguments keep their own prepared steps).
+fn work_folder(prep_args: &[String]) -> String {
+    let mut folder = String::from("target/eval/real");
+    for arg in prep_args {
+        folder.push('+');
+        folder.extend(arg.trim_start_matches('-').chars().map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' }));
+    }
+    folder
+}
+
 fn section_path(work: &Path, capture: RealCapture) -> PathBuf {
     work.join(capture.label()).join("section.md")
 }
@@ -127,9 +144,7 @@ fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path) -> any
     let cameras = capture.cameras()?;
     let dynview = dynview_binary()?;
     let mut prep_args = vec!["--working-width".to_string(), capture.working_width_px().to_string()];
-    if options.no_static {
-        prep_args.push("--no-static".to_string());
-    }
+    prep_args.extend(options.prep_args.iter().cloned());
 
     let all_poses = root.join("poses_all.json");
     capture.write_poses(&all_poses, None)?;
@@ -228,7 +243,8 @@ fn evaluate_camera(
     let steps = reference.time_step_count().min(package.time_step_count());
     let defaults = RenderParams::default();
     let mut renderers: Vec<StreamingRenderer> = METHODS.iter().map(|_| StreamingRenderer::new()).collect();
-    let mut sums: Vec<Sums> = (0..=METHODS.len()).map(|_| Sums::default()).collect();
+    // The methods', the plane view's, then the floor's.
+    let mut sums: Vec<Sums> = (0..METHODS.len() + 2).map(|_| Sums::default()).collect();
     let mut strip = None;
     let mut nearest = String::new();
     let mut render_secs = 0.0;
@@ -253,7 +269,14 @@ fn evaluate_camera(
             .first()
             .copied()
             .context("the package has no camera")?;
-        let floor = resized(package.read_frame(j, t)?, truth.width, truth.height);
+        let nearest_frame = package.read_frame(j, t)?;
+        let plane = plane_view(
+            &camera,
+            &package.read_cloud(t)?,
+            &package.camera(j, t)?.resized(camera.width_px, camera.height_px),
+            &resized(nearest_frame.clone(), camera.width_px as usize, camera.height_px as usize),
+        );
+        let floor = resized(nearest_frame, truth.width, truth.height);
         if t == steps / 2 {
             nearest.clone_from(&package.manifest().cameras[j].name);
             let full = &shown[0];
@@ -263,11 +286,13 @@ fn evaluate_camera(
         for (m, (color, _)) in shown.into_iter().enumerate() {
             sums[m].add(color, &truth, truth_before.as_ref());
         }
-        sums[METHODS.len()].add(floor, &truth, truth_before.as_ref());
+        sums[METHODS.len()].add(plane.unwrap_or_else(|| floor.clone()), &truth, truth_before.as_ref());
+        sums[METHODS.len() + 1].add(floor, &truth, truth_before.as_ref());
         truth_before = Some(truth);
     }
     let mut scores: Vec<Score> = METHODS.iter().zip(&sums).map(|(m, s)| s.score(m.label(), steps)).collect();
-    scores.push(sums[METHODS.len()].score(FLOOR, steps));
+    scores.push(sums[METHODS.len()].score(PLANE_VIEW, steps));
+    scores.push(sums[METHODS.len() + 1].score(FLOOR, steps));
     for s in &scores {
         println!("{held_out} held out, {}: PSNR {:.2} dB, SSIM {:.4}, flicker {:.2}", s.label, s.psnr_db, s.ssim, s.flicker * 1000.0);
     }
@@ -345,22 +370,41 @@ fn markdown(capture: RealCapture, results: &[CameraResult], options: &Options, r
         })
         .collect();
     let _ = writeln!(s, "| **mean** | {} |", means.join(" | "));
-    let _ = writeln!(s, "\n| held-out camera | nearest input | points per step | prep of the others (s) | full ms/frame (CPU) |");
+    let _ = writeln!(s, "\n| held-out camera | nearest input | points per step | last prep run (s) | full ms/frame (CPU) |");
     let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: |");
     for r in results {
         let _ = writeln!(s, "| {} | {} | {:.0} | {:.0} | {:.0} |", r.name, r.nearest, r.points_per_step, r.prep_secs, r.ms_per_frame);
     }
-    let _ = writeln!(s, "\nStrips (middle time step): real frame | nearest input as is | blend | full | depth of full.\n");
+    let _ = writeln!(
+        s,
+        "\nPoints per step include the static points lent to the step. The last prep run is the one that wrote the package; one \
+         that reused the prepared steps of an earlier run counts only what it redid (`--fresh` times whole runs).\n\n\
+         Strips (middle time step): real frame | nearest input as is | blend | full | depth of full.\n"
+    );
     for r in results {
         let _ = writeln!(s, "![{}]({})", r.name, strip_name(capture, &r.name));
     }
     let _ = writeln!(
         s,
-        "\nReproduce: `cargo xtask eval --real --capture {} --frames {}` (work in `target/eval/real/{}/`; `--fresh` redoes the prep \
-         runs).\n",
+        "\nReproduce: `cargo xtask eval --real --capture {} --frames {}{}` (work in `{}/{}/`; `--fresh` redoes the prep runs).\n",
         capture.label(),
         options.frames,
+        options.prep_args.iter().map(|a| format!(" --prep-arg={a}")).collect::<String>(),
+        work_folder(&options.prep_args),
         capture.label()
     );
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn extra_prep_arguments_get_a_work_folder_of_their_own() {
+        assert_eq!(work_folder(&[]), "target/eval/real");
+        let args = ["--no-static".to_string(), "--target-points".to_string(), "4000".to_string()];
+        assert_eq!(work_folder(&args), "target/eval/real+no_static+target_points+4000");
+        assert_eq!(work_folder(&["../x y".to_string()]), "target/eval/real+.._x_y");
+    }
 }

@@ -24,6 +24,7 @@ pub mod eval_pipeline;
 pub mod eval_real;
 pub mod panoptic;
 pub mod paths;
+pub mod plane_view;
 pub mod pose2sim;
 pub mod prep_runs;
 pub mod real_captures;

@@ -66,8 +66,6 @@ pub struct CameraFrames {
 pub struct StaticCloud {
     /// The static points, one per voxel.
     pub points: PointCloud,
-    /// The step each static point was found at.
-    pub origin_step: Vec<u32>,
     /// Per step, the indices of the static points that agree with its frames.
     pub active: Vec<Vec<u32>>,
     /// Candidates examined.
@@ -75,16 +73,14 @@ pub struct StaticCloud {
 }
 
 impl StaticCloud {
-    /// The points lent to step `t`: the active static points not found at `t` itself (its own
-    /// cloud has those).
+    /// The points lent to step `t`: the static points active there. Where the step found a
+    /// point of its own in a static point's voxel, both are kept (the static one is the mean
+    /// of several steps' points, so a z-test between them changes nothing that matters).
     pub fn borrowed(&self, t: usize) -> PointCloud {
         let mut out = PointCloud::default();
         for &i in self.active.get(t).map(Vec::as_slice).unwrap_or_default() {
-            let i = i as usize;
-            if self.origin_step[i] as usize != t {
-                out.positions_world.push(self.points.positions_world[i]);
-                out.colors.push(self.points.colors[i]);
-            }
+            out.positions_world.push(self.points.positions_world[i as usize]);
+            out.colors.push(self.points.colors[i as usize]);
         }
         out
     }
@@ -206,7 +202,6 @@ pub fn build_static_cloud(cameras: &[CameraFrames], candidates: &[(usize, PointC
         let k = out.points.len() as u32;
         out.points.positions_world.push([mean.x as f32, mean.y as f32, mean.z as f32]);
         out.points.colors.push(all.colors[best.index]);
-        out.origin_step.push(origin[best.index]);
         for (t, &a) in best.agreeing.iter().enumerate() {
             // Most of the cameras that saw it, and at least two, still see it at t.
             if a >= 2 && 3 * a >= 2 * best.seen {
@@ -332,12 +327,11 @@ mod tests {
         for t in 0..STEPS {
             let active = statics.active[t].contains(&q_index);
             assert_eq!(active, t != OCCLUDED_STEP, "step {t}: the wall point is lent exactly where nothing covers it");
-            // A step's own points are not lent back to it.
-            let own = statics.active[t].iter().filter(|&&i| statics.origin_step[i as usize] as usize == t).count();
-            assert_eq!(statics.borrowed(t).len(), statics.active[t].len() - own);
+            assert_eq!(statics.borrowed(t).len(), statics.active[t].len());
         }
         assert_eq!(statics.borrowed(1).len(), 3);
         assert_eq!(statics.borrowed(OCCLUDED_STEP).len(), 2);
+        assert_eq!(statics.borrowed(STEPS).len(), 0, "no step past the end");
         // With the default support (three steps) none of them is kept.
         assert!(build_static_cloud(&event(), &candidates, &StaticOptions::default()).points.is_empty());
     }

@@ -75,6 +75,12 @@ pub struct Args {
     /// Keep only the triangulated points (no densification).
     #[arg(long)]
     no_densify: bool,
+    /// Longest side (px) of the frames while densifying (PatchMatch stereo).
+    #[arg(long, default_value_t = DensifyOptions::default().max_side_px as u32, value_parser = clap::value_parser!(u32).range(16..=4096))]
+    densify_max_side: u32,
+    /// Source views each view is matched against while densifying (closest optical axes first).
+    #[arg(long, default_value_t = DensifyOptions::default().source_views as u32, value_parser = clap::value_parser!(u32).range(1..=8))]
+    densify_source_views: u32,
     /// Each time step keeps only its own points (no static points accumulated across time).
     #[arg(long)]
     no_static: bool,
@@ -126,7 +132,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.no_static {
         options.static_cloud = None;
     }
-    options.steps.densify = (!args.no_densify).then(|| DensifyOptions { target_points: args.target_points, ..DensifyOptions::default() });
+    options.steps.densify = (!args.no_densify).then(|| DensifyOptions {
+        target_points: args.target_points,
+        max_side_px: args.densify_max_side as usize,
+        source_views: args.densify_source_views as usize,
+        ..DensifyOptions::default()
+    });
     options.mapper.refine_distortion = args.refine_distortion;
     options.mapper.refine_principal_point = !args.centred_principal_point;
     options.mapper.share_intrinsics = !args.per_camera_intrinsics;
