@@ -83,7 +83,7 @@ fn static_points_lie_on_static_surfaces_and_are_lent_where_they_agree() {
     assert!(lent_mean >= 0.5 * own_mean, "the steps gain many points: {lent_mean:.0} lent, {own_mean:.0} own");
 
     let objects = default_objects(config.seed);
-    for t in 0..STEPS {
+    for (t, own_cloud) in own.iter().enumerate() {
         let lent = statics.borrowed(t);
         let frame = Frame::at(&objects, config.time_s(t as u32));
         let origins: Vec<DVec3> = (0..event.cameras.len()).map(|c| pose(c, t).camera_center_world()).collect();
@@ -94,7 +94,7 @@ fn static_points_lie_on_static_surfaces_and_are_lent_where_they_agree() {
             (median, off, on_moving)
         };
         let (median, off, on_moving) = figures(&lent);
-        let (own_median, own_off, _) = figures(&own[t]);
+        let (own_median, own_off, _) = figures(own_cloud);
         println!(
             "step {t}: {} lent, depth error median {:.3}% (own points {:.3}%), {:.2}% off by > 5% (own points {:.2}%), {on_moving} on moving objects",
             lent.len(),
