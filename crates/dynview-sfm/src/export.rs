@@ -11,7 +11,7 @@ use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifes
 use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
 use crate::error::{SfmError, SfmResult};
-use crate::static_cloud::{CameraFrames, StaticCloud, StaticOptions, build_static_cloud, candidate_steps};
+use crate::static_cloud::{StaticCloud, StaticOptions, build_static_cloud, candidate_steps};
 use crate::timesteps::{SETTINGS_FILE, StepSettings, cloud_path, frame_path, is_step_done, read_cloud, resized_intrinsics, working_size};
 use crate::work::WorkDir;
 
@@ -189,39 +189,45 @@ pub fn export_package(
     Ok(report)
 }
 
-/// The static cloud of the prepared steps, judged on the package's frames and cameras.
+/// The static cloud of the prepared steps, judged on the package's frames and cameras (read
+/// one step at a time).
 fn static_cloud(source_of: &[&Source], manifest: &Manifest, options: &StaticOptions, progress: StageProgress) -> SfmResult<StaticCloud> {
-    let steps = source_of.len();
-    let mut cameras = Vec::with_capacity(manifest.cameras.len());
-    for (c, entry) in manifest.cameras.iter().enumerate() {
-        let mut frames = Vec::with_capacity(steps);
-        for (t, s) in source_of.iter().enumerate() {
-            let path = frame_path(&s.work, &entry.name, t);
-            let bytes = std::fs::read(&path).map_err(SfmError::io(&path))?;
-            let image = image::load_from_memory_with_format(&bytes, image::ImageFormat::Jpeg)
-                .map_err(|e| SfmError::WorkFile { path: path.clone(), problem: format!("cannot decode the frame: {e}") })?
-                .to_rgb8();
-            frames.push(image);
-        }
-        let cameras_at: Vec<dynview_core::Camera> = entry
-            .poses
+    let cameras: Vec<Vec<dynview_core::Camera>> = manifest
+        .cameras
+        .iter()
+        .map(|entry| {
+            entry
+                .poses
+                .iter()
+                .map(|pose| dynview_core::Camera {
+                    intrinsics: entry.intrinsics,
+                    camera_from_world: pose.camera_from_world(),
+                    width_px: entry.width,
+                    height_px: entry.height,
+                })
+                .collect()
+        })
+        .collect();
+    let frames_at = |t: usize| -> SfmResult<Vec<image::RgbImage>> {
+        manifest
+            .cameras
             .iter()
-            .map(|pose| dynview_core::Camera {
-                intrinsics: entry.intrinsics,
-                camera_from_world: pose.camera_from_world(),
-                width_px: entry.width,
-                height_px: entry.height,
+            .map(|entry| {
+                let path = frame_path(&source_of[t].work, &entry.name, t);
+                let bytes = std::fs::read(&path).map_err(SfmError::io(&path))?;
+                Ok(image::load_from_memory_with_format(&bytes, image::ImageFormat::Jpeg)
+                    .map_err(|e| SfmError::WorkFile { path: path.clone(), problem: format!("cannot decode the frame: {e}") })?
+                    .to_rgb8())
             })
-            .collect();
-        cameras.push(CameraFrames { cameras: cameras_at, frames });
-        progress("static cloud", c as u64 + 1, manifest.cameras.len() as u64 + 1);
-    }
-    let candidates = candidate_steps(steps, options.candidate_steps)
+            .collect()
+    };
+    let candidates = candidate_steps(source_of.len(), options.candidate_steps)
         .into_iter()
         .map(|t| Ok((t, read_cloud(&cloud_path(&source_of[t].work, t))?)))
         .collect::<SfmResult<Vec<_>>>()?;
-    let statics = build_static_cloud(&cameras, &candidates, options);
-    progress("static cloud", manifest.cameras.len() as u64 + 1, manifest.cameras.len() as u64 + 1);
+    progress("static cloud", 0, 1);
+    let statics = build_static_cloud(&cameras, frames_at, &candidates, options)?;
+    progress("static cloud", 1, 1);
     Ok(statics)
 }
 

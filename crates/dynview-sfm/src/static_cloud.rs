@@ -53,14 +53,6 @@ impl Default for StaticOptions {
     }
 }
 
-/// One camera of the event: its pose and frame at every step.
-pub struct CameraFrames {
-    /// The camera at each step (working size).
-    pub cameras: Vec<Camera>,
-    /// Its frame at each step (working size).
-    pub frames: Vec<image::RgbImage>,
-}
-
 /// A static cloud and, per step, which of its points agree with the step's frames.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct StaticCloud {
@@ -119,109 +111,155 @@ fn difference(a: [f32; 3], b: [f32; 3]) -> f32 {
     ((a[0] - b[0]).abs() + (a[1] - b[1]).abs() + (a[2] - b[2]).abs()) / 3.0
 }
 
-/// What one camera says about every candidate.
-struct CameraVotes {
-    /// Per candidate: whether the camera saw it at its own step.
-    seen: Vec<bool>,
-    /// Per candidate and step (`candidate * steps + t`): whether the camera's frame at `t`
-    /// shows the color it showed at the candidate's own step (false when not seen).
-    agrees: Vec<bool>,
-}
+/// Frames of one step, one per camera (working size), as the static cloud reads them.
+pub type StepFrames = Vec<image::RgbImage>;
 
-fn camera_votes(camera: &CameraFrames, candidates: &PointCloud, origin: &[u32], options: &StaticOptions) -> CameraVotes {
-    let steps = camera.frames.len();
-    let n = candidates.len();
-    let mut seen = vec![false; n];
-    let mut agrees = vec![false; n * steps];
-    for i in 0..n {
-        let p = candidates.positions_world[i];
-        let point = DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
-        let at = |t: usize| {
-            let (pixel, _) = camera.cameras[t].project_world(point)?;
-            sample(&camera.frames[t], pixel.x, pixel.y)
-        };
-        let s = origin[i] as usize;
-        let Some(own) = at(s) else { continue };
-        let color = candidates.colors[i].map(|v| f32::from(v) / 255.0);
-        if difference(own, color) > options.seen_tolerance {
-            continue;
-        }
-        seen[i] = true;
-        for t in 0..steps {
-            agrees[i * steps + t] = at(t).is_some_and(|c| difference(c, own) <= options.color_tolerance);
-        }
-    }
-    CameraVotes { seen, agrees }
-}
+/// Steps whose frames judge whether a candidate is static, at most (spread evenly): enough to
+/// see a passing object, few enough to keep memory and time small on long events.
+pub const JUDGING_STEPS: usize = 48;
 
-/// A static candidate: its index, the cameras that saw it, per step how many of them agree,
-/// and its share of agreeing samples.
-struct Static {
-    index: usize,
-    seen: usize,
-    agreeing: Vec<usize>,
-    share: f32,
+/// Per candidate and camera: the color it showed at the candidate's own step, when the camera
+/// saw it there.
+type OwnColors = Vec<Option<[f32; 3]>>;
+
+/// How many of the cameras that saw candidate `i` (`own[i * cameras + c]`) show its color at step
+/// `t` (frames `frames`, cameras `at_t`).
+fn agreeing_cameras(point: DVec3, own: &[Option<[f32; 3]>], at_t: &[Camera], frames: &[image::RgbImage], tolerance: f32) -> usize {
+    own.iter()
+        .zip(at_t.iter().zip(frames))
+        .filter(|(own, (camera, frame))| {
+            own.is_some_and(|own| {
+                camera
+                    .project_world(point)
+                    .and_then(|(pixel, _)| sample(frame, pixel.x, pixel.y))
+                    .is_some_and(|c| difference(c, own) <= tolerance)
+            })
+        })
+        .count()
 }
 
 /// Builds the static cloud of an event from the clouds of its `candidate` steps
-/// (`(step, cloud)`) and every camera's frames.
-pub fn build_static_cloud(cameras: &[CameraFrames], candidates: &[(usize, PointCloud)], options: &StaticOptions) -> StaticCloud {
-    let steps = cameras.first().map_or(0, |c| c.frames.len());
+/// (`(step, cloud)`). `cameras[c][t]` is camera `c` at step `t`; `frames_at(t)` reads the frames
+/// of step `t` (one per camera). Frames are read one step at a time (a few steps at once when
+/// running in parallel), so memory does not grow with the event's length.
+pub fn build_static_cloud<E: Send>(
+    cameras: &[Vec<Camera>],
+    frames_at: impl Fn(usize) -> Result<StepFrames, E> + Sync,
+    candidates: &[(usize, PointCloud)],
+    options: &StaticOptions,
+) -> Result<StaticCloud, E> {
+    let steps = cameras.first().map_or(0, Vec::len);
+    let count = cameras.len();
+    let at_step = |t: usize| -> Vec<Camera> { cameras.iter().map(|c| c[t]).collect() };
     let mut all = PointCloud::default();
     let mut origin = Vec::new();
     for (t, cloud) in candidates {
         all.positions_world.extend_from_slice(&cloud.positions_world);
         all.colors.extend_from_slice(&cloud.colors);
-        origin.extend(std::iter::repeat_n(*t as u32, cloud.len()));
+        origin.extend(std::iter::repeat_n(*t, cloud.len()));
     }
-    let votes: Vec<CameraVotes> = cameras.par_iter().map(|c| camera_votes(c, &all, &origin, options)).collect();
     let n = all.len();
-    let mut statics = Vec::new();
-    for index in 0..n {
-        let seen = votes.iter().filter(|v| v.seen[index]).count();
-        if seen < 2 {
-            continue;
-        }
-        let agreeing: Vec<usize> = (0..steps).map(|t| votes.iter().filter(|v| v.agrees[index * steps + t]).count()).collect();
-        let share = agreeing.iter().sum::<usize>() as f32 / (seen * steps) as f32;
-        if share >= options.min_static_share {
-            statics.push(Static { index, seen, agreeing, share });
-        }
+    if n == 0 {
+        return Ok(StaticCloud { active: vec![Vec::new(); steps], ..StaticCloud::default() });
     }
-    let mut out = StaticCloud { candidates: n, active: vec![Vec::new(); steps], ..StaticCloud::default() };
-    for voxel in voxels(cameras, &all, &statics, options.voxel_px) {
-        let support: HashSet<u32> = voxel.iter().map(|&k| origin[statics[k].index]).collect();
-        if support.len() < options.min_support_steps {
-            continue;
-        }
-        // The voxel's point: its candidates' mean position, the most static one's color and
-        // votes.
-        let mean = voxel.iter().map(|&k| point(&all, statics[k].index)).sum::<DVec3>() / voxel.len() as f64;
-        let Some(&best) = voxel.iter().max_by(|&&a, &&b| statics[a].share.total_cmp(&statics[b].share)) else { continue };
-        let best = &statics[best];
-        let k = out.points.len() as u32;
-        out.points.positions_world.push([mean.x as f32, mean.y as f32, mean.z as f32]);
-        out.points.colors.push(all.colors[best.index]);
-        for (t, &a) in best.agreeing.iter().enumerate() {
-            // Most of the cameras that saw it, and at least two, still see it at t.
-            if a >= 2 && 3 * a >= 2 * best.seen {
-                out.active[t].push(k);
+    // Which cameras saw each candidate at its own step, and the color they showed.
+    let mut own: OwnColors = vec![None; n * count];
+    for (s, _) in candidates {
+        let frames = frames_at(*s)?;
+        let at_s = at_step(*s);
+        for i in (0..n).filter(|&i| origin[i] == *s) {
+            let color = all.colors[i].map(|v| f32::from(v) / 255.0);
+            for (c, (camera, frame)) in at_s.iter().zip(&frames).enumerate() {
+                let shown = camera.project_world(point(&all, i)).and_then(|(pixel, _)| sample(frame, pixel.x, pixel.y));
+                own[i * count + c] = shown.filter(|&shown| difference(shown, color) <= options.seen_tolerance);
             }
         }
     }
-    out
+    let seen = |i: usize| own[i * count..(i + 1) * count].iter().filter(|o| o.is_some()).count();
+    // Static: the colors stay in at least min_static_share of the judging steps' samples.
+    let judging = candidate_steps(steps, JUDGING_STEPS);
+    let judged: Vec<Vec<u8>> = judging
+        .par_iter()
+        .map(|&t| {
+            let frames = frames_at(t)?;
+            let at_t = at_step(t);
+            Ok((0..n)
+                .map(|i| agreeing_cameras(point(&all, i), &own[i * count..(i + 1) * count], &at_t, &frames, options.color_tolerance) as u8)
+                .collect())
+        })
+        .collect::<Result<_, E>>()?;
+    let mut statics = Vec::new();
+    for index in (0..n).filter(|&i| seen(i) >= 2) {
+        let agreeing: usize = judged.iter().map(|a| usize::from(a[index])).sum();
+        let share = agreeing as f32 / (seen(index) * judging.len()).max(1) as f32;
+        if share >= options.min_static_share {
+            statics.push(Static { index, share });
+        }
+    }
+    // One point per supported voxel: its candidates' mean position, the most static one's color
+    // and cameras.
+    let mut out = StaticCloud { candidates: n, active: vec![Vec::new(); steps], ..StaticCloud::default() };
+    let mut representative = Vec::new();
+    for voxel in voxels(cameras, &all, &statics, options.voxel_px) {
+        let support: HashSet<usize> = voxel.iter().map(|&k| origin[statics[k].index]).collect();
+        if support.len() < options.min_support_steps {
+            continue;
+        }
+        let mean = voxel.iter().map(|&k| point(&all, statics[k].index)).sum::<DVec3>() / voxel.len() as f64;
+        let Some(&best) = voxel.iter().max_by(|&&a, &&b| statics[a].share.total_cmp(&statics[b].share)) else { continue };
+        let best = statics[best].index;
+        out.points.positions_world.push([mean.x as f32, mean.y as f32, mean.z as f32]);
+        out.points.colors.push(all.colors[best]);
+        representative.push(best);
+    }
+    if representative.is_empty() {
+        return Ok(out);
+    }
+    // Lent at t where most of the cameras that saw it, and at least two, still agree.
+    out.active = (0..steps)
+        .into_par_iter()
+        .map(|t| {
+            let frames = frames_at(t)?;
+            let at_t = at_step(t);
+            Ok(representative
+                .iter()
+                .enumerate()
+                .filter(|&(k, &i)| {
+                    let agree = agreeing_cameras(
+                        to_dvec3(out.points.positions_world[k]),
+                        &own[i * count..(i + 1) * count],
+                        &at_t,
+                        &frames,
+                        options.color_tolerance,
+                    );
+                    agree >= 2 && 3 * agree >= 2 * seen(i)
+                })
+                .map(|(k, _)| k as u32)
+                .collect())
+        })
+        .collect::<Result<_, E>>()?;
+    Ok(out)
+}
+
+/// A static candidate: its index and its share of agreeing samples.
+struct Static {
+    index: usize,
+    share: f32,
+}
+
+fn to_dvec3(p: [f32; 3]) -> DVec3 {
+    DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))
 }
 
 fn point(cloud: &PointCloud, i: usize) -> DVec3 {
-    let p = cloud.positions_world[i];
-    DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))
+    to_dvec3(cloud.positions_world[i])
 }
 
 /// The static candidates grouped by voxel (indices into `statics`, groups in the order of
 /// their first candidate), the voxel edge being `voxel_px` pixels of the first camera's first
 /// view at the candidates' median depth.
-fn voxels(cameras: &[CameraFrames], all: &PointCloud, statics: &[Static], voxel_px: f64) -> Vec<Vec<usize>> {
-    let Some(camera) = cameras.first().and_then(|c| c.cameras.first()) else {
+fn voxels(cameras: &[Vec<Camera>], all: &PointCloud, statics: &[Static], voxel_px: f64) -> Vec<Vec<usize>> {
+    let Some(camera) = cameras.first().and_then(|c| c.first()) else {
         return Vec::new();
     };
     let mut depths: Vec<f64> = statics.iter().map(|s| camera.camera_from_world.transform_point(point(all, s.index)).z.abs()).collect();
@@ -270,28 +308,34 @@ mod tests {
         camera.project_world(p).is_some_and(|(q, _)| q.distance(pixel) <= radius_px)
     }
 
-    fn event() -> Vec<CameraFrames> {
-        [-0.5, 0.0, 0.5]
-            .into_iter()
-            .map(|x| {
-                let camera = camera(x);
-                let frames = (0..STEPS)
-                    .map(|t| {
+    /// The cameras (`[camera][step]`) and frames (`[step][camera]`) of the test event.
+    fn event() -> (Vec<Vec<Camera>>, Vec<StepFrames>) {
+        let cameras: Vec<Camera> = [-0.5, 0.0, 0.5].into_iter().map(camera).collect();
+        let frames = (0..STEPS)
+            .map(|t| {
+                cameras
+                    .iter()
+                    .map(|camera| {
                         image::RgbImage::from_fn(64, 48, |u, v| {
                             let pixel = DVec2::new(f64::from(u), f64::from(v));
-                            if t == OCCLUDED_STEP && near(&camera, WALL_POINT, pixel, 4.0) {
+                            if t == OCCLUDED_STEP && near(camera, WALL_POINT, pixel, 4.0) {
                                 return image::Rgb([10, 10, 10]);
                             }
-                            if t == 0 && near(&camera, PASSING_POINT, pixel, 4.0) {
+                            if t == 0 && near(camera, PASSING_POINT, pixel, 4.0) {
                                 return image::Rgb([230, 20, 20]);
                             }
                             image::Rgb(wall_color(camera.unproject_world(pixel, 5.0)))
                         })
                     })
-                    .collect();
-                CameraFrames { cameras: vec![camera; STEPS], frames }
+                    .collect()
             })
-            .collect()
+            .collect();
+        (cameras.into_iter().map(|c| vec![c; STEPS]).collect(), frames)
+    }
+
+    fn build(candidates: &[(usize, PointCloud)], options: &StaticOptions) -> StaticCloud {
+        let (cameras, frames) = event();
+        build_static_cloud(&cameras, |t| Ok::<_, ()>(frames[t].clone()), candidates, options).expect("in memory")
     }
 
     fn cloud(points: &[[f32; 3]], colors: &[[u8; 3]]) -> PointCloud {
@@ -316,7 +360,7 @@ mod tests {
             (4, cloud(&[a, b, stray], &[a_color, b_color, stray_color])),
         ];
         let options = StaticOptions { min_support_steps: 2, ..StaticOptions::default() };
-        let statics = build_static_cloud(&event(), &candidates, &options);
+        let statics = build(&candidates, &options);
         assert_eq!(statics.candidates, 8);
         // The three wall points found twice, each once; neither the passing red thing nor the
         // stray point.
@@ -333,7 +377,7 @@ mod tests {
         assert_eq!(statics.borrowed(OCCLUDED_STEP).len(), 2);
         assert_eq!(statics.borrowed(STEPS).len(), 0, "no step past the end");
         // With the default support (three steps) none of them is kept.
-        assert!(build_static_cloud(&event(), &candidates, &StaticOptions::default()).points.is_empty());
+        assert!(build(&candidates, &StaticOptions::default()).points.is_empty());
     }
 
     #[test]
@@ -345,7 +389,7 @@ mod tests {
             .map(|&x| camera(x).project_world(DVec3::new(3.5, 0.0, 5.0)).is_some_and(|(q, _)| camera(x).contains(q)))
             .collect();
         assert_eq!(visible, [false, false, true]);
-        let statics = build_static_cloud(&event(), &[(0, cloud(&[p], &[color]))], &StaticOptions::default());
+        let statics = build(&[(0, cloud(&[p], &[color]))], &StaticOptions::default());
         assert!(statics.points.is_empty());
     }
 

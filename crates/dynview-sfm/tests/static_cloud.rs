@@ -10,7 +10,7 @@ use dynview_sfm::features::FeatureOptions;
 use dynview_sfm::geometry::{Intrinsics, Pose};
 use dynview_sfm::input::read_bgr;
 use dynview_sfm::points::{PointOptions, TimestepView, timestep_points};
-use dynview_sfm::static_cloud::{CameraFrames, StaticOptions, build_static_cloud, candidate_steps};
+use dynview_sfm::static_cloud::{StaticOptions, build_static_cloud, candidate_steps};
 use dynview_synth::SynthConfig;
 use dynview_synth::scene::{Frame, default_objects};
 use glam::DVec3;
@@ -52,26 +52,27 @@ fn static_points_lie_on_static_surfaces_and_are_lent_where_they_agree() {
             colors: cloud.colors.clone(),
         });
     }
-    let cameras: Vec<CameraFrames> = event
+    let cameras: Vec<Vec<Camera>> = event
         .cameras
         .iter()
         .enumerate()
-        .map(|(c, camera)| CameraFrames {
-            cameras: (0..STEPS)
+        .map(|(c, camera)| {
+            (0..STEPS)
                 .map(|t| Camera {
                     intrinsics: camera.intrinsics,
                     camera_from_world: pose(c, t),
                     width_px: camera.width,
                     height_px: camera.height,
                 })
-                .collect(),
-            frames: (0..STEPS).map(|t| image::open(file(c, t)).expect("frame").to_rgb8()).collect(),
+                .collect()
         })
         .collect();
+    let frames_at =
+        |t: usize| (0..event.cameras.len()).map(|c| image::open(file(c, t)).map(|f| f.to_rgb8())).collect::<Result<Vec<_>, _>>();
     let options = StaticOptions::default();
     let candidates: Vec<(usize, PointCloud)> =
         candidate_steps(STEPS, options.candidate_steps).into_iter().map(|t| (t, own[t].clone())).collect();
-    let statics = build_static_cloud(&cameras, &candidates, &options);
+    let statics = build_static_cloud(&cameras, frames_at, &candidates, &options).expect("frames");
     let own_mean = own.iter().map(PointCloud::len).sum::<usize>() as f64 / STEPS as f64;
     let lent_mean = (0..STEPS).map(|t| statics.borrowed(t).len()).sum::<usize>() as f64 / STEPS as f64;
     println!(
