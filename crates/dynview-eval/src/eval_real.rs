@@ -263,19 +263,15 @@ fn evaluate_camera(
             }
             shown.push((out.color, out.depth));
         }
-        let input_poses: Vec<_> =
-            (0..package.camera_count()).map(|j| package.camera(j, t).map(|c| c.camera_from_world)).collect::<Result<_, _>>()?;
+        // The inputs already hold every input camera, frame and the cloud of this step.
+        let input_poses: Vec<_> = inputs.views.iter().map(|v| v.camera.camera_from_world).collect();
         let j = rank_views(&camera.camera_from_world, &input_poses, f64::from(defaults.sigma), 1)
             .first()
             .copied()
             .context("the package has no camera")?;
-        let nearest_frame = package.read_frame(j, t)?;
-        let plane = plane_view(
-            &camera,
-            &package.read_cloud(t)?,
-            &package.camera(j, t)?.resized(camera.width_px, camera.height_px),
-            &resized(nearest_frame.clone(), camera.width_px as usize, camera.height_px as usize),
-        );
+        let nearest_view = &inputs.views[j];
+        let nearest_frame = nearest_view.levels[0].clone();
+        let plane = plane_view(&camera, &inputs.cloud, &nearest_view.camera, &nearest_frame);
         let floor = resized(nearest_frame, truth.width, truth.height);
         if t == steps / 2 {
             nearest.clone_from(&package.manifest().cameras[j].name);

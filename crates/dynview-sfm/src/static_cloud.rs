@@ -175,7 +175,8 @@ pub fn build_static_cloud<E: Send>(
             }
         }
     }
-    let seen = |i: usize| own[i * count..(i + 1) * count].iter().filter(|o| o.is_some()).count();
+    let seen_by: Vec<usize> = (0..n).map(|i| own[i * count..(i + 1) * count].iter().filter(|o| o.is_some()).count()).collect();
+    let seen = |i: usize| seen_by[i];
     // Static: the colors stay in at least min_static_share of the judging steps' samples.
     let judging = candidate_steps(steps, JUDGING_STEPS);
     let judged: Vec<Vec<u8>> = judging
