@@ -13,12 +13,13 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use dynview_core::RgbRaster;
 use dynview_core::display::colorize_depth;
 use dynview_core::metrics::{FlickerSum, psnr, ssim};
+use dynview_core::render::sparse::{SplatMaps, project_cloud};
 use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer};
 use dynview_core::scene::ScenePackage;
 use dynview_core::view_ranking::rank_views;
+use dynview_core::{RgbRaster, ScalarRaster};
 
 use crate::paths::{results_dir, workspace_root};
 use crate::plane_view::plane_view;
@@ -56,9 +57,19 @@ pub struct Options {
     /// to compare). The runs then work in a folder of their own, named after the arguments.
     #[arg(long = "prep-arg", allow_hyphen_values = true)]
     pub prep_args: Vec<String>,
+    /// Renderer parameters that differ from the defaults, as JSON (the fields of
+    /// `RenderParams`, e.g. `--params '{"lambda_plane": 0}'` to compare).
+    #[arg(long, value_parser = parse_params)]
+    pub params: Option<RenderParams>,
     /// Folder of the written results.
     #[arg(long, default_value_os_t = results_dir())]
     pub out: PathBuf,
+}
+
+fn parse_params(json: &str) -> Result<RenderParams, String> {
+    let params: RenderParams = serde_json::from_str(json).map_err(|e| format!("renderer parameters: {e}"))?;
+    params.validate().map_err(|e| e.to_string())?;
+    Ok(params)
 }
 
 /// PSNR, SSIM and flicker of one way of showing the held-out camera, averaged over time.
@@ -80,6 +91,9 @@ struct CameraResult {
     ms_per_frame: f64,
     /// Mean points per time step of the package of the other cameras.
     points_per_step: f64,
+    /// Median relative depth error (%) of the full method and of the blend's push-pull depth
+    /// against the reference package's points as the held-out camera sees them.
+    depth_error_pct: [f64; 2],
 }
 
 /// The leave-one-out evaluation: writes `real.md` and one strip per held-out camera into
@@ -101,8 +115,9 @@ pub fn run(options: Options) -> anyhow::Result<()> {
          the time steps, on the whole frame; flicker is the mean frame-to-frame change of the output where the real frame does not \
          change, minus the real frame's own (x1000, lower is steadier). The floor is the nearest input camera's frame shown as is \
          (ranked as the renderer ranks views): a rendering worse than it is worse than showing no synthesis at all. The plane view \
-         is an experiment, not in the renderer: that same input warped with one plane fitted to the sparse depth. What the \
-         figures show, and what was tried: [real_findings.md](real_findings.md).\n\n",
+         is an experiment: that same input warped with one plane fitted to the sparse depth and nothing else (the full method \
+         pulls its depth toward such a plane only where points are scarce, `lambda_plane`). What the figures show, and what was \
+         tried: [real_findings.md](real_findings.md).\n\n",
     );
     for capture in RealCapture::ALL {
         let path = section_path(&work, capture);
@@ -167,7 +182,7 @@ fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path) -> any
         args.extend(prep_args.iter().cloned());
         let run = prep_once(&dynview, &input, &dir.join("out"), &args, options.fresh)?;
         let package = open(&run)?;
-        let (result, strip) = evaluate_camera(&held_out, &reference, &package, &run)?;
+        let (result, strip) = evaluate_camera(&held_out, &reference, &package, &run, &options.params.clone().unwrap_or_default())?;
         write_strip(&options.out.join(strip_name(capture, &held_out)), &strip)?;
         results.push(result);
     }
@@ -233,6 +248,7 @@ fn evaluate_camera(
     reference: &ScenePackage,
     package: &ScenePackage,
     run: &PrepRun,
+    defaults: &RenderParams,
 ) -> anyhow::Result<(CameraResult, Strip)> {
     let k = reference
         .manifest()
@@ -241,7 +257,6 @@ fn evaluate_camera(
         .position(|c| c.name == held_out)
         .with_context(|| format!("{}: no camera {held_out}", reference.root().display()))?;
     let steps = reference.time_step_count().min(package.time_step_count());
-    let defaults = RenderParams::default();
     let mut renderers: Vec<StreamingRenderer> = METHODS.iter().map(|_| StreamingRenderer::new()).collect();
     // The methods', the plane view's, then the floor's.
     let mut sums: Vec<Sums> = (0..METHODS.len() + 2).map(|_| Sums::default()).collect();
@@ -249,9 +264,15 @@ fn evaluate_camera(
     let mut nearest = String::new();
     let mut render_secs = 0.0;
     let mut truth_before: Option<RgbRaster> = None;
+    let mut depth_errors: [Vec<f32>; 2] = [Vec::new(), Vec::new()];
+    let blend_index = METHODS.iter().position(|&m| m == Method::Blend).unwrap_or(0);
     for t in 0..steps {
         let camera = reference.camera(k, t)?;
         let truth = reference.read_frame(k, t)?;
+        // What the held-out camera's own frame implies: the points of the package prepared with
+        // it, as it sees them (z-buffered, the renderer's consistency filter applied).
+        let mut own = project_cloud(&reference.read_cloud(t)?, &camera);
+        own.drop_inconsistent(defaults.sparse_consistency, None);
         let inputs = package.time_step_inputs(t, defaults.levels)?;
         let mut shown = Vec::new();
         for (m, &method) in METHODS.iter().enumerate() {
@@ -262,6 +283,9 @@ fn evaluate_camera(
                 render_secs += start.elapsed().as_secs_f64();
             }
             shown.push((out.color, out.depth));
+        }
+        for (errors, m) in depth_errors.iter_mut().zip([0, blend_index]) {
+            errors.extend(relative_depth_errors(&shown[m].1, &own));
         }
         // The inputs already hold every input camera, frame and the cloud of this step.
         let input_poses: Vec<_> = inputs.views.iter().map(|v| v.camera.camera_from_world).collect();
@@ -295,9 +319,38 @@ fn evaluate_camera(
     let n = f64::from(steps.max(1));
     let prep_secs = stage_seconds(&run.out)?.iter().map(|(_, s)| s).sum();
     let points_per_step = crate::prep_runs::cloud_point_counts(package).0 as f64 / n;
-    let result =
-        CameraResult { name: held_out.to_string(), scores, nearest, prep_secs, ms_per_frame: render_secs * 1000.0 / n, points_per_step };
+    let depth_error_pct = depth_errors.map(|mut e| median(&mut e) * 100.0);
+    let result = CameraResult {
+        name: held_out.to_string(),
+        scores,
+        nearest,
+        prep_secs,
+        ms_per_frame: render_secs * 1000.0 / n,
+        points_per_step,
+        depth_error_pct,
+    };
     Ok((result, strip.context("no time step rendered")?))
+}
+
+/// `|rendered - own| / own` at every pixel where `own` has a point (sizes must match).
+fn relative_depth_errors<'a>(rendered: &'a ScalarRaster, own: &'a SplatMaps) -> impl Iterator<Item = f32> + 'a {
+    own.mask
+        .data
+        .iter()
+        .zip(&own.depth.data)
+        .zip(&rendered.data)
+        .filter(|((m, d), _)| **m > 0.0 && d.is_finite() && **d > 0.0)
+        .map(|((_, d), r)| (r - d).abs() / d)
+}
+
+/// The median of `values` (NaN when empty).
+fn median(values: &mut [f32]) -> f64 {
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    let middle = values.len() / 2;
+    let (_, m, _) = values.select_nth_unstable_by(middle, f32::total_cmp);
+    f64::from(*m)
 }
 
 /// `image` at `width x height` (bilinear), or as it is when it has that size.
@@ -366,14 +419,23 @@ fn markdown(capture: RealCapture, results: &[CameraResult], options: &Options, r
         })
         .collect();
     let _ = writeln!(s, "| **mean** | {} |", means.join(" | "));
-    let _ = writeln!(s, "\n| held-out camera | nearest input | points per step | last prep run (s) | full ms/frame (CPU) |");
-    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: |");
+    let _ = writeln!(
+        s,
+        "\n| held-out camera | nearest input | points per step | depth error, full / blend (median %) | last prep run (s) | full ms/frame (CPU) |"
+    );
+    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | ---: |");
     for r in results {
-        let _ = writeln!(s, "| {} | {} | {:.0} | {:.0} | {:.0} |", r.name, r.nearest, r.points_per_step, r.prep_secs, r.ms_per_frame);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.0} | {:.1} / {:.1} | {:.0} | {:.0} |",
+            r.name, r.nearest, r.points_per_step, r.depth_error_pct[0], r.depth_error_pct[1], r.prep_secs, r.ms_per_frame
+        );
     }
     let _ = writeln!(
         s,
-        "\nPoints per step include the static points lent to the step. The last prep run is the one that wrote the package; one \
+        "\nPoints per step include the static points lent to the step. The depth error compares the rendered depth with what the \
+         held-out camera's own frame implies: the points of the reference package (prepared with it) that it sees, z-buffered and \
+         filtered as the renderer filters points, at every time step. The blend's depth is the push-pull filled sparse depth. The last prep run is the one that wrote the package; one \
          that reused the prepared steps of an earlier run counts only what it redid (`--fresh` times whole runs).\n\n\
          Strips (middle time step): real frame | nearest input as is | blend | full | depth of full.\n"
     );
@@ -382,14 +444,24 @@ fn markdown(capture: RealCapture, results: &[CameraResult], options: &Options, r
     }
     let _ = writeln!(
         s,
-        "\nReproduce: `cargo xtask eval --real --capture {} --frames {}{}` (work in `{}/{}/`; `--fresh` redoes the prep runs).\n",
+        "\nReproduce: `cargo xtask eval --real --capture {} --frames {}{}{}` (work in `{}/{}/`; `--fresh` redoes the prep runs).\n",
         capture.label(),
         options.frames,
         options.prep_args.iter().map(|a| format!(" --prep-arg={a}")).collect::<String>(),
+        changed_params(options.params.as_ref()).map(|json| format!(" --params '{json}'")).unwrap_or_default(),
         work_folder(&options.prep_args),
         capture.label()
     );
     s
+}
+
+/// The renderer parameters that differ from the defaults, as JSON; `None` when none do.
+fn changed_params(params: Option<&RenderParams>) -> Option<String> {
+    let params = serde_json::to_value(params?).ok()?;
+    let defaults = serde_json::to_value(RenderParams::default()).ok()?;
+    let (serde_json::Value::Object(params), serde_json::Value::Object(defaults)) = (params, defaults) else { return None };
+    let changed: serde_json::Map<String, serde_json::Value> = params.into_iter().filter(|(k, v)| defaults.get(k) != Some(v)).collect();
+    (!changed.is_empty()).then(|| serde_json::Value::Object(changed).to_string())
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 //! (`shaders/assemble/*.wgsl`), as dynview-core's `render::weights` and `render::solve`.
 
 use dynview_core::render::RenderParams;
+use dynview_core::render::plane::{PixelPlane, SUPPORT_RADIUS_FINEST_PX};
 
 use crate::context::{GpuContext, GpuError};
 use crate::image::GpuImage;
@@ -57,12 +58,32 @@ struct AssembleParams {
     _pad3: u32,
 }
 
+/// The uniform block of `shaders/assemble/plane_support.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct SupportParams {
+    width: u32,
+    height: u32,
+    radius: u32,
+    _pad0: u32,
+    lambda_plane: f32,
+    support_coverage: f32,
+    plane_a: f32,
+    plane_b: f32,
+    plane_c: f32,
+    plane_inverse_min: f32,
+    plane_inverse_max: f32,
+    _pad1: u32,
+}
+
 /// The assembly kernels, compiled once per device.
 #[derive(Debug)]
 pub struct AssembleKernels {
     projection_weights: Kernel,
     depth_weights: Kernel,
     depth_system: Kernel,
+    support_rows: Kernel,
+    plane_prior: Kernel,
     color_system: Kernel,
 }
 
@@ -86,6 +107,9 @@ impl AssembleKernels {
             projection_weights: kernel(shaders::PROJECTION_WEIGHTS, "projection_weights", 4, 1),
             depth_weights: kernel(shaders::DEPTH_WEIGHTS, "depth_weights", 4, 2),
             depth_system: kernel(shaders::DEPTH_SYSTEM, "depth_system", 4, 4),
+            support_rows: kernel(shaders::PLANE_SUPPORT, "support_rows", 1, 1),
+            // Row sums in, prior out, temporal terms in.
+            plane_prior: Kernel::new(ctx, &shaders::module(ctx, shaders::PLANE_SUPPORT), "plane_prior", &[true, false, true], 8),
             color_system: kernel(shaders::COLOR_SYSTEM, "color_system", 3, 4),
         }
     }
@@ -116,6 +140,46 @@ impl AssembleKernels {
         let buffers: Vec<&wgpu::Buffer> = buffers.iter().map(|b| &b.buffer).collect();
         kernel.dispatch(ctx, &mut encoder, bytemuck::bytes_of(uniform), &buffers, uniform.width as usize, uniform.height as usize);
         ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// The temporal terms (`temporal`: `lambda_T w_T` and the previous depth per pixel) with
+    /// the pull toward `plane` (in this level's pixels) folded in, at pyramid `level` with the
+    /// sparse `mask`: what [`Self::depth_system`] takes as its temporal terms. The weight is
+    /// dynview-core's `render::plane::plane_weights`.
+    pub fn plane_prior(
+        &self,
+        ctx: &GpuContext,
+        params: &RenderParams,
+        mask: &GpuImage,
+        temporal: &GpuImage,
+        plane: &PixelPlane,
+        level: usize,
+    ) -> Result<GpuImage, GpuError> {
+        let (w, h) = (mask.width, mask.height);
+        check(mask, "sparse mask", w, h, 1)?;
+        check(temporal, "temporal terms", w, h, 2)?;
+        let uniform = SupportParams {
+            width: w as u32,
+            height: h as u32,
+            radius: (SUPPORT_RADIUS_FINEST_PX >> level).max(1) as u32,
+            _pad0: 0,
+            lambda_plane: params.lambda_plane,
+            support_coverage: params.plane_support,
+            plane_a: plane.coefficients[0],
+            plane_b: plane.coefficients[1],
+            plane_c: plane.coefficients[2],
+            plane_inverse_min: plane.inverse_depth_range[0],
+            plane_inverse_max: plane.inverse_depth_range[1],
+            _pad1: 0,
+        };
+        let rows = GpuImage::zeroed(ctx, w, h, 1)?;
+        let prior = GpuImage::zeroed(ctx, w, h, 2)?;
+        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("plane prior") });
+        let bytes = bytemuck::bytes_of(&uniform);
+        self.support_rows.dispatch(ctx, &mut encoder, bytes, &[&mask.buffer, &rows.buffer], w, h);
+        self.plane_prior.dispatch(ctx, &mut encoder, bytes, &[&rows.buffer, &prior.buffer, &temporal.buffer], w, h);
+        ctx.queue.submit([encoder.finish()]);
+        Ok(prior)
     }
 
     /// `w_P^s` of every view (packed like `views`), `-1` where the warp of view `s` is
@@ -238,5 +302,23 @@ pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
                 }
             )
         })
+        .chain([mirror!(
+            shaders::PLANE_SUPPORT,
+            "SupportParams",
+            SupportParams {
+                width,
+                height,
+                radius,
+                _pad0,
+                lambda_plane,
+                support_coverage,
+                plane_a,
+                plane_b,
+                plane_c,
+                plane_inverse_min,
+                plane_inverse_max,
+                _pad1,
+            }
+        )])
         .collect()
 }

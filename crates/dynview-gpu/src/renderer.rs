@@ -2,6 +2,7 @@
 //! for the full method and its no-temporal ablation, every stage a compute pass.
 
 use dynview_core::camera::Camera;
+use dynview_core::render::plane::{InverseDepthPlane, WorldPlane};
 use dynview_core::render::pyramid::{camera_at, level_sizes};
 use dynview_core::render::{FALLBACK_COLOR, FALLBACK_DEPTH, Method, RenderParams, TimeStepInputs};
 use dynview_core::view_ranking::{ChosenViews, choose_views};
@@ -20,6 +21,8 @@ use crate::warp::WarpKernels;
 #[derive(Debug)]
 pub struct GpuInputs {
     cloud: GpuCloud,
+    /// The cloud's world positions, kept on the host for the plane fit (`render::plane`).
+    positions_world: Vec<[f32; 3]>,
     /// Per view: its full-resolution camera and its frame per level (finest first).
     views: Vec<(Camera, Vec<GpuImage>)>,
 }
@@ -39,7 +42,7 @@ impl GpuInputs {
                 Ok((v.camera, levels))
             })
             .collect::<Result<Vec<_>, GpuError>>()?;
-        Ok(Self { cloud: GpuCloud::upload(ctx, &inputs.cloud), views })
+        Ok(Self { cloud: GpuCloud::upload(ctx, &inputs.cloud), positions_world: inputs.cloud.positions_world.clone(), views })
     }
 }
 
@@ -55,6 +58,8 @@ pub struct GpuFrame {
     pub view_weights: Option<GpuImage>,
     /// How many views were used.
     pub views_used: usize,
+    /// The plane the depth was pulled toward (kept for the next frame while it still fits).
+    pub plane: Option<WorldPlane>,
 }
 
 impl GpuFrame {
@@ -120,6 +125,10 @@ impl GpuRenderer {
         let ChosenViews { indices: chosen, blend_weights } =
             choose_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views);
         let sizes = level_sizes(camera.width_px as usize, camera.height_px as usize, params.levels);
+        let previous_plane = previous.and_then(|p| p.plane);
+        let plane = (params.lambda_plane > 0.0)
+            .then(|| InverseDepthPlane::fit_points(camera, &inputs.positions_world, previous_plane.as_ref()))
+            .flatten();
         let mut state: Option<(GpuImage, GpuImage)> = None;
         let mut solutions = Vec::with_capacity(params.levels);
         let mut view_weights = None;
@@ -173,6 +182,11 @@ impl GpuRenderer {
             };
             ctx.set_stage(level, "splat");
             let sparse_color_mask = self.splat.pack_color_mask(ctx, &sparse)?;
+            // The plane's pull joins the temporal terms of the depth system.
+            let temporal_depth = match plane {
+                Some(p) => self.assemble.plane_prior(ctx, params, &sparse.mask, &temporal_depth, &p.in_pixels(&cam), level)?,
+                None => temporal_depth,
+            };
             for _ in 0..params.outer_iterations_at(level) {
                 ctx.set_stage(level, "weights");
                 let w_p = self.assemble.projection_weights(ctx, params, &color, warps.packed())?;
@@ -206,7 +220,13 @@ impl GpuRenderer {
             state = Some((depth, color));
         }
         solutions.reverse();
-        Ok(GpuFrame { camera: *camera, levels: solutions, view_weights, views_used: chosen.len() })
+        Ok(GpuFrame {
+            camera: *camera,
+            levels: solutions,
+            view_weights,
+            views_used: chosen.len(),
+            plane: plane.map(|p| p.to_world(camera)),
+        })
     }
 
     /// A copy of `image` (the level's solution, kept while the next level overwrites its own).

@@ -38,6 +38,8 @@ pub(crate) const PROJECTION_WEIGHTS: Shader = shader!("assemble/projection_weigh
 pub(crate) const DEPTH_WEIGHTS: Shader = shader!("assemble/depth_weights.wgsl", "assemble/params.wgsl", "common/agreement.wgsl");
 /// The depth system.
 pub(crate) const DEPTH_SYSTEM: Shader = shader!("assemble/depth_system.wgsl", "assemble/params.wgsl", "common/float_bits.wgsl");
+/// The plane's pull per pixel from the points' support.
+pub(crate) const PLANE_SUPPORT: Shader = shader!("assemble/plane_support.wgsl");
 /// The color system.
 pub(crate) const COLOR_SYSTEM: Shader = shader!("assemble/color_system.wgsl", "assemble/params.wgsl");
 /// Projection of the sparse cloud's points into a camera.
@@ -72,6 +74,7 @@ pub const SHADERS: &[(&str, &str)] = &[
     PROJECTION_WEIGHTS,
     DEPTH_WEIGHTS,
     DEPTH_SYSTEM,
+    PLANE_SUPPORT,
     COLOR_SYSTEM,
     SPLAT_POINTS,
     SPLAT_PIXELS,

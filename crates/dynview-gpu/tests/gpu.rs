@@ -48,6 +48,8 @@ fn depth_terms(width: usize, height: usize) -> DepthTerms {
         sparse_depth: (0..n).map(|_| 2.0 + 5.0 * r()).collect(),
         temporal: (0..n).map(|_| if r() < 0.8 { 0.1 * r() } else { 0.0 }).collect(),
         previous_depth: (0..n).map(|_| 2.0 + 5.0 * r()).collect(),
+        plane_weight: (0..n).map(|_| if r() < 0.5 { 0.1 * r() } else { 0.0 }).collect(),
+        plane_depth: (0..n).map(|_| 2.0 + 5.0 * r()).collect(),
     }
 }
 
@@ -269,11 +271,15 @@ fn max_relative_difference(gpu: &[f32], cpu: &[f32], floor: f32) -> f32 {
     gpu.iter().zip(cpu).map(|(a, b)| (a - b).abs() / b.abs().max(floor)).fold(0.0, f32::max)
 }
 
+use dynview_core::render::plane::{PixelPlane, plane_weights};
+
 #[test]
 fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
     let ctx = context();
     let assemble = AssembleKernels::new(&ctx);
-    let params = RenderParams::default();
+    // A support threshold that the test's point spacing crosses, so the plane's weights take
+    // every value from 0 to lambda_plane.
+    let params = RenderParams { plane_support: 0.05, ..RenderParams::default() };
     let (w, h) = (90, 50);
     let n = w * h;
     let novel = camera(DVec3::new(0.2, 0.3, 5.0), w as u32, h as u32);
@@ -305,7 +311,8 @@ fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
     };
     let mut sparse =
         SplatMaps { depth: Raster::filled(w, h, f32::INFINITY), color: Raster::filled(w, h, [0.0; 3]), mask: Raster::filled(w, h, 0.0) };
-    for i in (0..n).step_by(17) {
+    // Points on the left two thirds only: the plane pulls on the right, partly in between.
+    for i in (0..n).step_by(17).filter(|i| i % w < 2 * w / 3) {
         sparse.depth.data[i] = 4.0 + r();
         sparse.color.data[i] = if r() < 0.7 { color.data[i] } else { [r(), r(), r()] };
         sparse.mask.data[i] = 1.0;
@@ -313,6 +320,10 @@ fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
     let temporal: Vec<f32> = (0..n).map(|_| if r() < 0.7 { 0.1 * r() } else { 0.0 }).collect();
     let previous_depth: Vec<f32> = (0..n).map(|_| 4.0 + r()).collect();
     let previous_color: Vec<Rgb> = (0..n).map(|_| [r(), r(), r()]).collect();
+    // A plane whose clamp is reached at both ends; its weights as at pyramid level 1.
+    let plane = PixelPlane { coefficients: [0.002, -0.003, 0.2], inverse_depth_range: [0.15, 0.3] };
+    let plane_weight = plane_weights(&sparse.mask, 1, params.lambda_plane, params.plane_support);
+    let plane_depth: Vec<f32> = (0..n).map(|i| plane.depth_at(i % w, i / w)).collect();
 
     // CPU, as the frame loop does it.
     let w_p: Vec<Vec<f32>> = warps.iter().map(|wp| weights::projection_weights(wp, &color, params.sigma)).collect();
@@ -332,6 +343,8 @@ fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
         sparse_depth: sparse.depth.data.clone(),
         temporal: temporal.clone(),
         previous_depth: previous_depth.clone(),
+        plane_weight: plane_weight.clone(),
+        plane_depth,
     };
     let cpu_depth = depth_terms.system();
     let color_terms = ColorTerms {
@@ -367,6 +380,11 @@ fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
             [temporal[i], c[0], c[1], c[2]]
         })
         .collect();
+    let prior = assemble.plane_prior(&ctx, &params, &up(&sparse.mask.data, h, 1), &up(&temporal_depth, h, 2), &plane, 1).unwrap();
+    // Window sums of a 0/1 mask are integers: the plane's weights are the CPU's exactly.
+    let prior_weights: Vec<f32> = prior.download(&ctx).unwrap().chunks(2).map(|c| c[0]).collect();
+    let cpu_weights: Vec<f32> = (0..n).map(|i| temporal[i] + plane_weight[i]).collect();
+    assert_eq!(prior_weights, cpu_weights, "temporal and plane weights");
     let gpu_depth = assemble
         .depth_system(
             &ctx,
@@ -376,7 +394,7 @@ fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
             &visibility,
             &up(&sparse_color_mask, h, 4),
             &up(&sparse.depth.data, h, 1),
-            &up(&temporal_depth, h, 2),
+            &prior,
             2,
         )
         .unwrap();
@@ -402,6 +420,9 @@ fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
     assert!(d <= 1e-3, "color rhs: max relative difference {d}");
     // The scene exercises the terms: clamped and free w_D, sparse attachment, invalid warps.
     assert!(depth_terms.attach.iter().any(|&a| a > 0.5) && cpu_w_p.iter().any(|&v| v < 0.0));
+    // ... and the plane: full pull far from the points, none among them, partial in between.
+    let full = params.lambda_plane;
+    assert!(plane_weight.contains(&full) && plane_weight.contains(&0.0) && plane_weight.iter().any(|&p| p > 0.0 && p < full));
 }
 
 use dynview_core::render::sparse::{project_cloud, warp_frame};

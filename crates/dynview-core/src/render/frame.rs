@@ -3,6 +3,7 @@
 
 use super::job::{FrameJob, JobStep};
 use super::params::RenderParams;
+use super::plane::WorldPlane;
 use super::pushpull;
 use super::pyramid::{self, camera_at};
 use super::solve::{ColorTerms, ColorView, DepthTerms};
@@ -71,6 +72,8 @@ pub struct PreviousFrame {
     pub camera: Camera,
     /// Its solution per level, finest first.
     pub levels: Vec<LevelSolution>,
+    /// The plane its depth was pulled toward (kept for the next frame while it still fits).
+    pub plane: Option<WorldPlane>,
 }
 
 pub(super) fn previous_camera(previous: Option<&PreviousFrame>) -> Camera {
@@ -101,6 +104,8 @@ pub struct RenderOutput {
     /// The solutions of the coarser levels (level 1 first; empty for the baselines), kept for
     /// the next frame's temporal terms.
     pub coarse_levels: Vec<LevelSolution>,
+    /// The plane the depth was pulled toward (`lambda_plane`), if one fitted.
+    pub plane: Option<WorldPlane>,
 }
 
 impl RenderOutput {
@@ -108,7 +113,7 @@ impl RenderOutput {
     pub fn into_previous(self, camera: Camera) -> PreviousFrame {
         let mut levels = vec![LevelSolution { color: self.color, depth: self.depth }];
         levels.extend(self.coarse_levels);
-        PreviousFrame { camera, levels }
+        PreviousFrame { camera, levels, plane: self.plane }
     }
 }
 
@@ -349,6 +354,7 @@ pub(crate) fn depth_terms(
     warps: &[ViewWarp],
     sparse: &SplatMaps,
     prev: Option<(&SplatMaps, &[f32])>,
+    plane: Option<(Vec<f32>, Vec<f32>)>,
 ) -> DepthTerms {
     let n = color.data.len();
     let lambda_t = temporal_lambda(params, sparse);
@@ -368,7 +374,18 @@ pub(crate) fn depth_terms(
         Some((p, w_t)) => (w_t.iter().map(|w| lambda_t * w).collect(), p.depth.data.clone()),
         None => (vec![0.0; n], vec![0.0; n]),
     };
-    DepthTerms { width: color.width, height: color.height, w_d, attach, sparse_depth: sparse.depth.data.clone(), temporal, previous_depth }
+    let (plane_weight, plane_depth) = plane.unwrap_or_default();
+    DepthTerms {
+        width: color.width,
+        height: color.height,
+        w_d,
+        attach,
+        sparse_depth: sparse.depth.data.clone(),
+        temporal,
+        previous_depth,
+        plane_weight,
+        plane_depth,
+    }
 }
 
 /// The color energy's terms from the warps, their weights and the previous frame.

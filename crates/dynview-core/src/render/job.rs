@@ -10,6 +10,7 @@ use super::frame::{
     SolveKind, SolveTrace, TimeStepInputs, check_inputs, color_terms, depth_terms, filled, previous_camera, sparse_maps,
 };
 use super::params::{Method, RenderParams};
+use super::plane::{InverseDepthPlane, plane_weights};
 use super::pushpull;
 use super::pyramid::{self, Pixel, camera_at};
 use super::solve::{GridSystem, Norm};
@@ -41,6 +42,8 @@ pub struct FrameJob<I, P> {
     chosen: Vec<usize>,
     /// Relative rank scores of the chosen views (the color initial guess weights).
     init_weights: Vec<f32>,
+    /// The plane the depth is pulled toward (`lambda_plane`), fitted once per frame.
+    plane: Option<InverseDepthPlane>,
     /// The level the next step solves; `None` once done.
     next_level: Option<usize>,
     depth: ScalarRaster,
@@ -59,6 +62,10 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
             choose_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views);
         let previous = if params.method == Method::Full { previous } else { None };
         let next_level = Some(if params.method.is_variational() { params.levels - 1 } else { 0 });
+        let previous_plane = previous.as_ref().and_then(|p| p.borrow().plane);
+        let plane = (params.method.is_variational() && params.lambda_plane > 0.0)
+            .then(|| InverseDepthPlane::fit_points(&camera, &inputs.borrow().cloud.positions_world, previous_plane.as_ref()))
+            .flatten();
         Ok(Self {
             params,
             camera,
@@ -66,6 +73,7 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
             previous,
             chosen,
             init_weights,
+            plane,
             next_level,
             depth: ScalarRaster::filled(1, 1, FALLBACK_DEPTH),
             color: RgbRaster::filled(1, 1, FALLBACK_COLOR),
@@ -116,6 +124,7 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
             temporal_used: self.previous.is_some(),
             timings,
             coarse_levels: std::mem::take(&mut self.coarse_levels),
+            plane: self.plane.map(|p| p.to_world(&self.camera)),
         })))
     }
 
@@ -188,6 +197,8 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
             views.update(&cam, &self.depth, params, watch);
             self.color = views.blend(&coarse_color, &self.init_weights);
         }
+        // The plane's pull per pixel (weak where points are near) and its depth.
+        let plane = self.plane.map(|p| (plane_weights(&sparse.mask, level, params.lambda_plane, params.plane_support), p.depth_map(&cam)));
         let (depth, color) = (&mut self.depth, &mut self.color);
         let mut scratch_d = vec![0.0f32; w * h];
         let mut scratch_c = vec![[0.0f32; 3]; w * h];
@@ -197,7 +208,7 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
         for iteration in 0..params.outer_iterations_at(level) {
             // Depth with color fixed.
             views.update(&cam, depth, params, watch);
-            let depth_terms = depth_terms(params, color, &views.warps, &sparse, temporal);
+            let depth_terms = depth_terms(params, color, &views.warps, &sparse, temporal, plane.clone());
             watch.lap(Stage::Weights);
             let trace = hooks.solve_traces.as_mut().map(|traces| (&mut **traces, SolveTrace::start(level, iteration, SolveKind::Depth)));
             let sweeps = Sweeps { count: params.depth_sweeps, relaxation: params.relaxation };

@@ -10,6 +10,7 @@
 mod frame;
 mod job;
 mod params;
+pub mod plane;
 pub mod pushpull;
 pub mod pyramid;
 pub mod solve;

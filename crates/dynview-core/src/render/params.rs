@@ -63,6 +63,18 @@ pub struct RenderParams {
     /// 1). Without this, sparse clouds (2% coverage) let the temporal term outweigh the points
     /// fifty-fold and depth lags behind moving objects.
     pub temporal_coverage_scaling: bool,
+    /// `lambda_plane`: pull of the depth toward one plane fitted to the step's points as the
+    /// virtual camera sees them (ours; 0 turns it off; see `render::plane`). It acts only where
+    /// points are scarce (`plane_support`): there the membrane of the depth energy makes a bump
+    /// at each point that relaxes to a mean in between, and the warped views swirl; the plane
+    /// lets that depth settle on the dominant surface instead. Measured in
+    /// `docs/results/real_findings.md`.
+    pub lambda_plane: f32,
+    /// Share of the pixels around a pixel (radius 16 px at the finest level, halved per level)
+    /// carrying a point at which the plane's pull is gone (ours); below it the pull fades in
+    /// linearly. 0.002 is about two points in the finest window. Larger values help the sparse
+    /// real captures and hurt the synthetic event (0.01: Pose2Sim SSIM +0.012, synthetic -1.3 dB).
+    pub plane_support: f32,
     /// `lambda_P`: color data term per view (paper Eq. rendering_color; 5 to 20, default 10).
     pub lambda_p: f32,
     /// `lambda_G`: color gradient term per view (paper Eq. rendering_color; 5 to 20, default 10).
@@ -124,6 +136,8 @@ impl Default for RenderParams {
             lambda_pc: 1.0,
             lambda_t: 0.1,
             temporal_coverage_scaling: true,
+            lambda_plane: 0.1,
+            plane_support: 0.002,
             lambda_p: 10.0,
             lambda_g: 10.0,
             views: 4,
@@ -166,6 +180,7 @@ impl RenderParams {
             ("eps_visibility", self.eps_visibility),
             ("w_d_min", self.w_d_min),
             ("visibility_tolerance", self.visibility_tolerance),
+            ("plane_support", self.plane_support),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return bad(field, format!("must be finite and positive, found {v}"));
@@ -175,6 +190,7 @@ impl RenderParams {
             ("sparse_consistency", self.sparse_consistency),
             ("lambda_pc", self.lambda_pc),
             ("lambda_t", self.lambda_t),
+            ("lambda_plane", self.lambda_plane),
             ("lambda_p", self.lambda_p),
             ("lambda_g", self.lambda_g),
         ] {

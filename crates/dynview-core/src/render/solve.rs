@@ -111,9 +111,11 @@ impl Norm for Rgb {
 
 /// The terms of the depth energy (paper Eqs. rendering_depth and depth_temporalconsistency):
 ///
-/// `E_D = sum_edges w_D,xy (D_x - D_y)^2 + sum_x [ attach_x (D_x - D^_x)^2 + temporal_x (D_x - Dprev_x)^2 ]`
+/// `E_D = sum_edges w_D,xy (D_x - D_y)^2 + sum_x [ attach_x (D_x - D^_x)^2 + temporal_x (D_x - Dprev_x)^2
+///        + lambda_plane (D_x - Dplane_x)^2 ]`
 ///
-/// with `attach = lambda_PC w_H m` and `temporal = lambda_T w_T`.
+/// with `attach = lambda_PC w_H m` and `temporal = lambda_T w_T`; the last term is ours (see
+/// [`super::plane`]).
 #[derive(Clone, Debug)]
 pub struct DepthTerms {
     /// Grid width.
@@ -130,6 +132,10 @@ pub struct DepthTerms {
     pub temporal: Vec<f32>,
     /// `D_{t-1}^{proj}` (ignored where `temporal` is 0).
     pub previous_depth: Vec<f32>,
+    /// `lambda_plane (1 - support)`: the pull toward `plane_depth` per pixel (ours; empty = none).
+    pub plane_weight: Vec<f32>,
+    /// The depth of the fitted plane per pixel (ignored where `plane_weight` is 0 or empty).
+    pub plane_depth: Vec<f32>,
 }
 
 #[inline]
@@ -153,6 +159,11 @@ impl DepthTerms {
                 }
                 if self.attach[i] > 0.0 {
                     e += f64::from(self.attach[i] * (depth[i] - self.sparse_depth[i]).powi(2));
+                }
+                if let Some(&p) = self.plane_weight.get(i)
+                    && p > 0.0
+                {
+                    e += f64::from(p * (depth[i] - self.plane_depth[i]).powi(2));
                 }
                 if self.temporal[i] > 0.0 {
                     e += f64::from(self.temporal[i] * (depth[i] - self.previous_depth[i]).powi(2));
@@ -184,7 +195,8 @@ impl DepthTerms {
         for y in 0..h {
             for x in 0..w {
                 let i = y * w + x;
-                let mut diag = self.attach[i] + self.temporal[i];
+                let plane = self.plane_weight.get(i).copied().unwrap_or(0.0);
+                let mut diag = self.attach[i] + self.temporal[i] + plane;
                 diag += right[i] + down[i];
                 if x > 0 {
                     diag += right[i - 1];
@@ -194,6 +206,9 @@ impl DepthTerms {
                 }
                 inv_diag[i] = if diag > 0.0 { 1.0 / diag } else { 0.0 };
                 rhs[i] = self.attach[i] * finite_or_zero(self.sparse_depth[i]) + self.temporal[i] * finite_or_zero(self.previous_depth[i]);
+                if plane > 0.0 {
+                    rhs[i] += plane * finite_or_zero(self.plane_depth[i]);
+                }
             }
         }
         GridSystem { width: w, height: h, right, down, inv_diag, rhs }
@@ -396,6 +411,8 @@ mod tests {
             sparse_depth: (0..n).map(|_| 2.0 + lcg(seed)).collect(),
             temporal: (0..n).map(|_| 0.05 * lcg(seed)).collect(),
             previous_depth: (0..n).map(|_| 2.0 + lcg(seed)).collect(),
+            plane_weight: (0..n).map(|_| if lcg(seed) < 0.5 { 0.01 * lcg(seed) } else { 0.0 }).collect(),
+            plane_depth: (0..n).map(|_| 2.0 + lcg(seed)).collect(),
         }
     }
 
