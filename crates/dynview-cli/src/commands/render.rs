@@ -52,7 +52,7 @@ pub struct Args {
 /// The renderer a run uses: the CPU's streaming renderer, or the GPU's with its previous frame.
 enum Backend {
     Cpu(StreamingRenderer),
-    Gpu { ctx: Box<GpuContext>, renderer: Box<GpuRenderer>, previous: Option<GpuFrame>, inputs: Option<(u32, GpuInputs)> },
+    Gpu { ctx: Box<GpuContext>, renderer: Box<GpuRenderer>, previous: Option<Box<GpuFrame>>, inputs: Option<(u32, GpuInputs)> },
 }
 
 impl Backend {
@@ -85,12 +85,12 @@ impl Backend {
                 }
                 let gpu_inputs = &uploaded.as_ref().context("inputs not uploaded")?.1;
                 let start = clock();
-                let frame = renderer.render(ctx, params, camera, gpu_inputs, previous.as_ref())?;
+                let frame = renderer.render(ctx, params, camera, gpu_inputs, previous.as_deref())?;
                 let color = frame.color().download_rgb(ctx)?;
                 let depth = frame.depth().download(ctx)?;
                 let ms = clock() - start;
                 let depth = ScalarRaster { width: color.width, height: color.height, data: depth };
-                *previous = Some(frame);
+                *previous = Some(Box::new(frame));
                 Ok((color, depth, ms))
             }
         }
