@@ -136,8 +136,10 @@ impl GpuRenderer {
             let (w, h) = sizes[level];
             let cam = camera_at(camera, w, h);
             ctx.set_stage(level, "splat");
-            let sparse = self.splat.project_cloud(ctx, &inputs.cloud, &cam)?;
-            let counters = self.consistency.drop_inconsistent(ctx, &sparse, params.sparse_consistency)?;
+            let points = self.splat.project_cloud(ctx, &inputs.cloud, &cam)?;
+            self.consistency.drop_inconsistent(ctx, &points, params.sparse_consistency)?;
+            // Each point attached over its footprint; the counters give the coverage after.
+            let (sparse, counters) = self.splat.with_footprint(ctx, &points, params.sparse_footprint_px)?;
             ctx.set_stage(level, "temporal");
             let prev: Option<GpuSplat> = match previous
                 .filter(|_| level < params.temporal_levels)
@@ -184,7 +186,7 @@ impl GpuRenderer {
             let sparse_color_mask = self.splat.pack_color_mask(ctx, &sparse)?;
             // The plane's pull joins the temporal terms of the depth system.
             let temporal_depth = match plane {
-                Some(p) => self.assemble.plane_prior(ctx, params, &sparse.mask, &temporal_depth, &p.in_pixels(&cam), level)?,
+                Some(p) => self.assemble.plane_prior(ctx, params, &points.mask, &temporal_depth, &p.in_pixels(&cam), level)?,
                 None => temporal_depth,
             };
             for _ in 0..params.outer_iterations_at(level) {

@@ -49,6 +49,8 @@ pub(crate) const SPLAT_PIXELS: Shader =
     shader!("splat_pixels.wgsl", "common/float_bits.wgsl", "common/outside.wgsl", "common/splat_emit.wgsl");
 /// The z-buffer resolve of a splat.
 pub(crate) const SPLAT_RESOLVE: Shader = shader!("splat_resolve.wgsl", "common/float_bits.wgsl", "common/outside.wgsl");
+/// The sparse samples attached over their footprints.
+pub(crate) const SPLAT_FOOTPRINT: Shader = shader!("splat_footprint.wgsl");
 /// The sparse maps' color and mask as one RGBA image.
 pub(crate) const SPLAT_PACK: Shader = shader!("splat_pack.wgsl");
 /// The sparse consistency filter.
@@ -80,6 +82,7 @@ pub const SHADERS: &[(&str, &str)] = &[
     SPLAT_PIXELS,
     SPLAT_RESOLVE,
     SPLAT_PACK,
+    SPLAT_FOOTPRINT,
     CONSISTENCY,
     BLEND,
     TEMPORAL_WEIGHTS,

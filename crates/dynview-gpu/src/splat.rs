@@ -114,6 +114,17 @@ pub struct SplatKernels {
     first_index: Kernel,
     write: Kernel,
     pack_color_mask: Kernel,
+    footprint: Kernel,
+}
+
+/// `splat_footprint.wgsl`'s uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct FootprintParams {
+    width: u32,
+    height: u32,
+    radius: u32,
+    _pad0: u32,
 }
 
 impl SplatKernels {
@@ -133,6 +144,13 @@ impl SplatKernels {
             first_index: Kernel::new(ctx, &resolve, "first_index", &r, 64),
             write: Kernel::new(ctx, &resolve, "write", &r, 64),
             pack_color_mask: Kernel::new(ctx, &pack, "pack_color_mask", &[true, true, false], 8),
+            footprint: Kernel::new(
+                ctx,
+                &shaders::module(ctx, shaders::SPLAT_FOOTPRINT),
+                "footprint",
+                &[true, true, true, false, false, false, false],
+                8,
+            ),
         }
     }
 
@@ -190,6 +208,33 @@ impl SplatKernels {
         };
         let project = Projection { kernel: &self.project_pixels, params: bytemuck::bytes_of(&params), count };
         self.splat(ctx, project, &depth.buffer, &color.buffer, camera)
+    }
+
+    /// `sparse` with every sample attached over its footprint of `radius` pixels, as
+    /// dynview-core's `SplatMaps::with_footprint`, and counters whose `[1]` is the covered
+    /// pixels after (for [`crate::TemporalKernels::temporal_terms`]).
+    pub fn with_footprint(&self, ctx: &GpuContext, sparse: &GpuSplat, radius: usize) -> Result<(GpuSplat, GpuImage), GpuError> {
+        let (w, h) = (sparse.mask.width, sparse.mask.height);
+        let out = GpuSplat {
+            depth: GpuImage::zeroed(ctx, w, h, 1)?,
+            color: GpuImage::zeroed(ctx, w, h, 3)?,
+            mask: GpuImage::zeroed(ctx, w, h, 1)?,
+        };
+        let counters = GpuImage::zeroed(ctx, 2, 1, 1)?;
+        let params = FootprintParams { width: w as u32, height: h as u32, radius: radius as u32, _pad0: 0 };
+        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("footprint") });
+        let buffers = [
+            &sparse.depth.buffer,
+            &sparse.color.buffer,
+            &sparse.mask.buffer,
+            &out.depth.buffer,
+            &out.color.buffer,
+            &out.mask.buffer,
+            &counters.buffer,
+        ];
+        self.footprint.dispatch(ctx, &mut encoder, bytemuck::bytes_of(&params), &buffers, w, h);
+        ctx.queue.submit([encoder.finish()]);
+        Ok((out, counters))
     }
 
     /// `sparse`'s color and mask as one RGBA image (RGB, then the mask), as the depth weights
@@ -281,5 +326,6 @@ pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
         ),
         mirror!(shaders::SPLAT_RESOLVE, "Params", ResolveParams { count, pixels, _pad0, _pad1 }),
         mirror!(shaders::SPLAT_PACK, "Params", PackParams { width, height, _pad0, _pad1 }),
+        mirror!(shaders::SPLAT_FOOTPRINT, "FootprintParams", FootprintParams { width, height, radius, _pad0 }),
     ]
 }

@@ -475,6 +475,22 @@ fn cloud_and_frame_splats_on_the_gpu_match_the_cpu() {
     let cpu = project_cloud(&cloud, &cam);
     let gpu = kernels.project_cloud(&ctx, &GpuCloud::upload(&ctx, &cloud), &cam).unwrap();
     assert_splats_agree(&ctx, &gpu, &cpu, "cloud");
+    // Footprints of the CPU's maps (uploaded, so both start from the same maps): the same
+    // pixels take the same point, and the counters give the covered pixels after.
+    let upload_maps = |maps: &SplatMaps| dynview_gpu::GpuSplat {
+        depth: GpuImage::upload(&ctx, &maps.depth.data, 80, 48, 1).unwrap(),
+        color: GpuImage::upload(&ctx, maps.color.data.as_flattened(), 80, 48, 3).unwrap(),
+        mask: GpuImage::upload(&ctx, &maps.mask.data, 80, 48, 1).unwrap(),
+    };
+    for radius in [0, 2] {
+        let cpu_wide = cpu.with_footprint(radius);
+        let (gpu_wide, counters) = kernels.with_footprint(&ctx, &upload_maps(&cpu), radius).unwrap();
+        assert_eq!(gpu_wide.mask.download(&ctx).unwrap(), cpu_wide.mask.data, "footprint {radius}: mask");
+        assert_eq!(gpu_wide.depth.download(&ctx).unwrap(), cpu_wide.depth.data, "footprint {radius}: depth");
+        assert_eq!(gpu_wide.color.download(&ctx).unwrap(), cpu_wide.color.data.as_flattened(), "footprint {radius}: color");
+        assert_eq!(counters.download(&ctx).unwrap()[1].to_bits() as usize, cpu_wide.covered(), "footprint {radius}: count");
+    }
+    assert!(cpu.with_footprint(2).covered() > 2 * cpu.covered(), "the footprints must widen the maps");
     // An empty cloud gives empty maps.
     let empty = kernels.project_cloud(&ctx, &GpuCloud::upload(&ctx, &PointCloud::default()), &cam).unwrap();
     assert!(empty.mask.download(&ctx).unwrap().iter().all(|&m| m == 0.0));

@@ -170,7 +170,10 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
         let sizes = pyramid::level_sizes(camera.width_px as usize, camera.height_px as usize, params.levels);
         let (w, h) = sizes[level];
         let cam = camera_at(camera, w, h);
-        let sparse = sparse_maps(params, &inputs.cloud, &cam);
+        let points = sparse_maps(params, &inputs.cloud, &cam);
+        // The plane pulls where points are scarce: counted before their footprints.
+        let plane = self.plane.map(|p| (plane_weights(&points.mask, level, params.lambda_plane, params.plane_support), p.depth_map(&cam)));
+        let sparse = points.with_footprint(params.sparse_footprint_px);
         // The previous frame's solution at this level, warped into this level's camera.
         let previous = self.previous.as_ref().map(|p| p.borrow());
         let prev = previous
@@ -197,8 +200,6 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
             views.update(&cam, &self.depth, params, watch);
             self.color = views.blend(&coarse_color, &self.init_weights);
         }
-        // The plane's pull per pixel (weak where points are near) and its depth.
-        let plane = self.plane.map(|p| (plane_weights(&sparse.mask, level, params.lambda_plane, params.plane_support), p.depth_map(&cam)));
         let (depth, color) = (&mut self.depth, &mut self.color);
         let mut scratch_d = vec![0.0f32; w * h];
         let mut scratch_c = vec![[0.0f32; 3]; w * h];

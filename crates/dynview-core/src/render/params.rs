@@ -75,6 +75,11 @@ pub struct RenderParams {
     /// linearly. 0.002 is about two points in the finest window. Larger values help the sparse
     /// real captures and hurt the synthetic event (0.01: Pose2Sim SSIM +0.012, synthetic -1.3 dB).
     pub plane_support: f32,
+    /// Radius in pixels, at every pyramid level, over which each projected point attaches the
+    /// depth (ours; 0 = one pixel, as the paper): a pixel without a point takes the nearest
+    /// point within it. A point held at a single pixel is a spike in the membrane of the depth
+    /// energy; over a patch it carries its depth to its neighbours. See `docs/RENDERER.md`.
+    pub sparse_footprint_px: usize,
     /// `lambda_P`: color data term per view (paper Eq. rendering_color; 5 to 20, default 10).
     pub lambda_p: f32,
     /// `lambda_G`: color gradient term per view (paper Eq. rendering_color; 5 to 20, default 10).
@@ -138,6 +143,7 @@ impl Default for RenderParams {
             temporal_coverage_scaling: true,
             lambda_plane: 0.1,
             plane_support: 0.002,
+            sparse_footprint_px: 2,
             lambda_p: 10.0,
             lambda_g: 10.0,
             views: 4,
@@ -206,6 +212,9 @@ impl RenderParams {
         }
         if self.temporal_levels > 8 {
             return bad("temporal_levels", format!("must be at most 8, found {}", self.temporal_levels));
+        }
+        if self.sparse_footprint_px > 16 {
+            return bad("sparse_footprint_px", format!("must be at most 16, found {}", self.sparse_footprint_px));
         }
         if !(1..=16).contains(&self.views) {
             return bad("views", format!("must be in 1..=16, found {}", self.views));

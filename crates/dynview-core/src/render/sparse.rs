@@ -47,6 +47,41 @@ impl SplatMaps {
 }
 
 impl SplatMaps {
+    /// Every sample attached over its footprint: a pixel without a sample takes the nearest one
+    /// (smallest depth; the first in row-major order among equals) within `radius` pixels, so
+    /// that the depth energy attaches to a patch around each point rather than one pixel (see
+    /// `RenderParams::sparse_footprint_px`). The GPU's `splat_footprint.wgsl` does the same.
+    pub fn with_footprint(&self, radius: usize) -> SplatMaps {
+        let (w, h) = (self.mask.width, self.mask.height);
+        let mut out = self.clone();
+        if radius == 0 {
+            return out;
+        }
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                if self.mask.data[i] > 0.0 {
+                    continue;
+                }
+                let mut best: Option<usize> = None;
+                for yy in y.saturating_sub(radius)..=(y + radius).min(h - 1) {
+                    for xx in x.saturating_sub(radius)..=(x + radius).min(w - 1) {
+                        let j = yy * w + xx;
+                        if self.mask.data[j] > 0.0 && best.is_none_or(|b| self.depth.data[j] < self.depth.data[b]) {
+                            best = Some(j);
+                        }
+                    }
+                }
+                if let Some(j) = best {
+                    out.depth.data[i] = self.depth.data[j];
+                    out.color.data[i] = self.color.data[j];
+                    out.mask.data[i] = 1.0;
+                }
+            }
+        }
+        out
+    }
+
     /// Removes samples that cannot be right in this view, in two passes over a window of
     /// `radius` pixels (`None`: half the mean spacing between samples, 1 to 8 pixels):
     ///
@@ -216,5 +251,24 @@ mod tests {
         back.camera_from_world.translation = DVec3::new(0.0, 0.0, 1.0);
         let maps = warp_frame(&cam, &depth, &color, &back);
         assert!(maps.depth.data.iter().filter(|d| d.is_finite()).all(|&d| (d - 3.0).abs() < 1e-5));
+    }
+
+    #[test]
+    fn a_footprint_lends_the_nearest_point_to_the_pixels_around_it() {
+        let mut maps = SplatMaps::empty(7, 5);
+        for (i, depth, color) in [(2 * 7 + 2, 3.0, [1.0, 0.0, 0.0]), (2 * 7 + 4, 2.0, [0.0, 1.0, 0.0])] {
+            maps.depth.data[i] = depth;
+            maps.color.data[i] = color;
+            maps.mask.data[i] = 1.0;
+        }
+        assert_eq!(maps.with_footprint(0).mask.data, maps.mask.data);
+        let wide = maps.with_footprint(1);
+        // Between the two points the nearer (depth 2) wins; beside the far one it is its own.
+        assert_eq!((wide.depth.get(3, 2), wide.color.get(3, 2)), (2.0, [0.0, 1.0, 0.0]));
+        assert_eq!((wide.depth.get(1, 1), wide.color.get(1, 1)), (3.0, [1.0, 0.0, 0.0]));
+        // The points themselves keep theirs; out of reach stays empty.
+        assert_eq!(wide.depth.get(2, 2), 3.0);
+        assert!(wide.mask.get(0, 0) == 0.0 && wide.depth.get(0, 0).is_infinite());
+        assert_eq!(wide.covered(), 15);
     }
 }
