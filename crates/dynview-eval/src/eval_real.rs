@@ -57,7 +57,7 @@ pub struct Options {
     /// to compare). The runs then work in a folder of their own, named after the arguments.
     #[arg(long = "prep-arg", allow_hyphen_values = true)]
     pub prep_args: Vec<String>,
-    /// Renderer parameters that differ from the defaults, as JSON (the fields of
+    /// Renderer parameters that differ from the defaults, as JSON or a JSON file (the fields of
     /// `RenderParams`, e.g. `--params '{"lambda_plane": 0}'` to compare).
     #[arg(long, value_parser = parse_params)]
     pub params: Option<RenderParams>,
@@ -66,8 +66,13 @@ pub struct Options {
     pub out: PathBuf,
 }
 
+/// Renderer parameters from JSON, or from a JSON file when `json` names one (as `eval --params`).
 fn parse_params(json: &str) -> Result<RenderParams, String> {
-    let params: RenderParams = serde_json::from_str(json).map_err(|e| format!("renderer parameters: {e}"))?;
+    let text = match std::path::Path::new(json).is_file() {
+        true => std::fs::read_to_string(json).map_err(|e| format!("{json}: {e}"))?,
+        false => json.to_string(),
+    };
+    let params: RenderParams = serde_json::from_str(&text).map_err(|e| format!("renderer parameters: {e}"))?;
     params.validate().map_err(|e| e.to_string())?;
     Ok(params)
 }
@@ -474,5 +479,18 @@ mod tests {
         let args = ["--no-static".to_string(), "--target-points".to_string(), "4000".to_string()];
         assert_eq!(work_folder(&args), "target/eval/real+no_static+target_points+4000");
         assert_eq!(work_folder(&["../x y".to_string()]), "target/eval/real+.._x_y");
+    }
+
+    #[test]
+    fn renderer_parameters_come_as_json_or_a_file_and_are_checked() {
+        assert_eq!(parse_params(r#"{"lambda_plane": 0}"#).unwrap().lambda_plane, 0.0);
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("p.json");
+        std::fs::write(&file, r#"{"sparse_footprint_px": 1}"#).unwrap();
+        assert_eq!(parse_params(file.to_str().unwrap()).unwrap().sparse_footprint_px, 1);
+        assert!(parse_params(r#"{"relaxation": 3}"#).unwrap_err().contains("relaxation"));
+        assert!(parse_params("{not json").unwrap_err().contains("renderer parameters"));
+        assert_eq!(changed_params(Some(&RenderParams::default())), None);
+        assert_eq!(changed_params(parse_params(r#"{"lambda_plane": 0}"#).ok().as_ref()).as_deref(), Some(r#"{"lambda_plane":0.0}"#));
     }
 }
