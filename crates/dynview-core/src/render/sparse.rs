@@ -57,27 +57,27 @@ impl SplatMaps {
         if radius == 0 {
             return out;
         }
-        for y in 0..h {
-            for x in 0..w {
-                let i = y * w + x;
-                if self.mask.data[i] > 0.0 {
-                    continue;
-                }
-                let mut best: Option<usize> = None;
-                for yy in y.saturating_sub(radius)..=(y + radius).min(h - 1) {
-                    for xx in x.saturating_sub(radius)..=(x + radius).min(w - 1) {
-                        let j = yy * w + xx;
-                        if self.mask.data[j] > 0.0 && best.is_none_or(|b| self.depth.data[j] < self.depth.data[b]) {
-                            best = Some(j);
-                        }
+        // Scatter each sample over its window (samples are few): visiting them in row-major
+        // order and replacing only on a strictly smaller depth keeps, for every pixel, the
+        // nearest sample and the first among equals, as a gather over the window would.
+        let mut best: Vec<u32> = vec![u32::MAX; w * h];
+        for j in (0..w * h).filter(|&j| self.mask.data[j] > 0.0) {
+            let (x, y) = (j % w, j / w);
+            let depth = self.depth.data[j];
+            for yy in y.saturating_sub(radius)..=(y + radius).min(h - 1) {
+                let row = yy * w + x.saturating_sub(radius)..=yy * w + (x + radius).min(w - 1);
+                for (slot, &m) in best[row.clone()].iter_mut().zip(&self.mask.data[row]) {
+                    if m <= 0.0 && (*slot == u32::MAX || depth < self.depth.data[*slot as usize]) {
+                        *slot = j as u32;
                     }
                 }
-                if let Some(j) = best {
-                    out.depth.data[i] = self.depth.data[j];
-                    out.color.data[i] = self.color.data[j];
-                    out.mask.data[i] = 1.0;
-                }
             }
+        }
+        for (i, &j) in best.iter().enumerate().filter(|(_, j)| **j != u32::MAX) {
+            let j = j as usize;
+            out.depth.data[i] = self.depth.data[j];
+            out.color.data[i] = self.color.data[j];
+            out.mask.data[i] = 1.0;
         }
         out
     }
