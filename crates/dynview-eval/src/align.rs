@@ -393,7 +393,7 @@ pub fn bounding_box_diagonal(points: &[DVec3]) -> f64 {
 }
 
 /// Median of `values` (mean of the middle two for an even count; 0 for none).
-fn median(values: &[f64]) -> f64 {
+pub(crate) fn median(values: &[f64]) -> f64 {
     if values.is_empty() {
         return 0.0;
     }

@@ -269,7 +269,7 @@ fn evaluate_camera(
     let mut nearest = String::new();
     let mut render_secs = 0.0;
     let mut truth_before: Option<RgbRaster> = None;
-    let mut depth_errors: [Vec<f32>; 2] = [Vec::new(), Vec::new()];
+    let mut depth_errors: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     let blend_index = METHODS.iter().position(|&m| m == Method::Blend).unwrap_or(0);
     for t in 0..steps {
         let camera = reference.camera(k, t)?;
@@ -324,7 +324,7 @@ fn evaluate_camera(
     let n = f64::from(steps.max(1));
     let prep_secs = stage_seconds(&run.out)?.iter().map(|(_, s)| s).sum();
     let points_per_step = crate::prep_runs::cloud_point_counts(package).0 as f64 / n;
-    let depth_error_pct = depth_errors.map(|mut e| median(&mut e) * 100.0);
+    let depth_error_pct = depth_errors.map(|e| crate::align::median(&e) * 100.0);
     let result = CameraResult {
         name: held_out.to_string(),
         scores,
@@ -338,24 +338,14 @@ fn evaluate_camera(
 }
 
 /// `|rendered - own| / own` at every pixel where `own` has a point (sizes must match).
-fn relative_depth_errors<'a>(rendered: &'a ScalarRaster, own: &'a SplatMaps) -> impl Iterator<Item = f32> + 'a {
+fn relative_depth_errors<'a>(rendered: &'a ScalarRaster, own: &'a SplatMaps) -> impl Iterator<Item = f64> + 'a {
     own.mask
         .data
         .iter()
         .zip(&own.depth.data)
         .zip(&rendered.data)
         .filter(|((m, d), _)| **m > 0.0 && d.is_finite() && **d > 0.0)
-        .map(|((_, d), r)| (r - d).abs() / d)
-}
-
-/// The median of `values` (NaN when empty).
-fn median(values: &mut [f32]) -> f64 {
-    if values.is_empty() {
-        return f64::NAN;
-    }
-    let middle = values.len() / 2;
-    let (_, m, _) = values.select_nth_unstable_by(middle, f32::total_cmp);
-    f64::from(*m)
+        .map(|((_, d), r)| f64::from((r - d).abs() / d))
 }
 
 /// `image` at `width x height` (bilinear), or as it is when it has that size.

@@ -2,7 +2,7 @@
 //! (`shaders/assemble/*.wgsl`), as dynview-core's `render::weights` and `render::solve`.
 
 use dynview_core::render::RenderParams;
-use dynview_core::render::plane::{PixelPlane, SUPPORT_RADIUS_FINEST_PX};
+use dynview_core::render::plane::{PixelPlane, support_radius_px};
 
 use crate::context::{GpuContext, GpuError};
 use crate::image::GpuImage;
@@ -161,7 +161,7 @@ impl AssembleKernels {
         let uniform = SupportParams {
             width: w as u32,
             height: h as u32,
-            radius: (SUPPORT_RADIUS_FINEST_PX >> level).max(1) as u32,
+            radius: support_radius_px(level) as u32,
             _pad0: 0,
             lambda_plane: params.lambda_plane,
             support_coverage: params.plane_support,

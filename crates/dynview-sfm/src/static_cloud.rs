@@ -175,8 +175,7 @@ pub fn build_static_cloud<E: Send>(
             }
         }
     }
-    let seen_by: Vec<usize> = (0..n).map(|i| own[i * count..(i + 1) * count].iter().filter(|o| o.is_some()).count()).collect();
-    let seen = |i: usize| seen_by[i];
+    let seen: Vec<usize> = (0..n).map(|i| own[i * count..(i + 1) * count].iter().filter(|o| o.is_some()).count()).collect();
     // Static: the colors stay in at least min_static_share of the judging steps' samples.
     let judging = candidate_steps(steps, JUDGING_STEPS);
     let judged: Vec<Vec<u8>> = judging
@@ -190,9 +189,9 @@ pub fn build_static_cloud<E: Send>(
         })
         .collect::<Result<_, E>>()?;
     let mut statics = Vec::new();
-    for index in (0..n).filter(|&i| seen(i) >= 2) {
+    for index in (0..n).filter(|&i| seen[i] >= 2) {
         let agreeing: usize = judged.iter().map(|a| usize::from(a[index])).sum();
-        let share = agreeing as f32 / (seen(index) * judging.len()).max(1) as f32;
+        let share = agreeing as f32 / (seen[index] * judging.len()).max(1) as f32;
         if share >= options.min_static_share {
             statics.push(Static { index, share });
         }
@@ -233,7 +232,7 @@ pub fn build_static_cloud<E: Send>(
                         &frames,
                         options.color_tolerance,
                     );
-                    agree >= 2 && 3 * agree >= 2 * seen(i)
+                    agree >= 2 && 3 * agree >= 2 * seen[i]
                 })
                 .map(|(k, _)| k as u32)
                 .collect())

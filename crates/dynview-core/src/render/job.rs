@@ -171,8 +171,12 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
         let (w, h) = sizes[level];
         let cam = camera_at(camera, w, h);
         let points = sparse_maps(params, &inputs.cloud, &cam);
-        // The plane pulls where points are scarce: counted before their footprints.
-        let plane = self.plane.map(|p| (plane_weights(&points.mask, level, params.lambda_plane, params.plane_support), p.depth_map(&cam)));
+        // The plane pulls where points are scarce: counted before their footprints. Where they
+        // are dense everywhere it pulls nowhere, and its depth is not needed.
+        let plane = self.plane.and_then(|p| {
+            let weights = plane_weights(&points.mask, level, params.lambda_plane, params.plane_support);
+            weights.iter().any(|&w| w > 0.0).then(|| (weights, p.depth_map(&cam)))
+        });
         let sparse = points.with_footprint(params.sparse_footprint_px);
         // The previous frame's solution at this level, warped into this level's camera.
         let previous = self.previous.as_ref().map(|p| p.borrow());

@@ -33,7 +33,7 @@ const MIN_INLIERS: usize = 12;
 
 /// `1/z = a x + b y + c` in the normalised coordinates `x = (u - cx) / fx`, `y = (v - cy) / fy`
 /// of the camera it was fitted in (so every pyramid level of that camera shares it), with the
-/// inverse depth clamped to the range the points span.
+/// inverse depth clamped to `inverse_depth_range`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InverseDepthPlane {
     /// Coefficients `[a, b, c]`.
@@ -139,7 +139,7 @@ pub struct PixelPlane {
 }
 
 impl PixelPlane {
-    /// The z-depth at pixel `(x, y)`. The GPU's `assemble/depth_system.wgsl` evaluates the same
+    /// The z-depth at pixel `(x, y)`. The GPU's `assemble/plane_support.wgsl` evaluates the same
     /// f32 expression.
     #[inline]
     pub fn depth_at(&self, x: usize, y: usize) -> f32 {
@@ -151,14 +151,20 @@ impl PixelPlane {
 /// Radius of the window in which [`plane_weights`] measures the points' support, in pixels of
 /// the finest level (halved per coarser level, at least 1).
 pub const SUPPORT_RADIUS_FINEST_PX: usize = 16;
+
+/// The radius of that window at pyramid `level`, in the level's pixels.
+pub fn support_radius_px(level: usize) -> usize {
+    (SUPPORT_RADIUS_FINEST_PX >> level).max(1)
+}
+
 /// `lambda (1 - min(1, coverage / support))` per pixel, where `coverage` is the share
-/// of pixels with a point (`mask > 0`) in the window of radius `SUPPORT_RADIUS_FINEST_PX >> level`
+/// of pixels with a point (`mask > 0`) in the window of radius [`support_radius_px`]
 /// around it, clipped to the image. The GPU's `plane_support.wgsl` computes the same sums
 /// (integers, so exactly).
 /// `support` is `RenderParams::plane_support`.
 pub fn plane_weights(mask: &ScalarRaster, level: usize, lambda: f32, support: f32) -> Vec<f32> {
     let (w, h) = (mask.width, mask.height);
-    let r = (SUPPORT_RADIUS_FINEST_PX >> level).max(1);
+    let r = support_radius_px(level);
     // Window counts along rows, then along columns of those, by running sums (counts are
     // integers: any order of summation gives the same).
     let mut rows = vec![0u32; w * h];
