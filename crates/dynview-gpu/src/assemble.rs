@@ -61,7 +61,7 @@ struct AssembleParams {
 /// The uniform block of `shaders/assemble/plane_support.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct SupportParams {
+pub(crate) struct SupportParams {
     width: u32,
     height: u32,
     radius: u32,
@@ -74,6 +74,13 @@ struct SupportParams {
     plane_inverse_min: f32,
     plane_inverse_max: f32,
     _pad1: u32,
+}
+
+impl SupportParams {
+    /// The block for the support alone (`support_rows`, `unsupported`): no plane.
+    pub(crate) fn support_only(width: usize, height: usize, radius_px: usize, support_coverage: f32) -> Self {
+        Self { width: width as u32, height: height as u32, radius: radius_px as u32, support_coverage, ..bytemuck::Zeroable::zeroed() }
+    }
 }
 
 /// The assembly kernels, compiled once per device.

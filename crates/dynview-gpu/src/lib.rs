@@ -6,7 +6,8 @@
 //! ([`SplatKernels`]), the sparse consistency filter ([`ConsistencyKernels`]), push-pull and
 //! pyramid resampling ([`ImageKernels`]), backward warps with visibility ([`WarpKernels`]), the
 //! weights and the assembly of both systems ([`AssembleKernels`]), the color initial guess
-//! ([`BlendKernel`]), `w_T` and the temporal terms ([`TemporalKernels`]), and red-black sweeps
+//! ([`BlendKernel`]), the color energy's rank preference where points are scarce
+//! ([`RankKernels`]), `w_T` and the temporal terms ([`TemporalKernels`]), and red-black sweeps
 //! ([`GridSolver`]). Each matches its dynview-core counterpart; a whole frame matches the CPU's
 //! (tests/gpu_parity.rs). The baselines stay on the CPU. The WGSL ([`SHADERS`]) is composed from
 //! per-kernel files and shared code in `src/shaders/common/`; it owns the uniform layouts, which
@@ -25,6 +26,7 @@ mod display;
 mod image;
 mod kernel;
 mod profile;
+mod rank;
 mod readback;
 mod renderer;
 mod shaders;
@@ -40,6 +42,7 @@ pub use context::{GpuContext, GpuError};
 pub use display::FrameDisplay;
 pub use image::{GpuImage, ImageKernels};
 pub use profile::StageTime;
+pub use rank::RankKernels;
 pub use readback::{read_bytes, read_floats};
 pub use renderer::{GpuFrame, GpuInputs, GpuRenderer};
 pub use shaders::SHADERS;

@@ -4,6 +4,7 @@
 use dynview_core::camera::Camera;
 use dynview_core::render::plane::{InverseDepthPlane, WorldPlane};
 use dynview_core::render::pyramid::{camera_at, level_sizes};
+use dynview_core::render::weights;
 use dynview_core::render::{FALLBACK_COLOR, FALLBACK_DEPTH, Method, RenderParams, TimeStepInputs};
 use dynview_core::view_ranking::{ChosenViews, choose_views};
 
@@ -12,6 +13,7 @@ use crate::blend::BlendKernel;
 use crate::consistency::ConsistencyKernels;
 use crate::context::{GpuContext, GpuError};
 use crate::image::{GpuImage, ImageKernels};
+use crate::rank::RankKernels;
 use crate::solver::GridSolver;
 use crate::splat::{GpuCloud, GpuSplat, SplatKernels};
 use crate::temporal::TemporalKernels;
@@ -85,6 +87,7 @@ pub struct GpuRenderer {
     consistency: ConsistencyKernels,
     blend: BlendKernel,
     temporal: TemporalKernels,
+    rank: RankKernels,
 }
 
 impl GpuRenderer {
@@ -99,6 +102,7 @@ impl GpuRenderer {
             consistency: ConsistencyKernels::new(ctx),
             blend: BlendKernel::new(ctx),
             temporal: TemporalKernels::new(ctx),
+            rank: RankKernels::new(ctx),
         }
     }
 
@@ -124,6 +128,7 @@ impl GpuRenderer {
         let poses: Vec<_> = inputs.views.iter().map(|(c, _)| c.camera_from_world).collect();
         let ChosenViews { indices: chosen, blend_weights } =
             choose_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views);
+        let rank_preferences = weights::rank_preferences(&blend_weights, params.view_rank_exponent);
         let sizes = level_sizes(camera.width_px as usize, camera.height_px as usize, params.levels);
         let previous_plane = previous.and_then(|p| p.plane);
         let plane = (params.lambda_plane > 0.0)
@@ -189,6 +194,12 @@ impl GpuRenderer {
                 Some(p) => self.assemble.plane_prior(ctx, params, &points.mask, &temporal_depth, &p.in_pixels(&cam), level)?,
                 None => temporal_depth,
             };
+            // Where points are scarce the color follows the best-ranked view.
+            let unsupported = if params.view_rank_exponent > 0.0 {
+                Some(self.rank.unsupported(ctx, &points.mask, level, params.view_rank_support)?)
+            } else {
+                None
+            };
             for _ in 0..params.outer_iterations_at(level) {
                 ctx.set_stage(level, "weights");
                 let w_p = self.assemble.projection_weights(ctx, params, &color, warps.packed())?;
@@ -210,6 +221,9 @@ impl GpuRenderer {
                 warps = self.warps.warp_views(ctx, &cam, &depth, &view_images, params.visibility_tolerance)?;
                 ctx.set_stage(level, "weights");
                 let w_p = self.assemble.projection_weights(ctx, params, &color, warps.packed())?;
+                if let Some(unsupported) = &unsupported {
+                    self.rank.apply(ctx, &w_p, unsupported, &rank_preferences)?;
+                }
                 ctx.set_stage(level, "color system");
                 let sys = self.assemble.color_system(ctx, params, &warps.colors, &w_p, &temporal_color, warps.count)?;
                 ctx.set_stage(level, "color solve");

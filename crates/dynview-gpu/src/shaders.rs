@@ -40,6 +40,8 @@ pub(crate) const DEPTH_WEIGHTS: Shader = shader!("assemble/depth_weights.wgsl", 
 pub(crate) const DEPTH_SYSTEM: Shader = shader!("assemble/depth_system.wgsl", "assemble/params.wgsl", "common/float_bits.wgsl");
 /// The plane's pull per pixel from the points' support.
 pub(crate) const PLANE_SUPPORT: Shader = shader!("assemble/plane_support.wgsl");
+/// The rank preference of the color energy where points are scarce.
+pub(crate) const RANK_PREFERENCE: Shader = shader!("assemble/rank_preference.wgsl");
 /// The color system.
 pub(crate) const COLOR_SYSTEM: Shader = shader!("assemble/color_system.wgsl", "assemble/params.wgsl");
 /// Projection of the sparse cloud's points into a camera.
@@ -77,6 +79,7 @@ pub const SHADERS: &[(&str, &str)] = &[
     DEPTH_WEIGHTS,
     DEPTH_SYSTEM,
     PLANE_SUPPORT,
+    RANK_PREFERENCE,
     COLOR_SYSTEM,
     SPLAT_POINTS,
     SPLAT_PIXELS,

@@ -177,6 +177,9 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
             let weights = plane_weights(&points.mask, level, params.lambda_plane, params.plane_support);
             weights.iter().any(|&w| w > 0.0).then(|| (weights, p.depth_map(&cam)))
         });
+        // Where points are scarce the color follows the best-ranked view (view_rank_exponent).
+        let rank_preferences = weights::rank_preferences(&self.init_weights, params.view_rank_exponent);
+        let unsupported = (params.view_rank_exponent > 0.0).then(|| plane_weights(&points.mask, level, 1.0, params.view_rank_support));
         let sparse = points.with_footprint(params.sparse_footprint_px);
         // The previous frame's solution at this level, warped into this level's camera.
         let previous = self.previous.as_ref().map(|p| p.borrow());
@@ -222,7 +225,10 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
             watch.lap(Stage::DepthSolve);
             // Color with depth fixed.
             views.update(&cam, depth, params, watch);
-            let w_p: Vec<Vec<f32>> = views.warps.iter().map(|wp| weights::projection_weights(wp, color, params.sigma)).collect();
+            let mut w_p: Vec<Vec<f32>> = views.warps.iter().map(|wp| weights::projection_weights(wp, color, params.sigma)).collect();
+            if let Some(unsupported) = &unsupported {
+                weights::apply_rank_preference(&mut w_p, &rank_preferences, unsupported);
+            }
             let color_terms = color_terms(params, &views.warps, &w_p, &sparse, temporal, w, h);
             watch.lap(Stage::Weights);
             let trace = hooks.solve_traces.as_mut().map(|traces| (&mut **traces, SolveTrace::start(level, iteration, SolveKind::Color)));

@@ -82,6 +82,18 @@ pub struct RenderParams {
     pub sparse_footprint_px: usize,
     /// `lambda_P`: color data term per view (paper Eq. rendering_color; 5 to 20, default 10).
     pub lambda_p: f32,
+    /// Exponent `gamma` of the view's rank in the color energy where no point supports the
+    /// depth (ours; 0 = every view alike, as the paper). There view `s`'s data and gradient
+    /// terms are scaled by `(r_F^s / r_F^best)^gamma`: with depth unsure, a view far from the
+    /// virtual camera lands in the wrong place, and averaging it with the best view doubles
+    /// what they show; the color follows the best-ranked view instead. Where points are dense
+    /// (`view_rank_support`) every view counts alike, as the paper. Measured in
+    /// `docs/results/real_findings.md`.
+    pub view_rank_exponent: f32,
+    /// Share of the pixels around a pixel (the window of `plane_support`) carrying a point at
+    /// which the rank preference of `view_rank_exponent` is gone (ours); below it the
+    /// preference fades in linearly.
+    pub view_rank_support: f32,
     /// `lambda_G`: color gradient term per view (paper Eq. rendering_color; 5 to 20, default 10).
     pub lambda_g: f32,
     /// `n`: number of best-ranked input views used (paper Eq. rF; 4).
@@ -145,6 +157,8 @@ impl Default for RenderParams {
             plane_support: 0.002,
             sparse_footprint_px: 2,
             lambda_p: 10.0,
+            view_rank_exponent: 1.0,
+            view_rank_support: 0.01,
             lambda_g: 10.0,
             views: 4,
             levels: 4,
@@ -187,6 +201,7 @@ impl RenderParams {
             ("w_d_min", self.w_d_min),
             ("visibility_tolerance", self.visibility_tolerance),
             ("plane_support", self.plane_support),
+            ("view_rank_support", self.view_rank_support),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return bad(field, format!("must be finite and positive, found {v}"));
@@ -198,6 +213,7 @@ impl RenderParams {
             ("lambda_t", self.lambda_t),
             ("lambda_plane", self.lambda_plane),
             ("lambda_p", self.lambda_p),
+            ("view_rank_exponent", self.view_rank_exponent),
             ("lambda_g", self.lambda_g),
         ] {
             if !(v.is_finite() && v >= 0.0) {

@@ -86,6 +86,30 @@ pub fn temporal_weights(previous: &SplatMaps, warps: &[ViewWarp], sigma: f32) ->
         .collect()
 }
 
+/// Per chosen view, `r_s^gamma - 1`: how much the rank preference of
+/// `RenderParams::view_rank_exponent` (`gamma`) changes view `s`'s `w_P^s` where no point
+/// supports the depth, from its rank score relative to the best (`relative_rank`, 1 for the
+/// best view: no change). The GPU takes these same values.
+pub fn rank_preferences(relative_rank: &[f32], exponent: f32) -> Vec<f32> {
+    relative_rank.iter().map(|r| r.powf(exponent) - 1.0).collect()
+}
+
+/// Scales each view's `w_P^s` by `1 + u preference_s`, where `u` (`unsupported`, per pixel, in
+/// [0, 1]) is how far the pixel is from the points' support
+/// (`plane::plane_weights(mask, level, 1, view_rank_support)`): the best-ranked view's color
+/// wins where depth is unsure, every view counts alike where points are dense. The GPU's
+/// `assemble/rank_preference.wgsl` does the same.
+pub fn apply_rank_preference(w_p: &mut [Vec<f32>], preferences: &[f32], unsupported: &[f32]) {
+    for (w, &preference) in w_p.iter_mut().zip(preferences) {
+        if preference == 0.0 {
+            continue;
+        }
+        for (v, &u) in w.iter_mut().zip(unsupported) {
+            *v *= 1.0 + u * preference;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -96,6 +120,22 @@ mod tests {
         // ||d||^2 = 3 * 0.075^2 -> exp(-1.5).
         let w = agreement([0.0; 3], [0.075; 3], 0.075);
         assert!((w - (-1.5f32).exp()).abs() < 1e-6);
+    }
+
+    #[test]
+    fn rank_preference_only_where_unsupported() {
+        // Two views agreeing equally well; the second ranks at 1e-4 of the best.
+        let prefs = rank_preferences(&[1.0, 1e-4], 1.0);
+        assert_eq!(prefs[0], 0.0, "the best view keeps its weight");
+        let mut w_p = vec![vec![0.8, 0.8, 0.8], vec![0.8, 0.8, 0.8]];
+        // Pixel 0 has points around it, pixel 1 is halfway, pixel 2 has none.
+        apply_rank_preference(&mut w_p, &prefs, &[0.0, 0.5, 1.0]);
+        assert_eq!(w_p[0], vec![0.8; 3]);
+        assert_eq!(w_p[1][0], 0.8, "dense points: every view alike");
+        assert!((w_p[1][1] - 0.4).abs() < 1e-3, "{:?}", w_p[1]);
+        assert!(w_p[1][2] < 1e-3, "no points: the best view wins: {:?}", w_p[1]);
+        // An exponent of 0 changes nothing.
+        assert!(rank_preferences(&[1.0, 1e-4], 0.0).iter().all(|&p| p == 0.0));
     }
 
     #[test]

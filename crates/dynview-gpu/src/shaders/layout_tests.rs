@@ -90,6 +90,7 @@ fn all_mirrors() -> Vec<Mirror> {
     [
         crate::assemble::wgsl_mirrors(),
         crate::blend::wgsl_mirrors(),
+        crate::rank::wgsl_mirrors(),
         crate::consistency::wgsl_mirrors(),
         crate::display::wgsl_mirrors(),
         crate::image::wgsl_mirrors(),

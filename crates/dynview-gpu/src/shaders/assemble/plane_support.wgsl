@@ -29,8 +29,9 @@ struct SupportParams {
 @group(0) @binding(0) var<uniform> params: SupportParams;
 // In: the sparse mask (support_rows) or the row sums (plane_prior).
 @group(0) @binding(1) var<storage, read> sums_in: array<f32>;
-// Out: the row sums (support_rows) or the temporal terms with the plane's folded in, (weight,
-// target depth) per pixel (plane_prior).
+// Out: the row sums (support_rows), the temporal terms with the plane's folded in, (weight,
+// target depth) per pixel (plane_prior), or how far each pixel is from the points' support,
+// 1 - min(1, coverage / support_coverage) (unsupported, the weight with lambda = 1).
 @group(0) @binding(2) var<storage, read_write> sums_out: array<f32>;
 // The temporal terms, (lambda_T w_T, previous depth) per pixel (plane_prior only).
 @group(0) @binding(3) var<storage, read> temporal: array<f32>;
@@ -50,6 +51,29 @@ fn support_rows(@builtin(global_invocation_id) id: vec3<u32>) {
     sums_out[id.y * w + id.x] = covered;
 }
 
+// The share of the pixels with a point in the window around pixel (x, y), from the row sums.
+fn coverage(x: u32, y: u32) -> f32 {
+    let w = params.width;
+    let lo = max(y, params.radius) - params.radius;
+    let hi = min(y + params.radius, params.height - 1u);
+    var covered = 0.0;
+    for (var r = lo; r <= hi; r = r + 1u) {
+        covered = covered + sums_in[r * w + x];
+    }
+    let xl = max(x, params.radius) - params.radius;
+    let xh = min(x + params.radius, w - 1u);
+    let pixels = f32((hi - lo + 1u) * (xh - xl + 1u));
+    return covered / pixels;
+}
+
+@compute @workgroup_size(8, 8)
+fn unsupported(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= params.width || id.y >= params.height) {
+        return;
+    }
+    sums_out[id.y * params.width + id.x] = 1.0 - min(coverage(id.x, id.y) / params.support_coverage, 1.0);
+}
+
 @compute @workgroup_size(8, 8)
 fn plane_prior(@builtin(global_invocation_id) id: vec3<u32>) {
     let w = params.width;
@@ -58,16 +82,7 @@ fn plane_prior(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let i = id.y * w + id.x;
-    let lo = max(id.y, params.radius) - params.radius;
-    let hi = min(id.y + params.radius, h - 1u);
-    var covered = 0.0;
-    for (var y = lo; y <= hi; y = y + 1u) {
-        covered = covered + sums_in[y * w + id.x];
-    }
-    let xl = max(id.x, params.radius) - params.radius;
-    let xh = min(id.x + params.radius, w - 1u);
-    let pixels = f32((hi - lo + 1u) * (xh - xl + 1u));
-    let p = params.lambda_plane * (1.0 - min(covered / pixels / params.support_coverage, 1.0));
+    let p = params.lambda_plane * (1.0 - min(coverage(id.x, id.y) / params.support_coverage, 1.0));
     let t = temporal[i * 2u];
     let previous = temporal[i * 2u + 1u];
     if (p <= 0.0) {

@@ -1,0 +1,90 @@
+//! The rank preference of the color energy on the GPU (dynview-core's
+//! `render::weights::apply_rank_preference`, `RenderParams::view_rank_exponent`): where no point
+//! supports the depth, each view's `w_P^s` is scaled toward the best-ranked view.
+
+use dynview_core::render::plane::support_radius_px;
+
+use crate::blend::MAX_VIEWS;
+use crate::context::{GpuContext, GpuError};
+use crate::image::GpuImage;
+use crate::kernel::Kernel;
+use crate::shaders;
+
+/// `rank_preference.wgsl`'s uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct RankParams {
+    width: u32,
+    height: u32,
+    views: u32,
+    _pad0: u32,
+    preferences: [f32; MAX_VIEWS],
+}
+
+/// The kernels of the rank preference, compiled once per device.
+#[derive(Debug)]
+pub struct RankKernels {
+    support_rows: Kernel,
+    unsupported: Kernel,
+    rank_preference: Kernel,
+}
+
+impl RankKernels {
+    /// Compiles the kernels on `ctx`'s device.
+    pub fn new(ctx: &GpuContext) -> Self {
+        let support = shaders::module(ctx, shaders::PLANE_SUPPORT);
+        Self {
+            support_rows: Kernel::new(ctx, &support, "support_rows", &[true, false], 8),
+            unsupported: Kernel::new(ctx, &support, "unsupported", &[true, false], 8),
+            rank_preference: Kernel::new(ctx, &shaders::module(ctx, shaders::RANK_PREFERENCE), "rank_preference", &[true, false], 8),
+        }
+    }
+
+    /// How far each pixel is from the points' support, in [0, 1], at pyramid `level` with the
+    /// sparse `mask`: dynview-core's `plane_weights(mask, level, 1, support)` (`support` is
+    /// `RenderParams::view_rank_support`). The window sums are integers, so they match exactly.
+    pub fn unsupported(&self, ctx: &GpuContext, mask: &GpuImage, level: usize, support: f32) -> Result<GpuImage, GpuError> {
+        let (w, h) = (mask.width, mask.height);
+        if mask.channels != 1 {
+            return Err(GpuError::Size(format!("sparse mask has {} channels, expected 1", mask.channels)));
+        }
+        // plane_support.wgsl's uniform block, with only the support fields used.
+        let uniform = crate::assemble::SupportParams::support_only(w, h, support_radius_px(level), support);
+        let rows = GpuImage::zeroed(ctx, w, h, 1)?;
+        let out = GpuImage::zeroed(ctx, w, h, 1)?;
+        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("unsupported") });
+        let bytes = bytemuck::bytes_of(&uniform);
+        self.support_rows.dispatch(ctx, &mut encoder, bytes, &[&mask.buffer, &rows.buffer], w, h);
+        self.unsupported.dispatch(ctx, &mut encoder, bytes, &[&rows.buffer, &out.buffer], w, h);
+        ctx.queue.submit([encoder.finish()]);
+        Ok(out)
+    }
+
+    /// Scales the packed `w_p` (one `w x h` block per view) in place by `1 + u preference_s`
+    /// (`preferences` from dynview-core's `render::weights::rank_preferences`, `unsupported`
+    /// from [`Self::unsupported`]).
+    pub fn apply(&self, ctx: &GpuContext, w_p: &GpuImage, unsupported: &GpuImage, preferences: &[f32]) -> Result<(), GpuError> {
+        let (w, h) = (unsupported.width, unsupported.height);
+        let views = preferences.len();
+        if views > MAX_VIEWS || (w_p.width, w_p.height, w_p.channels) != (w, h * views, 1) || unsupported.channels != 1 {
+            return Err(GpuError::Size(format!(
+                "w_p is {}x{}x{} for {views} views of {w}x{h} (at most {MAX_VIEWS} views)",
+                w_p.width, w_p.height, w_p.channels
+            )));
+        }
+        let mut packed = [0.0; MAX_VIEWS];
+        packed[..views].copy_from_slice(preferences);
+        let uniform = RankParams { width: w as u32, height: h as u32, views: views as u32, _pad0: 0, preferences: packed };
+        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("rank preference") });
+        self.rank_preference.dispatch(ctx, &mut encoder, bytemuck::bytes_of(&uniform), &[&unsupported.buffer, &w_p.buffer], w, h);
+        ctx.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+}
+
+/// The uniform block's mirror, checked against the WGSL (`shaders/layout_tests.rs`).
+#[cfg(test)]
+pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
+    use crate::shaders::layout_tests::mirror;
+    vec![mirror!(shaders::RANK_PREFERENCE, "RankParams", RankParams { width, height, views, _pad0, preferences })]
+}
