@@ -12,7 +12,9 @@
 //!   scale and translation from the centres)
 //!   (`crate::align`): median and largest rotation error in degrees, and median and
 //!   largest centre error in percent of the scene size (the diagonal of the bounding box of the
-//!   ground-truth camera centres).
+//!   ground-truth camera centres);
+//! - per camera folder with a registered image: the focal length's error in percent of the true
+//!   one, and the principal point's distance from the true one in pixels (median and largest).
 //!
 //! The table is printed and written to `target/bench/sfm/results.md`.
 
@@ -21,6 +23,8 @@ use std::path::PathBuf;
 
 use crate::align::{PoseAccuracy, PoseEvalOptions, evaluate_poses};
 use anyhow::bail;
+use dynview_core::Intrinsics;
+use dynview_interchange::colmap::ColmapModel;
 
 use crate::paths::workspace_root;
 use crate::sfm_data::{mean_reprojection_error_px, poses_from_colmap, track_weighted_error_px};
@@ -76,7 +80,45 @@ struct Figures {
     registered: usize,
     reprojection_px: Option<f64>,
     accuracy: Result<PoseAccuracy, String>,
+    intrinsics: Option<IntrinsicsAccuracy>,
     notes: Vec<String>,
+}
+
+/// Intrinsics against the truth, over the camera folders with a registered image.
+#[derive(Debug, PartialEq)]
+struct IntrinsicsAccuracy {
+    focal_error_median_pct: f64,
+    focal_error_max_pct: f64,
+    principal_point_error_median_px: f64,
+    principal_point_error_max_px: f64,
+}
+
+/// The model's intrinsics of every camera folder (the first registered image's camera, as
+/// each folder is one camera) against the dataset's.
+fn intrinsics_accuracy(dataset: &Dataset, model: &ColmapModel) -> Option<IntrinsicsAccuracy> {
+    let mut focal_pct = Vec::new();
+    let mut principal_px = Vec::new();
+    let mut seen = std::collections::BTreeSet::new();
+    for image in model.images.values() {
+        let Some(folder) = image.name.split('/').next() else { continue };
+        let (Some(truth), Some(camera)) = (dataset.intrinsics.get(folder), model.cameras.get(&image.camera_id)) else { continue };
+        if !seen.insert(folder.to_string()) {
+            continue;
+        }
+        let estimated = camera.intrinsics().0;
+        let focal = |k: &Intrinsics| 0.5 * (k.fx + k.fy);
+        focal_pct.push(100.0 * (focal(&estimated) - focal(truth)).abs() / focal(truth));
+        principal_px.push((estimated.cx - truth.cx).hypot(estimated.cy - truth.cy));
+    }
+    let median_max = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        (v[v.len() / 2], v[v.len() - 1])
+    };
+    (!focal_pct.is_empty()).then(|| {
+        let (focal_error_median_pct, focal_error_max_pct) = median_max(focal_pct);
+        let (principal_point_error_median_px, principal_point_error_max_px) = median_max(principal_px);
+        IntrinsicsAccuracy { focal_error_median_pct, focal_error_max_pct, principal_point_error_median_px, principal_point_error_max_px }
+    })
 }
 
 /// The benchmark (COLMAP must be installed; `cargo xtask bench sfm` installs it): writes
@@ -153,7 +195,16 @@ fn figures(dataset: &Dataset, reconstruction: &Reconstruction, eval: PoseEvalOpt
             notes.push(format!("{} images of the model are not in the dataset (ignored)", a.unknown));
         }
     }
-    Figures { wall_secs: reconstruction.wall_secs, images: dataset.ground_truth.len(), registered, reprojection_px, accuracy, notes }
+    let intrinsics = intrinsics_accuracy(dataset, model);
+    Figures {
+        wall_secs: reconstruction.wall_secs,
+        images: dataset.ground_truth.len(),
+        registered,
+        reprojection_px,
+        accuracy,
+        intrinsics,
+        notes,
+    }
 }
 
 fn table(rows: &[Row], eval: PoseEvalOptions) -> String {
@@ -164,21 +215,23 @@ fn table(rows: &[Row], eval: PoseEvalOptions) -> String {
         "SfM: ours (`dynview prep --stop-after keyframes`) vs COLMAP {} (CPU), {threads} threads. Errors after a {} \
          similarity alignment to the ground truth (rotation from the camera orientations, scale and translation \
          from the centres: `crate::align`); centre errors in % of the scene size \
-         (diagonal of the ground-truth camera centres' bounding box); reprojection error recomputed from each model.\n",
+         (diagonal of the ground-truth camera centres' bounding box); reprojection error recomputed from each model; \
+         focal and principal-point errors per camera against its true intrinsics.\n",
         colmap_version().unwrap_or_else(|| "(version unknown)".into()),
         if eval.robust { "robust (best 80%)" } else { "least-squares" },
     );
     let _ = writeln!(
         s,
-        "| dataset | method | wall s | registered | reproj. px | rot. median ° | rot. max ° | centre median % | centre max % |"
+        "| dataset | method | wall s | registered | reproj. px | rot. median ° | rot. max ° | centre median % | centre max % \
+         | focal median % | focal max % | pp median px | pp max px |"
     );
-    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
+    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
     let mut notes = String::new();
     for row in rows {
         let label = row.method.label();
         match &row.result {
             Err(e) => {
-                let _ = writeln!(s, "| {} | {label} | failed | - | - | - | - | - | - |", row.dataset);
+                let _ = writeln!(s, "| {} | {label} | failed | - | - | - | - | - | - | - | - | - | - |", row.dataset);
                 let _ = writeln!(notes, "- {} / {label}: failed: {}", row.dataset, e.replace('\n', "\n  "));
             }
             Ok(f) => {
@@ -193,9 +246,15 @@ fn table(rows: &[Row], eval: PoseEvalOptions) -> String {
                     ),
                     Err(_) => "- | - | - | -".into(),
                 };
+                let intrinsics = f.intrinsics.as_ref().map_or("- | - | - | -".into(), |k| {
+                    format!(
+                        "{:.2} | {:.2} | {:.1} | {:.1}",
+                        k.focal_error_median_pct, k.focal_error_max_pct, k.principal_point_error_median_px, k.principal_point_error_max_px
+                    )
+                });
                 let _ = writeln!(
                     s,
-                    "| {} | {label} | {:.1} | {} / {} | {reprojection} | {errors} |",
+                    "| {} | {label} | {:.1} | {} / {} | {reprojection} | {errors} | {intrinsics} |",
                     row.dataset, f.wall_secs, f.registered, f.images
                 );
                 for note in &f.notes {
@@ -235,7 +294,8 @@ mod tests {
                 (format!("cam/{i}.png"), Rigid3::camera_from_world_looking_at(eye, DVec3::new(1.0, 1.0, 5.0), DVec3::Y))
             })
             .collect();
-        Dataset { name: "toy", images_dir: PathBuf::from("unused"), ground_truth }
+        let intrinsics = [("cam".to_string(), dynview_core::Intrinsics { fx: 100.0, fy: 100.0, cx: 52.0, cy: 50.0 })].into();
+        Dataset { name: "toy", images_dir: PathBuf::from("unused"), ground_truth, intrinsics }
     }
 
     #[test]
@@ -253,13 +313,21 @@ mod tests {
         let accuracy = figures.accuracy.as_ref().unwrap();
         assert!(accuracy.rotation_error_max_deg < 1e-9 && accuracy.center_error_max_fraction < 1e-12);
         assert_eq!(figures.notes, ["not registered: cam/3.png"]);
+        // The model's camera: the true focal, the principal point 2 px off the truth.
+        let expected = IntrinsicsAccuracy {
+            focal_error_median_pct: 0.0,
+            focal_error_max_pct: 0.0,
+            principal_point_error_median_px: 2.0,
+            principal_point_error_max_px: 2.0,
+        };
+        assert_eq!(figures.intrinsics.as_ref(), Some(&expected));
         let rows = [
             Row { dataset: "toy", method: Method::Ours, result: Err("no binary".into()) },
             Row { dataset: "toy", method: Method::Colmap, result: Ok(figures) },
         ];
         let text = table(&rows, PoseEvalOptions::default());
         assert!(text.contains("| toy | ours | failed | - |"), "{text}");
-        assert!(text.contains("| toy | COLMAP | 1.5 | 3 / 4 | - | 0.000 | 0.000 | 0.000 | 0.000 |"), "{text}");
+        assert!(text.contains("| toy | COLMAP | 1.5 | 3 / 4 | - | 0.000 | 0.000 | 0.000 | 0.000 | 0.00 | 0.00 | 2.0 | 2.0 |"), "{text}");
         assert!(text.contains("- toy / ours: failed: no binary"), "{text}");
     }
 }

@@ -6,14 +6,19 @@
 //! - `temple`: Middlebury's templeSparseRing, 16 PNGs as one camera folder `temple/`; ground
 //!   truth from `templeSR_par.txt`;
 //! - `pose2sim`: frames 0, 20, 40, 60 and 80 of the 4 Pose2Sim videos (1088x1920), folders
-//!   `cam01`..`cam04`; ground truth from the Qualisys calibration, one pose per camera.
+//!   `cam01`..`cam04`; ground truth from the Qualisys calibration, one pose per camera;
+//! - `panoptic`: frames 0, 20, 40 and 60 of the 8 cameras of the Panoptic basketball arc
+//!   (640x360, undistorted), folders `cam00`..`cam29`; ground truth from its calibration.
 //!
+//! Every dataset also has each camera folder's true intrinsics.
 //! Image folders are made once: a folder that exists is reused.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{Context, bail};
+use dynview_core::Intrinsics;
 use dynview_synth::SynthConfig;
 
 use dynview_interchange::middlebury::parse_middlebury_par;
@@ -23,7 +28,7 @@ use crate::paths::{command_line as describe, shared_data};
 use crate::sfm_data::{Poses, poses_from_colmap, read_colmap_text};
 
 /// Names of the datasets, in the order the benchmark runs them.
-pub const DATASETS: [&str; 3] = ["synthetic", "temple", "pose2sim"];
+pub const DATASETS: [&str; 4] = ["synthetic", "temple", "pose2sim", "panoptic"];
 
 /// Synthetic frames taken from every camera.
 const SYNTHETIC_FRAMES: [u32; 3] = [0, 20, 40];
@@ -31,6 +36,11 @@ const SYNTHETIC_FRAMES: [u32; 3] = [0, 20, 40];
 const POSE2SIM_FRAMES: [u32; 5] = [0, 20, 40, 60, 80];
 /// Pose2Sim video size (portrait).
 const POSE2SIM_SIZE_PX: (u32, u32) = (1088, 1920);
+/// Frames taken from every Panoptic camera.
+const PANOPTIC_FRAMES: [u32; 4] = [0, 20, 40, 60];
+
+/// True intrinsics by camera folder.
+pub type CameraIntrinsics = BTreeMap<String, Intrinsics>;
 
 /// A prepared dataset.
 pub struct Dataset {
@@ -40,16 +50,19 @@ pub struct Dataset {
     pub images_dir: PathBuf,
     /// Ground-truth `camera_from_world` of every image in the folder, by `<camera>/<file>`.
     pub ground_truth: Poses,
+    /// True intrinsics of every camera folder.
+    pub intrinsics: CameraIntrinsics,
 }
 
 /// Prepares the dataset `name` under `bench_dir/<name>/` (images once, ground truth each time).
 pub fn prepare(name: &str, bench_dir: &Path) -> anyhow::Result<Dataset> {
     let dir = bench_dir.join(name);
     let images_dir = dir.join("images");
-    let (name, all_truth) = match name {
+    let (name, (all_truth, intrinsics)) = match name {
         "synthetic" => ("synthetic", synthetic(&dir, &images_dir)?),
         "temple" => ("temple", temple(&images_dir)?),
         "pose2sim" => ("pose2sim", pose2sim(&images_dir)?),
+        "panoptic" => ("panoptic", panoptic(&images_dir)?),
         other => bail!("unknown dataset {other:?} (known: {})", DATASETS.join(", ")),
     };
     let images = list_images(&images_dir)?;
@@ -59,9 +72,13 @@ pub fn prepare(name: &str, bench_dir: &Path) -> anyhow::Result<Dataset> {
     let mut ground_truth = Poses::new();
     for image in images {
         let pose = all_truth.get(&image).with_context(|| format!("{name}: no ground truth for image {image}"))?;
+        let camera = image.split('/').next().unwrap_or_default();
+        if !intrinsics.contains_key(camera) {
+            bail!("{name}: no true intrinsics for camera {camera}");
+        }
         ground_truth.insert(image, *pose);
     }
-    Ok(Dataset { name, images_dir, ground_truth })
+    Ok(Dataset { name, images_dir, ground_truth, intrinsics })
 }
 
 /// `<camera>/<file>` of every file in the camera folders of `images_dir`, sorted.
@@ -108,7 +125,7 @@ fn copy(from: &Path, to: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn synthetic(dir: &Path, images_dir: &Path) -> anyhow::Result<Poses> {
+fn synthetic(dir: &Path, images_dir: &Path) -> anyhow::Result<(Poses, CameraIntrinsics)> {
     let synth_dir = dir.join("synth");
     if !synth_dir.join(dynview_synth::SYNTH_MARKER).is_file() {
         // The library `dynview synth` wraps, called directly: the benchmark's COLMAP side then
@@ -135,10 +152,16 @@ fn synthetic(dir: &Path, images_dir: &Path) -> anyhow::Result<Poses> {
         }
         Ok(())
     })?;
-    Ok(poses_from_colmap(&read_colmap_text(&synth_dir.join("colmap"))?))
+    let model = read_colmap_text(&synth_dir.join("colmap"))?;
+    let mut intrinsics = CameraIntrinsics::new();
+    for image in model.images.values() {
+        let (Some(camera), Some(folder)) = (model.cameras.get(&image.camera_id), image.name.split('/').next()) else { continue };
+        intrinsics.insert(folder.to_string(), camera.intrinsics().0);
+    }
+    Ok((poses_from_colmap(&model), intrinsics))
 }
 
-fn temple(images_dir: &Path) -> anyhow::Result<Poses> {
+fn temple(images_dir: &Path) -> anyhow::Result<(Poses, CameraIntrinsics)> {
     let source = shared_data().join("middlebury-temple-sparse-ring");
     let par_path = source.join("templeSR_par.txt");
     let text = std::fs::read_to_string(&par_path).with_context(|| format!("cannot read {}", par_path.display()))?;
@@ -149,10 +172,12 @@ fn temple(images_dir: &Path) -> anyhow::Result<Poses> {
         }
         Ok(())
     })?;
-    Ok(cameras.into_iter().map(|c| (format!("temple/{}", c.name), c.camera_from_world)).collect())
+    // One camera took every image.
+    let intrinsics = cameras.first().map(|c| ("temple".to_string(), c.intrinsics)).into_iter().collect();
+    Ok((cameras.into_iter().map(|c| (format!("temple/{}", c.name), c.camera_from_world)).collect(), intrinsics))
 }
 
-fn pose2sim(images_dir: &Path) -> anyhow::Result<Poses> {
+fn pose2sim(images_dir: &Path) -> anyhow::Result<(Poses, CameraIntrinsics)> {
     let source = shared_data().join("pose2sim-multiperson");
     let calibration_path = source.join("calibration/Calib.qca.txt");
     let text = std::fs::read_to_string(&calibration_path).with_context(|| format!("cannot read {}", calibration_path.display()))?;
@@ -188,5 +213,28 @@ fn pose2sim(images_dir: &Path) -> anyhow::Result<Poses> {
             poses.insert(format!("{}/{frame:05}.png", camera.serial), camera.camera_from_world);
         }
     }
-    Ok(poses)
+    Ok((poses, cameras.iter().map(|c| (c.serial.clone(), c.intrinsics)).collect()))
+}
+
+fn panoptic(images_dir: &Path) -> anyhow::Result<(Poses, CameraIntrinsics)> {
+    let calibration = crate::panoptic::calibration(None)?;
+    let source = crate::panoptic::source_dir().join("cams");
+    make_once(images_dir, |out| {
+        for camera in &calibration.cameras {
+            for frame in PANOPTIC_FRAMES {
+                let file = format!("{frame:05}.jpg");
+                copy(&source.join(&camera.name).join(&file), &out.join(&camera.name).join(&file))?;
+            }
+        }
+        Ok(())
+    })?;
+    let mut poses = Poses::new();
+    for camera in &calibration.cameras {
+        let pose = camera.frames.first().and_then(|f| f.camera_from_world.as_ref()).map(|p| p.camera_from_world());
+        let Some(pose) = pose else { bail!("panoptic calibration: camera {} has no pose", camera.name) };
+        for frame in PANOPTIC_FRAMES {
+            poses.insert(format!("{}/{frame:05}.jpg", camera.name), pose);
+        }
+    }
+    Ok((poses, calibration.cameras.iter().map(|c| (c.name.clone(), c.intrinsics)).collect()))
 }
