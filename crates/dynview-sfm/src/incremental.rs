@@ -30,7 +30,8 @@ pub struct MapperOptions {
     /// Cauchy loss scale (px) of bundle adjustment.
     pub loss_scale_px: f64,
     /// Cameras with the same image size share one set of intrinsics (one camera model filmed
-    /// everything); with few viewpoints per camera, per-camera focals are poorly determined.
+    /// everything). Off by default: cameras at an event are different phones and zooms, and
+    /// equal image sizes say nothing about equal intrinsics.
     pub share_intrinsics: bool,
     /// Refine the focal lengths in bundle adjustment (off when every focal is given).
     pub refine_focal: bool,
@@ -53,7 +54,7 @@ impl Default for MapperOptions {
             min_initial_points: 50,
             init_min_median_angle_deg: 10.0,
             loss_scale_px: 1.0,
-            share_intrinsics: true,
+            share_intrinsics: false,
             refine_focal: true,
             refine_principal_point: true,
             refine_distortion: false,

@@ -16,7 +16,7 @@ use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features};
 use crate::focal::{PRIOR_FOCAL_FACTOR, PairGeometry, estimate_focal_factor};
 use crate::geometry::Intrinsics;
-use crate::incremental::{MapImage, MapperOptions, Reconstruction, reconstruct};
+use crate::incremental::{MIN_IMAGES_FOR_PRINCIPAL_POINT, MapImage, MapperOptions, Reconstruction, reconstruct};
 use crate::input::EventFrames;
 use crate::matching::{MatchOptions, TwoView, build_indices, mutual_matches_shared, verify};
 use crate::work::WorkDir;
@@ -186,6 +186,48 @@ pub fn reconstruct_keyframes(
         }
     }
     Ok(KeyframeModel { keyframes: keys.to_vec(), reconstruction, focal_source })
+}
+
+/// Per camera, which intrinsics the keyframe reconstruction refined and why (the report's
+/// `intrinsics_refined`), from the options it ran with.
+pub fn intrinsics_notes(
+    frames: &EventFrames,
+    model: &KeyframeModel,
+    known: &BTreeMap<String, Intrinsics>,
+    options: &MapperOptions,
+) -> Vec<String> {
+    let group = intrinsics_groups(frames, known, options.share_intrinsics);
+    let groups = group.iter().max().map_or(0, |g| g + 1);
+    let mut registered = vec![0usize; groups];
+    for (i, key) in model.keyframes.iter().enumerate() {
+        if model.reconstruction.poses.get(i).is_some_and(Option::is_some) {
+            registered[group[key.camera]] += 1;
+        }
+    }
+    let few: Vec<usize> = (0..groups).filter(|&g| registered[g] > 0 && registered[g] < MIN_IMAGES_FOR_PRINCIPAL_POINT).collect();
+    let principal_refined = options.refine_principal_point && few.is_empty();
+    (0..frames.cameras.len())
+        .map(|c| {
+            let g = group[c];
+            let focal = if options.refine_focal { "focal refined" } else { "focal kept as given" };
+            let principal = if principal_refined {
+                format!("principal point refined ({} registered keyframes)", registered[g])
+            } else if !options.refine_principal_point {
+                "principal point kept at the image centre (as asked)".to_string()
+            } else {
+                let names: Vec<&str> = (0..frames.cameras.len()).filter(|&o| few.contains(&group[o])).map(|o| frames.cameras[o].name.as_str()).collect();
+                format!(
+                    "principal point kept at the image centre: every camera model needs {MIN_IMAGES_FOR_PRINCIPAL_POINT} registered keyframes to fix it, and {} {} fewer (this one: {})",
+                    names.join(", "),
+                    if names.len() == 1 { "has" } else { "have" },
+                    registered[g]
+                )
+            };
+            let sharing: Vec<&str> = (0..frames.cameras.len()).filter(|&o| o != c && group[o] == g).map(|o| frames.cameras[o].name.as_str()).collect();
+            let shared = if sharing.is_empty() { String::new() } else { format!("; shared with {}", sharing.join(", ")) };
+            format!("{focal}, {principal}{shared}")
+        })
+        .collect()
 }
 
 /// Which intrinsics each camera uses: with `share`, cameras of equal image size without

@@ -21,7 +21,8 @@ use crate::geometry::{Intrinsics, Pose};
 use crate::incremental::MapperOptions;
 use crate::input::{EventFrames, decode_frames, discover, video_fps};
 use crate::keyframes::{
-    Keyframe, KeyframeModel, keyframe_features, keyframes, match_all_pairs, reconstruct_keyframes, to_colmap, write_colmap_text,
+    Keyframe, KeyframeModel, intrinsics_notes, keyframe_features, keyframes, match_all_pairs, reconstruct_keyframes, to_colmap,
+    write_colmap_text,
 };
 use crate::matching::MatchOptions;
 use crate::refine::{CameraTrack, KeyframeView, RefineOptions, RefineReport, refine_camera};
@@ -175,6 +176,9 @@ pub struct PrepReport {
     pub keyframe_rms_px: f64,
     /// How each camera's focal was initialised.
     pub focal_source: Vec<String>,
+    /// Per camera, which intrinsics the keyframe reconstruction refined and why.
+    #[serde(default)]
+    pub intrinsics_refined: Vec<String>,
     /// Per camera refinement figures.
     pub refine: Vec<RefineReport>,
     /// Stages skipped because an earlier run had finished them.
@@ -351,6 +355,10 @@ fn pose_stages(
     }
     lap(report, "keyframe features");
     let key_stage = (&frames, options.keyframe_interval, &options.features, &options.matching, &options.mapper, &known);
+    let mut mapper = options.mapper.clone();
+    if known.len() == frames.cameras.len() {
+        mapper.refine_focal = false;
+    }
     let model: KeyframeModel = if work.is_done("keyframes", &key_stage) {
         report.skipped.push("keyframes".into());
         work.read_json("keyframes/model.json")?
@@ -368,10 +376,6 @@ fn pose_stages(
             })
             .collect();
         work.write_json("keyframes/pairs.json", &summary)?;
-        let mut mapper = options.mapper.clone();
-        if known.len() == frames.cameras.len() {
-            mapper.refine_focal = false;
-        }
         let model = reconstruct_keyframes(&frames, &keys, &features, &pairs, &known, &options.matching, &mapper, progress, interrupt)?;
         work.write_json("keyframes/model.json", &model)?;
         write_colmap_text(&to_colmap(&model, &frames, &features), &work.join("keyframes/model"))?;
@@ -385,6 +389,7 @@ fn pose_stages(
     let errors = r.reprojection_errors_px(&model.map_images(&features));
     report.keyframe_rms_px = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
     report.focal_source = model.focal_source.clone();
+    report.intrinsics_refined = intrinsics_notes(&frames, &model, &known, &mapper);
     lap(report, "keyframe reconstruction");
     if options.stop_after == Stage::Keyframes {
         return Ok(None);
@@ -436,6 +441,7 @@ fn refine_all<K: Serialize>(
         if work.is_done(&stage, &key) {
             let (poses, camera_report): (Vec<Pose>, RefineReport) = work.read_json(&format!("{stage}.json"))?;
             report.skipped.push(stage);
+            warn_repaired(report, &camera.name, &camera_report, options.refine.max_reprojection_px);
             report.refine.push(camera_report);
             out.push(poses);
             continue;
@@ -459,12 +465,25 @@ fn refine_all<K: Serialize>(
         let track =
             CameraTrack { name: &camera.name, files: &camera.files, intrinsics: r.intrinsics[c], keyframes, points_world: &points_world };
         let (poses, camera_report) = refine_camera(&track, &options.features, &options.matching, &options.refine, progress, interrupt)?;
+        warn_repaired(report, &camera.name, &camera_report, options.refine.max_reprojection_px);
         work.write_json(&format!("{stage}.json"), &(&poses, &camera_report))?;
         work.mark_done(&stage, &key)?;
         report.refine.push(camera_report);
         out.push(poses);
     }
     Ok(out)
+}
+
+/// A warning naming the camera when its refinement misplaced frames (repaired, not kept).
+fn warn_repaired(report: &mut PrepReport, camera: &str, refined: &RefineReport, limit_px: f64) {
+    if refined.frames_repaired > 0 {
+        report.warnings.push(format!(
+            "camera {camera}: the refinement misplaced {} of its frames (reprojection errors above {} x the {} px limit): they were placed between their neighbours instead",
+            refined.frames_repaired,
+            crate::refine::MISPLACED_FRAME_FACTOR,
+            limit_px,
+        ));
+    }
 }
 
 /// The poses of every frame as `poses.json`'s shape.

@@ -76,8 +76,74 @@ pub struct RefineReport {
     pub frames_interpolated: usize,
     /// Observations in the final solve.
     pub observations: usize,
-    /// RMS reprojection error (px) after the solve.
+    /// RMS reprojection error (px) after the solve, over its observations.
     pub rms_px: f64,
+    /// Frames the solve misplaced (the median reprojection error of their observations above
+    /// [`MISPLACED_FRAME_FACTOR`] x `max_reprojection_px`), whose poses were replaced by
+    /// interpolation between their placed neighbours instead of being kept.
+    #[serde(default)]
+    pub frames_repaired: usize,
+    /// RMS reprojection error (px) over the observations within `max_reprojection_px` after the
+    /// repair: what the kept poses explain.
+    #[serde(default)]
+    pub inlier_rms_px: f64,
+}
+
+/// A frame whose observations' median reprojection error is above this many times
+/// `max_reprojection_px` after the solve is misplaced (a refinement that exploded there).
+pub const MISPLACED_FRAME_FACTOR: f64 = 4.0;
+
+/// Per frame, the median reprojection error (px) of its observations under `poses`; `None` for
+/// a frame without observations.
+pub fn median_frame_errors_px(
+    intrinsics: &Intrinsics,
+    poses: &[Pose],
+    features: &[&Features],
+    point_at: &[Vec<Option<u32>>],
+    points_world: &[Vector3<f64>],
+) -> Vec<Option<f64>> {
+    (0..poses.len())
+        .map(|t| {
+            let mut errors: Vec<f64> = point_at[t]
+                .iter()
+                .enumerate()
+                .filter_map(|(f, p)| {
+                    let xy = features[t].xy[f];
+                    p.map(|p| {
+                        reprojection_error_px(
+                            intrinsics,
+                            &poses[t],
+                            &points_world[p as usize],
+                            &Vector2::new(f64::from(xy[0]), f64::from(xy[1])),
+                        )
+                    })
+                })
+                .collect();
+            if errors.is_empty() {
+                return None;
+            }
+            errors.sort_by(f64::total_cmp);
+            Some(errors[errors.len() / 2])
+        })
+        .collect()
+}
+
+/// Replaces the poses of frames (never keyframes) whose median error is above `limit_px` by
+/// interpolation between their placed neighbours; returns how many were replaced.
+pub fn repair_misplaced(poses: &mut [Pose], median_errors_px: &[Option<f64>], is_keyframe: &[bool], limit_px: f64) -> usize {
+    let misplaced: Vec<bool> =
+        (0..poses.len()).map(|t| !is_keyframe[t] && median_errors_px[t].is_some_and(|e| e > limit_px || e.is_nan())).collect();
+    let count = misplaced.iter().filter(|&&m| m).count();
+    if count > 0 {
+        let mut kept: Vec<Option<Pose>> = poses.iter().zip(&misplaced).map(|(p, &m)| (!m).then_some(*p)).collect();
+        fill_missing(&mut kept);
+        for (pose, fixed) in poses.iter_mut().zip(kept) {
+            if let Some(fixed) = fixed {
+                *pose = fixed;
+            }
+        }
+    }
+    count
 }
 
 /// Carries point ids along the consecutive-frame `matches`, forward then backward, never
@@ -129,6 +195,31 @@ fn pnp(
         return Ok(None);
     }
     Ok(pnp_ransac(intrinsics, &object, &image, max_px, 1000, 0.999)?.filter(|(_, inliers)| *inliers >= 12).map(|(pose, _)| pose))
+}
+
+/// RMS reprojection error (px) of the observations within `max_px` under `poses`.
+fn inlier_rms_px(
+    intrinsics: &Intrinsics,
+    poses: &[Pose],
+    features: &[&Features],
+    point_at: &[Vec<Option<u32>>],
+    points_world: &[Vector3<f64>],
+    max_px: f64,
+) -> f64 {
+    let (mut sum, mut count) = (0.0, 0usize);
+    for t in 0..poses.len() {
+        for (f, p) in point_at[t].iter().enumerate() {
+            let Some(p) = p else { continue };
+            let xy = features[t].xy[f];
+            let e =
+                reprojection_error_px(intrinsics, &poses[t], &points_world[*p as usize], &Vector2::new(f64::from(xy[0]), f64::from(xy[1])));
+            if e <= max_px {
+                sum += e * e;
+                count += 1;
+            }
+        }
+    }
+    if count == 0 { 0.0 } else { (sum / count as f64).sqrt() }
 }
 
 /// Fills missing poses by interpolating (slerp and lerp) between the nearest posed frames.
@@ -319,5 +410,43 @@ pub fn refine_camera(
             poses[t] = Pose::from_angle_axis(p.angle_axis.into(), p.center_world.into());
         }
     }
+    // A solve that exploded somewhere is not kept there: those frames are placed between their
+    // neighbours instead.
+    let errors = median_frame_errors_px(&camera.intrinsics, &poses, &features, &point_at, camera.points_world);
+    report.frames_repaired = repair_misplaced(&mut poses, &errors, &is_keyframe, MISPLACED_FRAME_FACTOR * options.max_reprojection_px);
+    report.inlier_rms_px =
+        inlier_rms_px(&camera.intrinsics, &poses, &features, &point_at, camera.points_world, options.max_reprojection_px);
     Ok((poses, report))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(x: f64) -> Pose {
+        Pose::from_angle_axis(Vector3::new(0.0, 0.01 * x, 0.0), Vector3::new(x, 0.0, 0.0))
+    }
+
+    #[test]
+    fn misplaced_frames_are_placed_between_their_neighbours_and_keyframes_kept() {
+        // Keyframes 0 and 5; frame 2 exploded (100 px), frame 3 has no observations, frame 4
+        // has a NaN error: the repair replaces 2 and 4, never a keyframe or frame 3.
+        let mut poses: Vec<Pose> = (0..6).map(|t| at(t as f64)).collect();
+        poses[2] = Pose::from_angle_axis(Vector3::new(2.0, 0.0, 0.0), Vector3::new(1e4, -3e3, 7.0));
+        poses[4].center_world.y = 50.0;
+        let errors = [Some(300.0), Some(0.5), Some(100.0), None, Some(f64::NAN), Some(0.7)];
+        let is_keyframe = [true, false, false, false, false, true];
+        let expected_three = poses[3];
+        assert_eq!(repair_misplaced(&mut poses, &errors, &is_keyframe, 16.0), 2);
+        let close = |a: &Pose, b: &Pose| (a.center_world - b.center_world).norm() < 1e-9 && (a.rotation - b.rotation).norm() < 1e-9;
+        assert!(close(&poses[0], &at(0.0)), "a keyframe is never replaced");
+        assert!(close(&poses[3], &expected_three), "a frame without evidence is kept");
+        // Frame 2 lies between frames 1 and 3, frame 4 between 3 and 5.
+        assert!(close(&poses[2], &at(2.0)), "{:?}", poses[2].center_world);
+        assert!(close(&poses[4], &at(4.0)), "{:?}", poses[4].center_world);
+        // Nothing misplaced: nothing changes.
+        let before = poses.clone();
+        assert_eq!(repair_misplaced(&mut poses, &[Some(1.0); 6], &is_keyframe, 16.0), 0);
+        assert!(poses.iter().zip(&before).all(|(a, b)| close(a, b)));
+    }
 }

@@ -59,10 +59,11 @@ pub struct Args {
     /// bundle adjustment when every camera model has at least 8 registered keyframes).
     #[arg(long)]
     centred_principal_point: bool,
-    /// Give every camera its own intrinsics even when image sizes are equal (by default,
-    /// cameras of one image size share them).
+    /// Cameras of one image size share one set of intrinsics (one camera model filmed
+    /// everything). By default every camera has its own: equal image sizes say nothing about
+    /// equal lenses or zoom.
     #[arg(long)]
-    per_camera_intrinsics: bool,
+    shared_intrinsics: bool,
     /// The last stage to run: frames, keyframes, poses, points or package.
     #[arg(long, default_value = "package")]
     stop_after: Stage,
@@ -140,7 +141,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     });
     options.mapper.refine_distortion = args.refine_distortion;
     options.mapper.refine_principal_point = !args.centred_principal_point;
-    options.mapper.share_intrinsics = !args.per_camera_intrinsics;
+    options.mapper.share_intrinsics = args.shared_intrinsics;
     options.refine.smoothness = args.smoothness;
     options.features.max_features = args.max_features;
     let interrupt = Arc::new(AtomicBool::new(false));
