@@ -54,4 +54,4 @@ pub use options::{
 };
 pub use problem::{CameraIntrinsics, ImagePose, Observation, Problem, SmoothnessPrior};
 pub use projection::{pixel_from_world, reprojection_errors_px};
-pub use solver::solve;
+pub use solver::{principal_point_std_px, solve};

@@ -35,9 +35,9 @@ pub struct MapperOptions {
     pub share_intrinsics: bool,
     /// Refine the focal lengths in bundle adjustment (off when every focal is given).
     pub refine_focal: bool,
-    /// Refine the principal points in the final bundle adjustment when every set of
-    /// intrinsics has at least [`MIN_IMAGES_FOR_PRINCIPAL_POINT`] registered images (on by
-    /// default; COLMAP keeps them at the image centre). On the Middlebury temple this cut the
+    /// Refine the principal points in the final bundle adjustment where the data fix them
+    /// better than their usual distance from the centre ([`PRINCIPAL_POINT_PRIOR_FRACTION`];
+    /// on by default; COLMAP keeps them at the image centre). On the Middlebury temple this cut the
     /// median rotation error from 0.54 to 0.17 degrees.
     pub refine_principal_point: bool,
     /// Refine the radial distortion (k1, k2) in the final bundle adjustment (off by default:
@@ -62,8 +62,15 @@ impl Default for MapperOptions {
     }
 }
 
-/// Fewest registered images per set of intrinsics for refining principal points.
-pub const MIN_IMAGES_FOR_PRINCIPAL_POINT: usize = 8;
+/// How far real principal points lie from the image centre, as a share of the longer image
+/// side (radially): 0.6-1.9% on the Panoptic cameras, 0.5-1.6% on Pose2Sim's, 2.9% on the
+/// Middlebury temple.
+/// The final adjustment keeps refined principal points only when the data fix every camera's
+/// better than this (its standard deviation, px along the worse axis at the adjustment's RMS
+/// error as noise, below this share of its longer side): then the estimate is expected nearer
+/// the truth than the centre is. An arc of cameras hardly tells a principal point from a
+/// common turn of its images; a ring, or images at different rolls, does.
+pub const PRINCIPAL_POINT_PRIOR_FRACTION: f64 = 0.015;
 
 /// A keyframe to reconstruct.
 #[derive(Clone, Debug)]
@@ -92,6 +99,13 @@ pub struct Reconstruction {
     pub poses: Vec<Option<Pose>>,
     /// Triangulated points.
     pub points: Vec<MapPoint>,
+    /// Per physical camera, the standard deviation (px) its principal point would have if
+    /// refined, measured by the final adjustment's trial; `None` where not measured.
+    #[serde(default)]
+    pub principal_point_std_px: Vec<Option<f64>>,
+    /// Whether the final adjustment kept the refined principal points.
+    #[serde(default)]
+    pub principal_point_refined: bool,
 }
 
 impl Reconstruction {
@@ -137,6 +151,10 @@ struct Mapper<'a> {
     point_of_track: Vec<Option<usize>>,
     points: Vec<Option<MapPoint>>,
     fixed_image: usize,
+    principal_point_std_px: Vec<Option<f64>>,
+    principal_point_refined: bool,
+    /// Per physical camera, how far its principal point usually lies from the centre (px).
+    principal_prior_px: Vec<f64>,
 }
 
 fn pixel(xy: [f32; 2]) -> Vector2<f64> {
@@ -193,13 +211,6 @@ impl Mapper<'_> {
                 }
             }
         }
-    }
-
-    fn enough_views_for_principal_points(&self) -> bool {
-        (0..self.intrinsics.len()).all(|c| {
-            let views = (0..self.images.len()).filter(|&i| self.images[i].camera == c && self.poses[i].is_some()).count();
-            views == 0 || views >= MIN_IMAGES_FOR_PRINCIPAL_POINT
-        })
     }
 
     fn registered(&self) -> usize {
@@ -332,12 +343,31 @@ impl Mapper<'_> {
         let options = dynview_ba::Options {
             loss: dynview_ba::Loss::Cauchy { scale_px: self.options.loss_scale_px },
             refine_focal: refine_focal && self.options.refine_focal,
-            refine_principal_point: last && self.options.refine_principal_point && self.enough_views_for_principal_points(),
+            refine_principal_point: false,
             refine_distortion: last && self.options.refine_distortion,
             max_iterations: 50,
             ..Default::default()
         };
-        dynview_ba::solve(&mut problem, &options)?;
+        // The final adjustment refines the principal points only where the data fix them: it
+        // tries, and keeps the result when every camera's principal point is known to
+        // PRINCIPAL_POINT_MAX_STD_PX; otherwise they stay where they were (the image centre).
+        let mut solved = false;
+        if last && self.options.refine_principal_point {
+            let trial_options = dynview_ba::Options { refine_principal_point: true, ..options };
+            let mut trial = problem.clone();
+            let report = dynview_ba::solve(&mut trial, &trial_options)?;
+            let std_px = dynview_ba::principal_point_std_px(&trial, &trial_options, report.final_rms_px)?;
+            let fixed = std_px.iter().zip(&self.principal_prior_px).all(|(s, prior)| s.is_none_or(|s| s <= *prior));
+            self.principal_point_std_px = std_px;
+            self.principal_point_refined = fixed;
+            if fixed {
+                problem = trial;
+                solved = true;
+            }
+        }
+        if !solved {
+            dynview_ba::solve(&mut problem, &options)?;
+        }
         for (s, &i) in image_ids.iter().enumerate() {
             let p = &problem.images[s];
             self.poses[i] = Some(Pose::from_angle_axis(p.angle_axis.into(), p.center_world.into()));
@@ -426,6 +456,8 @@ pub fn reconstruct(
     let counts: Vec<usize> = images.iter().map(|i| i.xy.len()).collect();
     let matches: Vec<(usize, usize, Vec<[u32; 2]>)> = pairs.iter().map(|(a, b, v)| (*a, *b, v.inliers.clone())).collect();
     let tracks = Tracks::build(&counts, &matches);
+    // The initial principal points are the image centres: the longer side is twice the larger.
+    let principal_prior_px = intrinsics.iter().map(|k| PRINCIPAL_POINT_PRIOR_FRACTION * (2.0 * k.cx_px.max(k.cy_px) + 1.0)).collect();
     let mut mapper = Mapper {
         images,
         point_of_track: vec![None; tracks.tracks.len()],
@@ -435,6 +467,9 @@ pub fn reconstruct(
         poses: vec![None; images.len()],
         points: Vec::new(),
         fixed_image: 0,
+        principal_point_std_px: Vec::new(),
+        principal_point_refined: false,
+        principal_prior_px,
     };
     // Pairs of two physical cameras first (frames of one camera may have no baseline), then
     // the most matches; a pair is accepted only if enough points triangulate at a wide angle.
@@ -499,5 +534,11 @@ pub fn reconstruct(
         mapper.triangulate_track(t);
     }
     mapper.bundle_adjust(true, true)?;
-    Ok(Reconstruction { intrinsics: mapper.intrinsics, poses: mapper.poses, points: mapper.points.into_iter().flatten().collect() })
+    Ok(Reconstruction {
+        intrinsics: mapper.intrinsics,
+        poses: mapper.poses,
+        points: mapper.points.into_iter().flatten().collect(),
+        principal_point_std_px: mapper.principal_point_std_px,
+        principal_point_refined: mapper.principal_point_refined,
+    })
 }

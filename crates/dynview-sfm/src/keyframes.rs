@@ -16,7 +16,7 @@ use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features};
 use crate::focal::{PRIOR_FOCAL_FACTOR, PairGeometry, estimate_focal_factor};
 use crate::geometry::Intrinsics;
-use crate::incremental::{MIN_IMAGES_FOR_PRINCIPAL_POINT, MapImage, MapperOptions, Reconstruction, reconstruct};
+use crate::incremental::{MapImage, MapperOptions, PRINCIPAL_POINT_PRIOR_FRACTION, Reconstruction, reconstruct};
 use crate::input::EventFrames;
 use crate::matching::{MatchOptions, TwoView, build_indices, mutual_matches_shared, verify};
 use crate::work::WorkDir;
@@ -197,31 +197,22 @@ pub fn intrinsics_notes(
     options: &MapperOptions,
 ) -> Vec<String> {
     let group = intrinsics_groups(frames, known, options.share_intrinsics);
-    let groups = group.iter().max().map_or(0, |g| g + 1);
-    let mut registered = vec![0usize; groups];
-    for (i, key) in model.keyframes.iter().enumerate() {
-        if model.reconstruction.poses.get(i).is_some_and(Option::is_some) {
-            registered[group[key.camera]] += 1;
-        }
-    }
-    let few: Vec<usize> = (0..groups).filter(|&g| registered[g] > 0 && registered[g] < MIN_IMAGES_FOR_PRINCIPAL_POINT).collect();
-    let principal_refined = options.refine_principal_point && few.is_empty();
+    let r = &model.reconstruction;
+    let std_of = |c: usize| r.principal_point_std_px.get(group[c]).copied().flatten();
+    let worst = (0..frames.cameras.len()).filter_map(|c| std_of(c).map(|s| (s, c))).max_by(|a, b| a.0.total_cmp(&b.0));
     (0..frames.cameras.len())
         .map(|c| {
             let g = group[c];
             let focal = if options.refine_focal { "focal refined" } else { "focal kept as given" };
-            let principal = if principal_refined {
-                format!("principal point refined ({} registered keyframes)", registered[g])
-            } else if !options.refine_principal_point {
-                "principal point kept at the image centre (as asked)".to_string()
-            } else {
-                let names: Vec<&str> = (0..frames.cameras.len()).filter(|&o| few.contains(&group[o])).map(|o| frames.cameras[o].name.as_str()).collect();
-                format!(
-                    "principal point kept at the image centre: every camera model needs {MIN_IMAGES_FOR_PRINCIPAL_POINT} registered keyframes to fix it, and {} {} fewer (this one: {})",
-                    names.join(", "),
-                    if names.len() == 1 { "has" } else { "have" },
-                    registered[g]
-                )
+            let principal = match (std_of(c), worst) {
+                _ if !options.refine_principal_point => "principal point kept at the image centre (as asked)".to_string(),
+                (Some(s), _) if r.principal_point_refined => format!("principal point refined (known to {s:.2} px)"),
+                (Some(s), Some((w, worst_camera))) => format!(
+                    "principal point kept at the image centre: the data fix it to {s:.2} px here and {w:.2} px at worst ({}), not better than principal points usually lie from the centre ({:.1}% of the longer side)",
+                    frames.cameras[worst_camera].name,
+                    100.0 * PRINCIPAL_POINT_PRIOR_FRACTION
+                ),
+                _ => "principal point kept at the image centre (not measured: no registered keyframe)".to_string(),
             };
             let sharing: Vec<&str> = (0..frames.cameras.len()).filter(|&o| o != c && group[o] == g).map(|o| frames.cameras[o].name.as_str()).collect();
             let shared = if sharing.is_empty() { String::new() } else { format!("; shared with {}", sharing.join(", ")) };

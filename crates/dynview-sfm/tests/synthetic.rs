@@ -86,13 +86,17 @@ fn every_frame_is_posed_accurately_and_the_priors_reduce_jitter() {
     let report = run(&input(), out.path(), &options, &|_, _, _| {}, &stop).expect("prep with priors");
     assert_eq!((report.cameras, report.frames), (4, FRAMES as usize));
     assert_eq!(report.keyframes_registered, report.keyframes, "every keyframe registered");
-    // Each camera its own intrinsics; too few keyframes per camera to fix a principal point,
-    // so the report says it stayed at the centre and why; no refinement had to be repaired.
+    // Each camera its own intrinsics; the report says per camera whether the data fixed its
+    // principal point well enough to refine it, with the figure, and the cameras decide alike.
     assert_eq!(report.intrinsics_refined.len(), 4);
-    for note in &report.intrinsics_refined {
-        assert!(note.starts_with("focal refined, principal point kept at the image centre: every camera model needs 8"), "{note}");
-        assert!(!note.contains("shared with"), "{note}");
-    }
+    let refined = report.intrinsics_refined.iter().filter(|n| n.starts_with("focal refined, principal point refined (known to ")).count();
+    let kept = report
+        .intrinsics_refined
+        .iter()
+        .filter(|n| n.starts_with("focal refined, principal point kept at the image centre: the data fix it to "))
+        .count();
+    assert!(refined == 4 || kept == 4, "{:?}", report.intrinsics_refined);
+    assert!(report.intrinsics_refined.iter().all(|n| !n.contains("shared with")), "{:?}", report.intrinsics_refined);
     assert!(report.refine.iter().all(|r| r.frames_repaired == 0), "{:?}", report.refine);
     let with_priors = estimated(&EventPoses::read(&out.path().join("poses.json")).expect("poses.json"));
     let truth = ground_truth();

@@ -8,6 +8,7 @@
 
 mod block_cholesky;
 mod cost;
+mod covariance;
 mod layout;
 mod linearize;
 mod ordering;
@@ -16,6 +17,8 @@ mod step;
 
 #[cfg(test)]
 mod tests;
+
+pub use covariance::principal_point_std_px;
 
 use crate::error::BaError;
 use crate::options::{Options, Report, Termination};

@@ -37,8 +37,18 @@ struct Partial {
     point_inverse: Vec<Matrix3<f64>>,
 }
 
-/// Solves `(H + lambda D) d = -g`, `D` the clamped diagonal of `H`, by the Schur complement on the points.
-pub(crate) fn compute_step(layout: &Layout, linearization: &Linearization, lambda: f64) -> Result<Step, NotPositiveDefinite> {
+/// The damped reduced camera system `S = U + lambda D - sum W V^-1 W^T` (not yet factorised),
+/// its right-hand side `-g_c + sum W V^-1 g_p`, the camera-side damping diagonal `D`, and each
+/// point group's damped inverse `V^-1`.
+pub(crate) struct ReducedSystem {
+    pub reduced: Vec<f64>,
+    pub rhs: Vec<f64>,
+    pub camera_damping: Vec<f64>,
+    pub point_inverse: Vec<Matrix3<f64>>,
+}
+
+/// Eliminates the points of `(H + lambda D) d = -g` (the Schur complement).
+pub(crate) fn reduced_system(layout: &Layout, linearization: &Linearization, lambda: f64) -> Result<ReducedSystem, NotPositiveDefinite> {
     let pattern = &layout.pattern;
     let chunks = accumulator_chunks(layout);
     let partials = par::map_range(chunks.len(), |chunk| {
@@ -115,6 +125,13 @@ pub(crate) fn compute_step(layout: &Layout, linearization: &Linearization, lambd
         }
         point_inverse.extend(partial.point_inverse);
     }
+    Ok(ReducedSystem { reduced, rhs, camera_damping, point_inverse })
+}
+
+/// Solves `(H + lambda D) d = -g`, `D` the clamped diagonal of `H`, by the Schur complement on the points.
+pub(crate) fn compute_step(layout: &Layout, linearization: &Linearization, lambda: f64) -> Result<Step, NotPositiveDefinite> {
+    let pattern = &layout.pattern;
+    let ReducedSystem { mut reduced, rhs, camera_damping, point_inverse } = reduced_system(layout, linearization, lambda)?;
     pattern.factor(&mut reduced)?;
     let delta_camera = pattern.solve(&reduced, &rhs);
     if delta_camera.iter().any(|v| !v.is_finite()) {

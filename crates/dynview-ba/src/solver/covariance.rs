@@ -1,0 +1,123 @@
+//! How well the data fix the principal points: the marginal covariance of each camera's
+//! `(cx, cy)` from the Gauss-Newton normal equations at the current parameters.
+
+use super::block_cholesky::NotPositiveDefinite;
+use super::layout::{Layout, NodeKind};
+use super::linearize::linearize;
+use super::parameters::Parameters;
+use super::step::reduced_system;
+use crate::error::BaError;
+use crate::options::Options;
+use crate::problem::Problem;
+
+/// Damping of the reduced system, relative to its diagonal, that removes the similarity gauge
+/// (the free scale) without touching the intrinsics: the gauge leaves them unchanged, so their
+/// block of the inverse is that of the pseudo-inverse.
+const GAUGE_DAMPING: f64 = 1e-9;
+
+/// Per camera, the standard deviation (px) of its principal point along its worse axis,
+/// `noise_px * sqrt(max(var cx, var cy))` with the variances from `(J^T J)^-1` (robust
+/// weights as in the solve) after eliminating the points; `None` for a camera whose principal
+/// point is not refined under `options` (or that no observation reaches). `noise_px` is the
+/// standard deviation of one residual coordinate, for example the solve's final RMS.
+pub fn principal_point_std_px(problem: &Problem, options: &Options, noise_px: f64) -> Result<Vec<Option<f64>>, BaError> {
+    problem.validate()?;
+    options.validate()?;
+    let mut out = vec![None; problem.cameras.len()];
+    if !options.refine_principal_point {
+        return Ok(out);
+    }
+    let layout = Layout::new(problem, options);
+    let parameters = Parameters::from_problem(problem);
+    let linearization = linearize(&layout, &parameters, &problem.priors, &options.loss);
+    let numerical = |_: NotPositiveDefinite| BaError::Numerical { reason: "the normal equations could not be factorised".into() };
+    let mut system = reduced_system(&layout, &linearization, GAUGE_DAMPING).map_err(numerical)?;
+    let pattern = &layout.pattern;
+    pattern.factor(&mut system.reduced).map_err(numerical)?;
+    let locals: Vec<usize> = [1, 2].iter().filter_map(|index| layout.free_intrinsics.iter().position(|f| f == index)).collect();
+    for (node, kind) in layout.node_kind.iter().enumerate() {
+        let NodeKind::Camera(camera) = *kind else { continue };
+        let mut worst: f64 = 0.0;
+        for &local in &locals {
+            let unknown = pattern.node_offset(node) + local;
+            let mut unit = vec![0.0; pattern.dim()];
+            unit[unknown] = 1.0;
+            let column = pattern.solve(&system.reduced, &unit);
+            worst = worst.max(column[unknown]);
+        }
+        if !worst.is_finite() {
+            return Err(BaError::Numerical { reason: format!("camera {camera}: the principal point's variance is not finite") });
+        }
+        out[camera] = Some(noise_px * worst.max(0.0).sqrt());
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::problem::{CameraIntrinsics, ImagePose, Observation};
+    use crate::projection::pixel_from_world;
+
+    /// `n` images of one camera on an arc of `arc_deg` around a cloud of 60 points at the
+    /// origin, looking at it and rolled by up to `roll_deg`, observed exactly; the first image
+    /// fixed. A principal point shift looks like a common turn of every image; only
+    /// perspective and different rolls of one camera tell them apart.
+    fn arc_problem(n: usize, arc_deg: f64, roll_deg: f64) -> Problem {
+        let camera = CameraIntrinsics { focal_px: 500.0, cx_px: 320.0, cy_px: 240.0, k1: 0.0, k2: 0.0 };
+        let images: Vec<ImagePose> = (0..n)
+            .map(|i| {
+                let a = (arc_deg * (i as f64 / (n - 1) as f64 - 0.5)).to_radians();
+                // Looking along +z rotated by a about y, from 6 m away.
+                let roll = (roll_deg * (2.0 * (i % 3) as f64 / 2.0 - 1.0)).to_radians();
+                let rotation = nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::z_axis(), roll)
+                    * nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::y_axis(), -a);
+                let angle_axis = rotation.scaled_axis();
+                ImagePose { angle_axis: [angle_axis.x, angle_axis.y, angle_axis.z], center_world: [-6.0 * a.sin(), 0.0, -6.0 * a.cos()] }
+            })
+            .collect();
+        let points_world: Vec<[f64; 3]> = (0..60)
+            .map(|j| {
+                let s = j as f64;
+                [(s * 0.7).sin() * 2.5, (s * 1.3).cos() * 2.0, (s * 0.4).sin() * 2.5]
+            })
+            .collect();
+        let mut observations = Vec::new();
+        for (image, pose) in images.iter().enumerate() {
+            for (point, p) in points_world.iter().enumerate() {
+                let pixel = pixel_from_world(&camera, pose, p).expect("in front");
+                observations.push(Observation { image, point, pixel });
+            }
+        }
+        let mut image_fixed = vec![false; n];
+        image_fixed[0] = true;
+        let point_fixed = vec![false; points_world.len()];
+        Problem {
+            cameras: vec![camera],
+            images,
+            image_camera: vec![0; n],
+            image_fixed,
+            points_world,
+            point_fixed,
+            observations,
+            priors: Vec::new(),
+        }
+    }
+
+    fn options(refine_principal_point: bool) -> Options {
+        Options { loss: crate::Loss::Squared, refine_focal: true, refine_principal_point, ..Options::default() }
+    }
+
+    #[test]
+    fn a_wide_ring_fixes_the_principal_point_and_a_narrow_arc_does_not() {
+        let wide = principal_point_std_px(&arc_problem(12, 120.0, 30.0), &options(true), 1.0).unwrap()[0].unwrap();
+        let narrow = principal_point_std_px(&arc_problem(3, 10.0, 0.0), &options(true), 1.0).unwrap()[0].unwrap();
+        println!("principal point std: wide arc {wide:.3} px, narrow {narrow:.3} px");
+        assert!(wide < 1.0, "wide arc: {wide} px");
+        assert!(narrow > 10.0 * wide, "narrow arc {narrow} px, wide {wide} px");
+        // Linear in the noise; nothing when the principal point is not refined.
+        let twice = principal_point_std_px(&arc_problem(12, 120.0, 30.0), &options(true), 2.0).unwrap()[0].unwrap();
+        assert!((twice - 2.0 * wide).abs() < 1e-9 * wide.max(1.0), "{twice} vs {wide}");
+        assert_eq!(principal_point_std_px(&arc_problem(12, 120.0, 30.0), &options(false), 1.0).unwrap(), vec![None]);
+    }
+}
