@@ -1,6 +1,7 @@
 //! `cargo xtask bench sfm`: our keyframe structure-from-motion (`dynview prep ... --stop-after
-//! keyframes`) and COLMAP side by side on the synthetic event, Middlebury's temple ring and
-//! Pose2Sim's lab capture (see `sfm_datasets`), against ground-truth poses.
+//! keyframes`) and COLMAP side by side on the synthetic event and three other synthetic
+//! layouts, Middlebury's temple ring, Pose2Sim's lab capture and the Panoptic arc (see
+//! `sfm_datasets`), against ground-truth poses and intrinsics.
 //!
 //! Metrics per method and dataset:
 //! - wall time of the reconstruction (see `sfm_runners` for what is timed);

@@ -26,8 +26,8 @@ enum Command {
     /// The whole `dynview prep` on a 6-camera, 100-frame, 960x540 hand-held event
     /// (`docs/results/prep.md`).
     BenchPrep(bench_prep::Options),
-    /// Our keyframe SfM against COLMAP on the synthetic event, the temple ring and Pose2Sim
-    /// (`target/bench/sfm/results.md`).
+    /// Our keyframe SfM against COLMAP on synthetic events (four layouts), the temple ring,
+    /// Pose2Sim and the Panoptic arc (`target/bench/sfm/results.md`).
     BenchSfm(bench_sfm::Options),
 }
 

@@ -8,7 +8,10 @@
 //! - `pose2sim`: frames 0, 20, 40, 60 and 80 of the 4 Pose2Sim videos (1088x1920), folders
 //!   `cam01`..`cam04`; ground truth from the Qualisys calibration, one pose per camera;
 //! - `panoptic`: frames 0, 20, 40 and 60 of the 8 cameras of the Panoptic basketball arc
-//!   (640x360, undistorted), folders `cam00`..`cam29`; ground truth from its calibration.
+//!   (640x360, undistorted), folders `cam00`..`cam29`; ground truth from its calibration;
+//! - `arc5x40`, `arc8x90`, `arc12x60`: hand-held synthetic events in other layouts (5 cameras
+//!   over 40 degrees, 8 over 90, 12 over 60; 640x360), each camera its own focal (0.8 to 1.6 x
+//!   the longer side) and a principal point off the centre; frames 0, 20 and 40.
 //!
 //! Every dataset also has each camera folder's true intrinsics.
 //! Image folders are made once: a folder that exists is reused.
@@ -28,7 +31,25 @@ use crate::paths::{command_line as describe, shared_data};
 use crate::sfm_data::{Poses, poses_from_colmap, read_colmap_text};
 
 /// Names of the datasets, in the order the benchmark runs them.
-pub const DATASETS: [&str; 4] = ["synthetic", "temple", "pose2sim", "panoptic"];
+pub const DATASETS: [&str; 7] = ["synthetic", "temple", "pose2sim", "panoptic", "arc5x40", "arc8x90", "arc12x60"];
+
+/// One of the other synthetic layouts.
+struct SynthLayout {
+    name: &'static str,
+    cameras: usize,
+    arc_deg: f64,
+    /// Focal lengths, x the longer side, first camera to last.
+    focal_range: [f64; 2],
+    /// True principal point offset (px), alternating in sign from camera to camera.
+    principal_offset_px: [f64; 2],
+}
+
+/// The other synthetic layouts.
+const LAYOUTS: [SynthLayout; 3] = [
+    SynthLayout { name: "arc5x40", cameras: 5, arc_deg: 40.0, focal_range: [0.8, 1.6], principal_offset_px: [6.0, -4.0] },
+    SynthLayout { name: "arc8x90", cameras: 8, arc_deg: 90.0, focal_range: [1.6, 0.8], principal_offset_px: [-5.0, 5.0] },
+    SynthLayout { name: "arc12x60", cameras: 12, arc_deg: 60.0, focal_range: [1.0, 1.4], principal_offset_px: [4.0, 3.0] },
+];
 
 /// Synthetic frames taken from every camera.
 const SYNTHETIC_FRAMES: [u32; 3] = [0, 20, 40];
@@ -59,10 +80,32 @@ pub fn prepare(name: &str, bench_dir: &Path) -> anyhow::Result<Dataset> {
     let dir = bench_dir.join(name);
     let images_dir = dir.join("images");
     let (name, (all_truth, intrinsics)) = match name {
-        "synthetic" => ("synthetic", synthetic(&dir, &images_dir)?),
+        "synthetic" => {
+            let config =
+                SynthConfig { cameras: 6, frames: 41, width: 960, height: 540, handheld: true, videos: false, ..SynthConfig::default() };
+            ("synthetic", synthetic(&dir, &images_dir, &config)?)
+        }
         "temple" => ("temple", temple(&images_dir)?),
         "pose2sim" => ("pose2sim", pose2sim(&images_dir)?),
         "panoptic" => ("panoptic", panoptic(&images_dir)?),
+        other if let Some(l) = LAYOUTS.iter().find(|l| l.name == other) => {
+            let layout = dynview_synth::rig::Layout {
+                arc_deg: l.arc_deg,
+                focal_range: Some(l.focal_range),
+                principal_offset_px: l.principal_offset_px,
+            };
+            let config = SynthConfig {
+                cameras: l.cameras,
+                frames: 41,
+                width: 640,
+                height: 360,
+                handheld: true,
+                videos: false,
+                layout,
+                ..SynthConfig::default()
+            };
+            (l.name, synthetic(&dir, &images_dir, &config)?)
+        }
         other => bail!("unknown dataset {other:?} (known: {})", DATASETS.join(", ")),
     };
     let images = list_images(&images_dir)?;
@@ -125,20 +168,25 @@ fn copy(from: &Path, to: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn synthetic(dir: &Path, images_dir: &Path) -> anyhow::Result<(Poses, CameraIntrinsics)> {
+fn synthetic(dir: &Path, images_dir: &Path, config: &SynthConfig) -> anyhow::Result<(Poses, CameraIntrinsics)> {
     let synth_dir = dir.join("synth");
     if !synth_dir.join(dynview_synth::SYNTH_MARKER).is_file() {
         // The library `dynview synth` wraps, called directly: the benchmark's COLMAP side then
         // needs no CLI build.
-        let config =
-            SynthConfig { cameras: 6, frames: 41, width: 960, height: 540, handheld: true, videos: false, ..SynthConfig::default() };
-        println!("making the synthetic event in {} (6 hand-held cameras, 41 frames of 960x540) ...", synth_dir.display());
+        println!(
+            "making the synthetic event in {} ({} hand-held cameras, {} frames of {}x{}) ...",
+            synth_dir.display(),
+            config.cameras,
+            config.frames,
+            config.width,
+            config.height
+        );
         let progress = |stage: &str, done: u64, total: u64| {
             if done == total || done.is_multiple_of((total / 4).max(1)) {
                 println!("  {stage}: {done} / {total}");
             }
         };
-        dynview_synth::generate(&config, &synth_dir, &progress)
+        dynview_synth::generate(config, &synth_dir, &progress)
             .with_context(|| format!("generating the synthetic event in {}", synth_dir.display()))?;
     }
     make_once(images_dir, |out| {

@@ -59,6 +59,8 @@ pub struct SynthConfig {
     pub outlier_fraction: f64,
     /// Write `videos/*.mp4` when ffmpeg is available.
     pub videos: bool,
+    /// Where the input cameras stand and their lenses (default: a 60-degree arc, one lens).
+    pub layout: rig::Layout,
 }
 
 impl Default for SynthConfig {
@@ -76,6 +78,7 @@ impl Default for SynthConfig {
             point_noise_m: 0.005,
             outlier_fraction: 0.02,
             videos: true,
+            layout: rig::Layout::default(),
         }
     }
 }
@@ -159,6 +162,19 @@ impl SynthConfig {
         }
         if !(self.point_noise_m.is_finite() && (0.0..=1.0).contains(&self.point_noise_m)) {
             return bad("point_noise_m", format!("must be in [0, 1] m, found {}", self.point_noise_m));
+        }
+        let layout = &self.layout;
+        if !(layout.arc_deg.is_finite() && layout.arc_deg > 0.0 && layout.arc_deg <= 180.0) {
+            return bad("layout.arc_deg", format!("must be in (0, 180], found {}", layout.arc_deg));
+        }
+        if let Some(range) = layout.focal_range
+            && !range.iter().all(|f| f.is_finite() && (0.2..=5.0).contains(f))
+        {
+            return bad("layout.focal_range", format!("each must be in [0.2, 5] x the longer side, found {range:?}"));
+        }
+        let [dx, dy] = layout.principal_offset_px;
+        if !(dx.is_finite() && dy.is_finite() && dx.abs() <= f64::from(self.width) / 4.0 && dy.abs() <= f64::from(self.height) / 4.0) {
+            return bad("layout.principal_offset_px", format!("must be within a quarter of the image, found [{dx}, {dy}]"));
         }
         Ok(())
     }

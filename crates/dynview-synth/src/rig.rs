@@ -1,5 +1,5 @@
-//! Camera placement: input cameras on an arc of about 60 degrees (optionally hand-held, with
-//! a smooth wobble) and a held-out camera that moves between them.
+//! Camera placement: input cameras on an arc (60 degrees unless a [`Layout`] says otherwise;
+//! optionally hand-held, with a smooth wobble) and a held-out camera that moves between them.
 
 use glam::{DMat3, DVec3};
 use rand::{Rng, SeedableRng, rngs::SmallRng};
@@ -7,7 +7,7 @@ use rand::{Rng, SeedableRng, rngs::SmallRng};
 use dynview_core::rotation::matrix_from_angle_axis;
 use dynview_core::{Camera, Intrinsics, Rigid3};
 
-/// Total angle spanned by the input cameras.
+/// Total angle spanned by the input cameras by default.
 pub const ARC_DEG: f64 = 60.0;
 /// Distance of the input cameras from the arc's centre (m).
 pub const ARC_RADIUS_M: f64 = 7.0;
@@ -28,9 +28,52 @@ fn eye_on_arc(angle_rad: f64, radius_m: f64, height_m: f64) -> DVec3 {
     DVec3::new(radius_m * angle_rad.sin(), height_m, LOOK_AT.z + radius_m * angle_rad.cos())
 }
 
-/// Angle of input camera `i` of `n` on the arc (radians), centred on the z axis.
+/// How the input cameras stand and what lenses they have (the SfM tests' other layouts).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Layout {
+    /// Total angle spanned by the input cameras (degrees).
+    pub arc_deg: f64,
+    /// Focal lengths as multiples of the longer image side, from the first camera to the last
+    /// (spread evenly); `None`: every camera has a 42-degree vertical field of view.
+    pub focal_range: Option<[f64; 2]>,
+    /// Offset of the true principal point from the image centre (px); the sign alternates from
+    /// camera to camera, so no two neighbours share it.
+    pub principal_offset_px: [f64; 2],
+}
+
+impl Default for Layout {
+    fn default() -> Self {
+        Self { arc_deg: ARC_DEG, focal_range: None, principal_offset_px: [0.0, 0.0] }
+    }
+}
+
+impl Layout {
+    /// The intrinsics of input camera `i` of `n` at `width` x `height`.
+    pub fn intrinsics(&self, i: usize, n: usize, width: u32, height: u32) -> Intrinsics {
+        let base = Intrinsics::from_vertical_fov(VERTICAL_FOV_DEG.to_radians(), width, height);
+        let focal = self.focal_range.map_or(base.fx, |[first, last]| {
+            let s = if n <= 1 { 0.0 } else { i as f64 / (n - 1) as f64 };
+            f64::from(width.max(height)) * (first + (last - first) * s)
+        });
+        let sign = if i.is_multiple_of(2) { 1.0 } else { -1.0 };
+        Intrinsics {
+            fx: focal,
+            fy: focal,
+            cx: base.cx + sign * self.principal_offset_px[0],
+            cy: base.cy + sign * self.principal_offset_px[1],
+        }
+    }
+}
+
+/// Angle of input camera `i` of `n` on the default arc (radians), centred on the z axis.
 pub fn input_angle_rad(i: usize, n: usize) -> f64 {
-    let half = 0.5 * ARC_DEG.to_radians();
+    arc_angle_rad(i, n, ARC_DEG)
+}
+
+/// Angle of input camera `i` of `n` on an arc of `arc_deg` (radians), centred on the z axis.
+fn arc_angle_rad(i: usize, n: usize, arc_deg: f64) -> f64 {
+    let half = 0.5 * arc_deg.to_radians();
     if n <= 1 {
         return 0.0;
     }
@@ -61,6 +104,10 @@ impl Wobble {
     }
 }
 
+/// An input camera: its angle on the arc, its lens, and its wobble (position, rotation) when
+/// hand-held.
+type InputCamera = (f64, Intrinsics, Option<(Wobble, Wobble)>);
+
 /// The cameras of an event.
 #[derive(Clone, Debug)]
 pub struct Rig {
@@ -69,19 +116,26 @@ pub struct Rig {
     /// Image height.
     pub height: u32,
     intrinsics: Intrinsics,
-    inputs: Vec<(f64, Option<(Wobble, Wobble)>)>,
+    inputs: Vec<InputCamera>,
     duration_s: f64,
+    arc_deg: f64,
 }
 
 impl Rig {
     /// `n` input cameras; with `handheld`, each gets its own smooth wobble from `seed`.
     /// `duration_s` is the length of the event (the held-out camera sweeps over it).
     pub fn new(n: usize, width: u32, height: u32, handheld: bool, seed: u64, duration_s: f64) -> Self {
+        Self::with_layout(n, width, height, handheld, seed, duration_s, &Layout::default())
+    }
+
+    /// As [`Rig::new`], the inputs placed and given lenses by `layout` (the held-out camera
+    /// keeps the default lens and sweeps the middle of the layout's arc).
+    pub fn with_layout(n: usize, width: u32, height: u32, handheld: bool, seed: u64, duration_s: f64, layout: &Layout) -> Self {
         let mut rng = SmallRng::seed_from_u64(seed ^ 0x5EED_CA11);
         let inputs = (0..n)
             .map(|i| {
                 let wobble = handheld.then(|| (Wobble::new(&mut rng), Wobble::new(&mut rng)));
-                (input_angle_rad(i, n), wobble)
+                (arc_angle_rad(i, n, layout.arc_deg), layout.intrinsics(i, n, width, height), wobble)
             })
             .collect();
         Self {
@@ -90,6 +144,7 @@ impl Rig {
             intrinsics: Intrinsics::from_vertical_fov(VERTICAL_FOV_DEG.to_radians(), width, height),
             inputs,
             duration_s: duration_s.max(1e-9),
+            arc_deg: layout.arc_deg,
         }
     }
 
@@ -104,7 +159,7 @@ impl Rig {
 
     /// Input camera `i` at time `t_s`.
     pub fn input(&self, i: usize, t_s: f64) -> Camera {
-        let (angle, wobble) = &self.inputs[i];
+        let (angle, intrinsics, wobble) = &self.inputs[i];
         let eye = eye_on_arc(*angle, ARC_RADIUS_M, CAMERA_HEIGHT_M);
         let mut pose = Rigid3::camera_from_world_looking_at(eye, LOOK_AT, DVec3::Y);
         if let Some((position, rotation)) = wobble {
@@ -113,14 +168,14 @@ impl Rig {
             let shake: DMat3 = matrix_from_angle_axis(rotation.at(t_s) * HANDHELD_ROTATION_DEG.to_radians());
             pose = Rigid3::new(shake * base.rotation, shake * base.translation);
         }
-        self.camera(pose)
+        Camera { intrinsics: *intrinsics, camera_from_world: pose, width_px: self.width, height_px: self.height }
     }
 
     /// The held-out camera at time `t_s`: it sweeps across the middle of the arc, a little
     /// lower and closer than the inputs, so it always lies between input cameras.
     pub fn heldout(&self, t_s: f64) -> Camera {
         let u = (t_s / self.duration_s).clamp(0.0, 1.0);
-        let half = 0.5 * ARC_DEG.to_radians() * HELDOUT_SWEEP;
+        let half = 0.5 * self.arc_deg.to_radians() * HELDOUT_SWEEP;
         let angle = -half + 2.0 * half * u;
         let eye = eye_on_arc(angle, ARC_RADIUS_M * 0.92, CAMERA_HEIGHT_M - 0.15);
         self.camera(Rigid3::camera_from_world_looking_at(eye, LOOK_AT, DVec3::Y))
@@ -186,6 +241,31 @@ mod tests {
             let (px, _) = rig.input(i, 0.0).project_world(LOOK_AT).unwrap();
             assert!((px.x - 47.5).abs() < 1e-9 && (px.y - 26.5).abs() < 1e-9);
         }
+    }
+
+    #[test]
+    fn a_layout_sets_the_arc_the_focals_and_the_principal_points() {
+        let layout = Layout { arc_deg: 90.0, focal_range: Some([0.8, 1.6]), principal_offset_px: [3.0, -2.0] };
+        let rig = Rig::with_layout(5, 96, 54, false, 1, 1.0, &layout);
+        let first = rig.input(0, 0.0).center_world() - LOOK_AT;
+        let last = rig.input(4, 0.0).center_world() - LOOK_AT;
+        let angle = (first.x.atan2(first.z) - last.x.atan2(last.z)).abs().to_degrees();
+        assert!((angle - 90.0).abs() < 1e-9, "{angle}");
+        let k: Vec<Intrinsics> = (0..5).map(|i| rig.input(i, 0.0).intrinsics).collect();
+        for (i, factor) in [(0, 0.8), (2, 1.2), (4, 1.6)] {
+            assert!((k[i].fx - factor * 96.0).abs() < 1e-9 && k[i].fy == k[i].fx, "{:?}", k[i]);
+        }
+        assert_eq!((k[0].cx, k[0].cy, k[1].cx, k[1].cy), (47.5 + 3.0, 26.5 - 2.0, 47.5 - 3.0, 26.5 + 2.0));
+        // Every input still sees the scene's centre.
+        for (i, k) in k.iter().enumerate() {
+            let (px, _) = rig.input(i, 0.0).project_world(LOOK_AT).unwrap();
+            assert!((px.x - k.cx).abs() < 1e-9 && (px.y - k.cy).abs() < 1e-9);
+        }
+        // The default layout is the 60-degree arc of `Rig::new`.
+        assert_eq!(
+            Rig::with_layout(6, 96, 54, true, 1, 1.0, &Layout::default()).input(3, 0.2),
+            Rig::new(6, 96, 54, true, 1, 1.0).input(3, 0.2)
+        );
     }
 
     #[test]

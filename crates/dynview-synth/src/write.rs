@@ -92,7 +92,8 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: StageProgress) -
     let staged = StagedDir::new(out_dir, SYNTH_MARKER, "a dynview synth output")?;
     let root = staged.path().to_path_buf();
     let objects = default_objects(config.seed);
-    let rig = Rig::new(config.cameras, config.width, config.height, config.handheld, config.seed, config.duration_s());
+    let rig =
+        Rig::with_layout(config.cameras, config.width, config.height, config.handheld, config.seed, config.duration_s(), &config.layout);
     let names: Vec<String> = (0..config.cameras).map(SynthConfig::camera_name).collect();
     for name in &names {
         let dir = root.join("input").join(name);

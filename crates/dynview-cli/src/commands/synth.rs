@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use dynview_synth::SynthConfig;
+use dynview_synth::rig::Layout;
 
 use crate::progress::StageBars;
 
@@ -50,6 +51,22 @@ pub struct Args {
     /// Do not write videos even when ffmpeg is installed.
     #[arg(long)]
     no_video: bool,
+    /// Total angle spanned by the input cameras (degrees).
+    #[arg(long, default_value_t = dynview_synth::rig::ARC_DEG)]
+    arc_deg: f64,
+    /// Focal lengths as multiples of the longer image side, first camera to last, as `A,B`
+    /// (default: every camera a 42-degree vertical field of view).
+    #[arg(long, value_delimiter = ',', num_args = 1, value_name = "A,B")]
+    focal_range: Option<Vec<f64>>,
+    /// Offset of the true principal points from the image centre in px, as `DX,DY`; the sign
+    /// alternates from camera to camera.
+    #[arg(long, value_delimiter = ',', num_args = 1, value_name = "DX,DY", default_value = "0,0")]
+    principal_offset: Vec<f64>,
+}
+
+/// Two comma-separated numbers of option `name`, when given.
+fn pair(name: &str, values: Option<&[f64]>) -> anyhow::Result<Option<[f64; 2]>> {
+    values.map(|v| <[f64; 2]>::try_from(v).map_err(|_| anyhow::anyhow!("{name} takes two numbers, as A,B; found {}", v.len()))).transpose()
 }
 
 /// Runs `dynview synth`.
@@ -67,6 +84,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         point_noise_m: args.point_noise,
         outlier_fraction: args.outliers,
         videos: !args.no_video,
+        layout: Layout {
+            arc_deg: args.arc_deg,
+            focal_range: pair("--focal-range", args.focal_range.as_deref())?,
+            principal_offset_px: pair("--principal-offset", Some(&args.principal_offset))?.unwrap_or_default(),
+        },
     };
     let start = Instant::now();
     let bars = StageBars::new();
