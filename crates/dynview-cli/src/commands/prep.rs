@@ -55,8 +55,9 @@ pub struct Args {
     /// Refine the radial distortion (k1, k2) in the final bundle adjustment.
     #[arg(long)]
     refine_distortion: bool,
-    /// Keep principal points at the image centre (by default they are refined in the final
-    /// bundle adjustment when every camera model has at least 8 registered keyframes).
+    /// Keep principal points at the image centre (by default the final bundle adjustment
+    /// refines them where the data fix them better than 1.5% of the image's longer side; the
+    /// report's `intrinsics_refined` says which and why).
     #[arg(long)]
     centred_principal_point: bool,
     /// Cameras of one image size share one set of intrinsics (one camera model filmed
