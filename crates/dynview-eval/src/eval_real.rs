@@ -68,9 +68,10 @@ pub struct Options {
 
 /// Renderer parameters from JSON, or from a JSON file when `json` names one (as `eval --params`).
 fn parse_params(json: &str) -> Result<RenderParams, String> {
-    let text = match std::path::Path::new(json).is_file() {
-        true => std::fs::read_to_string(json).map_err(|e| format!("{json}: {e}"))?,
-        false => json.to_string(),
+    let text = if std::path::Path::new(json).is_file() {
+        std::fs::read_to_string(json).map_err(|e| format!("{json}: {e}"))?
+    } else {
+        json.to_string()
     };
     let params: RenderParams = serde_json::from_str(&text).map_err(|e| format!("renderer parameters: {e}"))?;
     params.validate().map_err(|e| e.to_string())?;

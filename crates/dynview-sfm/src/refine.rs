@@ -93,6 +93,20 @@ pub struct RefineReport {
 /// `max_reprojection_px` after the solve is misplaced (a refinement that exploded there).
 pub const MISPLACED_FRAME_FACTOR: f64 = 4.0;
 
+/// The reprojection errors (px) of frame `t`'s observations (its features with a point) under
+/// `pose`.
+fn frame_errors_px<'a>(
+    intrinsics: &'a Intrinsics,
+    pose: &'a Pose,
+    features: &'a Features,
+    point_at: &'a [Option<u32>],
+    points_world: &'a [Vector3<f64>],
+) -> impl Iterator<Item = f64> + 'a {
+    point_at.iter().zip(&features.xy).filter_map(move |(p, xy)| {
+        p.map(|p| reprojection_error_px(intrinsics, pose, &points_world[p as usize], &Vector2::new(f64::from(xy[0]), f64::from(xy[1]))))
+    })
+}
+
 /// Per frame, the median reprojection error (px) of its observations under `poses`; `None` for
 /// a frame without observations.
 pub fn median_frame_errors_px(
@@ -104,26 +118,9 @@ pub fn median_frame_errors_px(
 ) -> Vec<Option<f64>> {
     (0..poses.len())
         .map(|t| {
-            let mut errors: Vec<f64> = point_at[t]
-                .iter()
-                .enumerate()
-                .filter_map(|(f, p)| {
-                    let xy = features[t].xy[f];
-                    p.map(|p| {
-                        reprojection_error_px(
-                            intrinsics,
-                            &poses[t],
-                            &points_world[p as usize],
-                            &Vector2::new(f64::from(xy[0]), f64::from(xy[1])),
-                        )
-                    })
-                })
-                .collect();
-            if errors.is_empty() {
-                return None;
-            }
+            let mut errors: Vec<f64> = frame_errors_px(intrinsics, &poses[t], features[t], &point_at[t], points_world).collect();
             errors.sort_by(f64::total_cmp);
-            Some(errors[errors.len() / 2])
+            errors.get(errors.len() / 2).copied()
         })
         .collect()
 }
@@ -208,15 +205,9 @@ fn inlier_rms_px(
 ) -> f64 {
     let (mut sum, mut count) = (0.0, 0usize);
     for t in 0..poses.len() {
-        for (f, p) in point_at[t].iter().enumerate() {
-            let Some(p) = p else { continue };
-            let xy = features[t].xy[f];
-            let e =
-                reprojection_error_px(intrinsics, &poses[t], &points_world[*p as usize], &Vector2::new(f64::from(xy[0]), f64::from(xy[1])));
-            if e <= max_px {
-                sum += e * e;
-                count += 1;
-            }
+        for e in frame_errors_px(intrinsics, &poses[t], features[t], &point_at[t], points_world).filter(|&e| e <= max_px) {
+            sum += e * e;
+            count += 1;
         }
     }
     if count == 0 { 0.0 } else { (sum / count as f64).sqrt() }

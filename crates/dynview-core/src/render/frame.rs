@@ -93,7 +93,8 @@ pub struct RenderOutput {
     /// z-depth.
     pub depth: ScalarRaster,
     /// `sum_s w_P^s` at the finest level, as the color energy weighs the views (rank
-    /// preference included): how well the views agree, the viewer's "weights" display. Zero for the non-variational baselines.
+    /// preference included): how well the views agree, the viewer's "weights" display. Zero
+    /// for the non-variational baselines.
     pub view_weight: ScalarRaster,
     /// Indices of the input views used, best first.
     pub views_used: Vec<usize>,

@@ -10,7 +10,7 @@ use super::frame::{
     SolveKind, SolveTrace, TimeStepInputs, check_inputs, color_terms, depth_terms, filled, previous_camera, sparse_maps,
 };
 use super::params::{Method, RenderParams};
-use super::plane::{InverseDepthPlane, plane_weights};
+use super::plane::{InverseDepthPlane, faded_weights, support_coverage};
 use super::pushpull;
 use super::pyramid::{self, Pixel, camera_at};
 use super::solve::{GridSystem, Norm};
@@ -173,13 +173,16 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
         let points = sparse_maps(params, &inputs.cloud, &cam);
         // The plane pulls where points are scarce: counted before their footprints. Where they
         // are dense everywhere it pulls nowhere, and its depth is not needed.
-        let plane = self.plane.and_then(|p| {
-            let weights = plane_weights(&points.mask, level, params.lambda_plane, params.plane_support);
+        // Where points are scarce the color follows the best-ranked view (view_rank_exponent).
+        // Both measure the points' support in the same window: counted once.
+        let ranked = params.view_rank_exponent > 0.0;
+        let coverage = (self.plane.is_some() || ranked).then(|| support_coverage(&points.mask, level));
+        let plane = self.plane.zip(coverage.as_deref()).and_then(|(p, coverage)| {
+            let weights = faded_weights(coverage, params.lambda_plane, params.plane_support);
             weights.iter().any(|&w| w > 0.0).then(|| (weights, p.depth_map(&cam)))
         });
-        // Where points are scarce the color follows the best-ranked view (view_rank_exponent).
         let rank_preferences = weights::rank_preferences(&self.init_weights, params.view_rank_exponent);
-        let unsupported = (params.view_rank_exponent > 0.0).then(|| plane_weights(&points.mask, level, 1.0, params.view_rank_support));
+        let unsupported = coverage.as_deref().filter(|_| ranked).map(|coverage| faded_weights(coverage, 1.0, params.view_rank_support));
         let sparse = points.with_footprint(params.sparse_footprint_px);
         // The previous frame's solution at this level, warped into this level's camera.
         let previous = self.previous.as_ref().map(|p| p.borrow());

@@ -157,12 +157,23 @@ pub fn support_radius_px(level: usize) -> usize {
     (SUPPORT_RADIUS_FINEST_PX >> level).max(1)
 }
 
-/// `lambda (1 - min(1, coverage / support))` per pixel, where `coverage` is the share
-/// of pixels with a point (`mask > 0`) in the window of radius [`support_radius_px`]
-/// around it, clipped to the image. The GPU's `plane_support.wgsl` computes the same sums
-/// (integers, so exactly).
-/// `support` is `RenderParams::plane_support`.
+/// `lambda (1 - min(1, coverage / support))` per pixel, with `coverage` from
+/// [`support_coverage`]. `support` is `RenderParams::plane_support` (or
+/// `view_rank_support` with `lambda = 1`: how far each pixel is from the points' support).
 pub fn plane_weights(mask: &ScalarRaster, level: usize, lambda: f32, support: f32) -> Vec<f32> {
+    faded_weights(&support_coverage(mask, level), lambda, support)
+}
+
+/// `lambda (1 - min(1, coverage / support))` for each of `coverage` (as [`plane_weights`], from
+/// a coverage computed once for several weights).
+pub fn faded_weights(coverage: &[f32], lambda: f32, support: f32) -> Vec<f32> {
+    coverage.iter().map(|&c| lambda * (1.0 - (c / support).min(1.0))).collect()
+}
+
+/// Per pixel, the share of pixels with a point (`mask > 0`) in the window of radius
+/// [`support_radius_px`] around it, clipped to the image. The GPU's `plane_support.wgsl`
+/// computes the same sums (integers, so exactly) and the same division.
+pub fn support_coverage(mask: &ScalarRaster, level: usize) -> Vec<f32> {
     let (w, h) = (mask.width, mask.height);
     let r = support_radius_px(level);
     // Window counts along rows, then along columns of those, by running sums (counts are
@@ -187,7 +198,7 @@ pub fn plane_weights(mask: &ScalarRaster, level: usize, lambda: f32, support: f3
             let (lo, hi) = (y.saturating_sub(r), (y + r).min(h - 1));
             let covered = (prefix[hi + 1] - prefix[lo]) as f32;
             let pixels = ((hi - lo + 1) * (xh - xl + 1)) as f32;
-            out[y * w + x] = lambda * (1.0 - (covered / pixels / support).min(1.0));
+            out[y * w + x] = covered / pixels;
         }
     }
     out

@@ -96,7 +96,7 @@ pub fn rank_preferences(relative_rank: &[f32], exponent: f32) -> Vec<f32> {
 
 /// Scales each view's `w_P^s` by `1 + u preference_s`, where `u` (`unsupported`, per pixel, in
 /// [0, 1]) is how far the pixel is from the points' support
-/// (`plane::plane_weights(mask, level, 1, view_rank_support)`): the best-ranked view's color
+/// (`plane::faded_weights(coverage, 1, view_rank_support)`): the best-ranked view's color
 /// wins where depth is unsure, every view counts alike where points are dense. The GPU's
 /// `assemble/rank_preference.wgsl` does the same.
 pub fn apply_rank_preference(w_p: &mut [Vec<f32>], preferences: &[f32], unsupported: &[f32]) {
