@@ -84,6 +84,14 @@ pub fn guided_matches(
     crate::matching::mutual(&ab, &ba)
 }
 
+/// [`guided_matches`] under a fundamental matrix in pixels (row-major, `x_b^T F x_a = 0`), for
+/// images whose intrinsics are not known yet.
+pub fn guided_matches_fundamental(a: &Features, b: &Features, fundamental: &[f64; 9], max_epipolar_px: f64, ratio: f32) -> Vec<[u32; 2]> {
+    // Pixels as normalized coordinates: a unit focal at the origin.
+    let pixels = Intrinsics { focal_px: 1.0, cx_px: 0.0, cy_px: 0.0, k1: 0.0, k2: 0.0 };
+    guided_matches((a, &pixels), (b, &pixels), &Matrix3::from_row_slice(fundamental), max_epipolar_px, ratio)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -286,27 +286,75 @@ impl Mapper<'_> {
         if object.len() < self.options.min_registration_inliers {
             return Ok(false);
         }
-        let k = self.intrinsics[self.images[i].camera];
-        let Some((pose, inliers)) = pnp_ransac(&k, &object, &image, self.options.max_reprojection_px, 2000, 0.9999)? else {
-            return Ok(false);
+        let camera = self.images[i].camera;
+        let placed = (0..self.images.len()).any(|j| self.images[j].camera == camera && self.poses[j].is_some());
+        if let Some(pose) = self.pose_by_pnp(&self.intrinsics[camera], &object, &image)? {
+            self.poses[i] = Some(pose);
+            return Ok(true);
+        }
+        if self.options.refine_focal && !placed {
+            // The camera's first image: its focal may be far off (`first_focal`).
+            let k = self.first_focal(camera, &object, &image)?;
+            if let Some(pose) = self.pose_by_pnp(&k, &object, &image)? {
+                self.poses[i] = Some(pose);
+                self.intrinsics[camera] = k;
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
+    /// The pose of an image under intrinsics `k` from its 2D-3D correspondences, by PnP and a
+    /// refinement on its inliers; `None` with too few inliers.
+    fn pose_by_pnp(&self, k: &Intrinsics, object: &Vector<Point3d>, image: &Vector<Point2d>) -> SfmResult<Option<Pose>> {
+        let Some((pose, inliers)) = pnp_ransac(k, object, image, self.options.max_reprojection_px, 2000, 0.9999)? else {
+            return Ok(None);
         };
         if inliers < self.options.min_registration_inliers {
-            return Ok(false);
+            return Ok(None);
         }
         // PnP can return a mirrored pose with the points behind the camera: count the inliers
         // by our own model (cheirality included), then refine the pose alone on them.
         let mut correspondences: Vec<([f64; 3], [f64; 2])> = Vec::new();
         for (object, pixel) in object.iter().zip(image.iter()) {
             let (x, p) = (Vector3::new(object.x, object.y, object.z), Vector2::new(pixel.x, pixel.y));
-            if reprojection_error_px(&k, &pose, &x, &p) <= self.options.max_reprojection_px {
+            if reprojection_error_px(k, &pose, &x, &p) <= self.options.max_reprojection_px {
                 correspondences.push((x.into(), p.into()));
             }
         }
         if correspondences.len() < self.options.min_registration_inliers {
-            return Ok(false);
+            return Ok(None);
         }
-        self.poses[i] = Some(refine_pose(&k, pose, &correspondences, self.options.loss_scale_px)?);
-        Ok(true)
+        Ok(Some(refine_pose(k, pose, &correspondences, self.options.loss_scale_px)?))
+    }
+
+    /// The intrinsics for a camera's first image when PnP failed under its current focal (the
+    /// self-calibration or the prior): the focal under which PnP explains the most of the
+    /// image's correspondences, among the median of the cameras placed so far and 0.5-2 x the
+    /// longer side. Cameras at an event differ in zoom; bundle adjustment refines the focal
+    /// afterwards, but only once PnP has found a pose, which a focal 30% off can prevent (on
+    /// the Panoptic arc, 2 of its 8 cameras).
+    fn first_focal(&self, camera: usize, object: &Vector<Point3d>, image: &Vector<Point2d>) -> SfmResult<Intrinsics> {
+        let current = self.intrinsics[camera];
+        let longer = |k: &Intrinsics| 2.0 * k.cx_px.max(k.cy_px) + 1.0;
+        let mut placed: Vec<f64> = (0..self.images.len())
+            .filter(|&j| self.poses[j].is_some())
+            .map(|j| &self.intrinsics[self.images[j].camera])
+            .map(|k| k.focal_px / longer(k))
+            .collect();
+        placed.sort_by(f64::total_cmp);
+        let mut factors: Vec<f64> = (0..=14).map(|n| 0.5 * 1.104_f64.powi(n)).collect();
+        factors.extend(placed.get(placed.len() / 2));
+        let mut best = (current, 0);
+        for focal_px in factors.iter().map(|f| f * longer(&current)) {
+            let k = Intrinsics { focal_px, ..current };
+            if let Some((_, inliers)) = pnp_ransac(&k, object, image, self.options.max_reprojection_px, 500, 0.999)?
+                && inliers > best.1
+            {
+                best = (k, inliers);
+            }
+        }
+        Ok(best.0)
     }
 
     /// Global bundle adjustment of every registered image and point, then outlier filtering.

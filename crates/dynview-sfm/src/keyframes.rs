@@ -19,6 +19,7 @@ use crate::geometry::Intrinsics;
 use crate::incremental::{MapImage, MapperOptions, PRINCIPAL_POINT_PRIOR_FRACTION, Reconstruction, reconstruct};
 use crate::input::EventFrames;
 use crate::matching::{MatchOptions, TwoView, build_indices, mutual_matches_shared, verify};
+use crate::still::{pool, still_cameras, unpool};
 use crate::work::WorkDir;
 
 /// A keyframe: camera index and frame index.
@@ -39,6 +40,9 @@ pub struct KeyframeModel {
     pub reconstruction: Reconstruction,
     /// How the focal lengths were initialised, per camera.
     pub focal_source: Vec<String>,
+    /// Per camera, whether it stands still (`still`): one pose for all its frames.
+    #[serde(default)]
+    pub still_cameras: Vec<bool>,
 }
 
 impl KeyframeModel {
@@ -172,12 +176,16 @@ pub fn reconstruct_keyframes(
     progress: StageProgress,
     interrupt: &AtomicBool,
 ) -> SfmResult<KeyframeModel> {
-    let (intrinsics, mut focal_source) = initial_intrinsics(frames, keys, pairs, known, match_options);
+    let still = still_cameras(frames.cameras.len(), keys, features, pairs);
+    let pooled = pool(keys, features, pairs, &still, match_options)?;
+    let (intrinsics, mut focal_source) = initial_intrinsics(frames, &pooled.keys, &pooled.pairs, known, match_options);
     let group = intrinsics_groups(frames, known, mapper_options.share_intrinsics);
     let group_count = group.iter().max().map_or(0, |g| g + 1);
     let group_intrinsics: Vec<Intrinsics> = (0..group_count).map(|g| intrinsics[group.iter().position(|&x| x == g).unwrap_or(0)]).collect();
-    let images: Vec<MapImage> = keys.iter().zip(features).map(|(k, f)| MapImage { camera: group[k.camera], xy: f.xy.clone() }).collect();
-    let mut reconstruction = reconstruct(&images, pairs, group_intrinsics, match_options, mapper_options, progress, interrupt)?;
+    let images: Vec<MapImage> =
+        pooled.keys.iter().zip(&pooled.features).map(|(k, f)| MapImage { camera: group[k.camera], xy: f.xy.clone() }).collect();
+    let reconstruction = reconstruct(&images, &pooled.pairs, group_intrinsics, match_options, mapper_options, progress, interrupt)?;
+    let mut reconstruction = unpool(&pooled, reconstruction);
     reconstruction.intrinsics = group.iter().map(|&g| reconstruction.intrinsics[g]).collect();
     for (c, source) in focal_source.iter_mut().enumerate() {
         let sharing = group.iter().filter(|&&g| g == group[c]).count();
@@ -185,7 +193,10 @@ pub fn reconstruct_keyframes(
             source.push_str(&format!("; shared by the {sharing} cameras of this image size"));
         }
     }
-    Ok(KeyframeModel { keyframes: keys.to_vec(), reconstruction, focal_source })
+    for (source, _) in focal_source.iter_mut().zip(&still).filter(|(_, s)| **s) {
+        source.push_str("; camera stands still: its keyframes pooled into one image");
+    }
+    Ok(KeyframeModel { keyframes: keys.to_vec(), reconstruction, focal_source, still_cameras: still })
 }
 
 /// Per camera, which intrinsics the keyframe reconstruction refined and why (the report's

@@ -37,6 +37,7 @@ pub mod pnp;
 pub mod points;
 pub mod refine;
 pub mod static_cloud;
+pub mod still;
 pub mod timesteps;
 pub mod tracks;
 pub mod work;

@@ -87,6 +87,10 @@ pub struct RefineReport {
     /// repair: what the kept poses explain.
     #[serde(default)]
     pub inlier_rms_px: f64,
+    /// The camera stands still (`crate::still`): every frame has its keyframes' pose, and
+    /// nothing was refined.
+    #[serde(default)]
+    pub still: bool,
 }
 
 /// A frame whose observations' median reprojection error is above this many times

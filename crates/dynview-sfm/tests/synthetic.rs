@@ -85,7 +85,7 @@ fn every_frame_is_posed_accurately_and_the_priors_reduce_jitter() {
     let stop = AtomicBool::new(false);
     let report = run(&input(), out.path(), &options, &|_, _, _| {}, &stop).expect("prep with priors");
     assert_eq!((report.cameras, report.frames), (4, FRAMES as usize));
-    assert_eq!(report.keyframes_registered, report.keyframes, "every keyframe registered");
+    assert_eq!(report.keyframes_registered, report.keyframes, "every keyframe registered: {:?}", report.focal_source);
     // Each camera its own intrinsics; the report says per camera whether the data fixed its
     // principal point well enough to refine it, with the figure, and the cameras decide alike.
     assert_eq!(report.intrinsics_refined.len(), 4);

@@ -176,7 +176,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             println!("  focal of camera {name}: {source}");
         }
     }
-    for r in &report.refine {
+    for (camera, r) in report.refine.iter().enumerate() {
+        if r.still {
+            println!("  camera {camera} stands still: its keyframes' pose for every frame");
+            continue;
+        }
         println!(
             "  refined: {} frames by PnP, {} from neighbours, {} observations, RMS {:.3} px",
             r.frames_with_pnp, r.frames_interpolated, r.observations, r.rms_px
