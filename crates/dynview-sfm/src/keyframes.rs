@@ -184,7 +184,15 @@ pub fn reconstruct_keyframes(
     let group_intrinsics: Vec<Intrinsics> = (0..group_count).map(|g| intrinsics[group.iter().position(|&x| x == g).unwrap_or(0)]).collect();
     let images: Vec<MapImage> =
         pooled.keys.iter().zip(&pooled.features).map(|(k, f)| MapImage { camera: group[k.camera], xy: f.xy.clone() }).collect();
-    let reconstruction = reconstruct(&images, &pooled.pairs, group_intrinsics, match_options, mapper_options, progress, interrupt)?;
+    let reconstruction = reconstruct(&images, &pooled.pairs, group_intrinsics, match_options, mapper_options, progress, interrupt)
+        .map_err(|e| match e {
+            SfmError::Reconstruction(message) if pooled.untrusted_pairs > 0 => SfmError::Reconstruction(format!(
+                "{message}; {} pairs of cameras that stand still were matched on their static background alone, which repeated structure \
+                 can match wrongly at every time step, and were not trusted",
+                pooled.untrusted_pairs
+            )),
+            e => e,
+        })?;
     let mut reconstruction = unpool(&pooled, reconstruction);
     reconstruction.intrinsics = group.iter().map(|&g| reconstruction.intrinsics[g]).collect();
     for (c, source) in focal_source.iter_mut().enumerate() {

@@ -103,6 +103,8 @@ pub struct Pooled {
     pub image_of_key: Vec<usize>,
     /// Per keyframe, per feature, its feature in the image.
     pub feature_of_key: Vec<Vec<u32>>,
+    /// Pooled pairs left out because only static matches supported them ([`MIN_MOVING_INLIERS`]).
+    pub untrusted_pairs: usize,
 }
 
 /// Pools the keyframes of the cameras marked `still` (see the module's comment); the others'
@@ -114,8 +116,14 @@ pub fn pool(
     still: &[bool],
     options: &MatchOptions,
 ) -> SfmResult<Pooled> {
-    let mut out =
-        Pooled { keys: Vec::new(), features: Vec::new(), pairs: Vec::new(), image_of_key: Vec::new(), feature_of_key: Vec::new() };
+    let mut out = Pooled {
+        keys: Vec::new(),
+        features: Vec::new(),
+        pairs: Vec::new(),
+        image_of_key: Vec::new(),
+        feature_of_key: Vec::new(),
+        untrusted_pairs: 0,
+    };
     let mut image_of_camera: HashMap<usize, usize> = HashMap::new();
     let mut grids: HashMap<usize, HashMap<(i32, i32), Vec<u32>>> = HashMap::new();
     for (k, f) in keys.iter().zip(features) {
@@ -173,6 +181,7 @@ pub fn pool(
         if moving < MIN_MOVING_INLIERS || (moving as f64) < MIN_MOVING_SHARE * v.inliers.len() as f64 || v.is_degenerate(options) {
             // Only the static background supports this geometry: repeated structure (a dome's
             // panels, lamps, loudspeakers) matches the same wrong way in every frame.
+            out.untrusted_pairs += usize::from(!v.inliers.is_empty());
             continue;
         }
         if let Some(f) = v.fundamental {
@@ -336,9 +345,10 @@ mod tests {
         let static_only = run(0);
         assert_eq!(static_only.features[0].len(), 60, "the background is one set of features");
         assert!(static_only.pairs.is_empty(), "repeated static matches alone prove nothing");
+        assert_eq!(static_only.untrusted_pairs, 1);
         let with_people = run(30);
         assert_eq!(with_people.features[0].len(), 120);
-        assert_eq!(with_people.pairs.len(), 1);
+        assert_eq!((with_people.pairs.len(), with_people.untrusted_pairs), (1, 0));
         assert!(with_people.pairs[0].2.inliers.len() >= 110, "{} inliers", with_people.pairs[0].2.inliers.len());
     }
 }
