@@ -255,14 +255,14 @@ mod tests {
         )
     }
 
+    /// Keyframes of cameras 0 and 1 at frames 0 and 5.
+    fn two_cameras_two_steps() -> [Keyframe; 4] {
+        [0, 1].map(|camera| [0, 5].map(|frame| Keyframe { camera, frame })).concat().try_into().expect("4 keyframes")
+    }
+
     #[test]
     fn still_only_when_every_keyframe_pair_matches_in_place() {
-        let keys = [
-            Keyframe { camera: 0, frame: 0 },
-            Keyframe { camera: 0, frame: 5 },
-            Keyframe { camera: 1, frame: 0 },
-            Keyframe { camera: 1, frame: 5 },
-        ];
+        let keys = two_cameras_two_steps();
         let f0 = features(&[[10.0, 10.0], [50.0, 20.0], [30.0, 40.0]]);
         let in_place = features(&[[10.2, 10.1], [50.0, 19.8], [30.1, 40.0]]);
         let moved = features(&[[14.0, 10.0], [54.0, 20.0], [34.0, 40.0]]);
@@ -321,12 +321,7 @@ mod tests {
 
     #[test]
     fn a_pooled_pair_is_kept_only_where_what_moved_supports_it() {
-        let keys = [
-            Keyframe { camera: 0, frame: 0 },
-            Keyframe { camera: 0, frame: 5 },
-            Keyframe { camera: 1, frame: 0 },
-            Keyframe { camera: 1, frame: 5 },
-        ];
+        let keys = two_cameras_two_steps();
         let background = scene(60, 1);
         let run = |moving: usize| {
             let people = [scene(moving, 2), scene(moving, 3)];
