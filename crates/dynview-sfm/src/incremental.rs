@@ -287,15 +287,16 @@ impl Mapper<'_> {
             return Ok(false);
         }
         let camera = self.images[i].camera;
-        let placed = (0..self.images.len()).any(|j| self.images[j].camera == camera && self.poses[j].is_some());
         if let Some(pose) = self.pose_by_pnp(&self.intrinsics[camera], &object, &image)? {
             self.poses[i] = Some(pose);
             return Ok(true);
         }
+        let placed = (0..self.images.len()).any(|j| self.images[j].camera == camera && self.poses[j].is_some());
         if self.options.refine_focal && !placed {
             // The camera's first image: its focal may be far off (`first_focal`).
-            let k = self.first_focal(camera, &object, &image)?;
-            if let Some(pose) = self.pose_by_pnp(&k, &object, &image)? {
+            if let Some(k) = self.first_focal(camera, &object, &image)?
+                && let Some(pose) = self.pose_by_pnp(&k, &object, &image)?
+            {
                 self.poses[i] = Some(pose);
                 self.intrinsics[camera] = k;
                 return Ok(true);
@@ -331,10 +332,10 @@ impl Mapper<'_> {
     /// The intrinsics for a camera's first image when PnP failed under its current focal (the
     /// self-calibration or the prior): the focal under which PnP explains the most of the
     /// image's correspondences, among the median of the cameras placed so far and 0.5-2 x the
-    /// longer side. Cameras at an event differ in zoom; bundle adjustment refines the focal
+    /// longer side (`None` when none explains any). Cameras at an event differ in zoom; bundle adjustment refines the focal
     /// afterwards, but only once PnP has found a pose, which a focal 30% off can prevent (on
     /// the Panoptic arc, 2 of its 8 cameras).
-    fn first_focal(&self, camera: usize, object: &Vector<Point3d>, image: &Vector<Point2d>) -> SfmResult<Intrinsics> {
+    fn first_focal(&self, camera: usize, object: &Vector<Point3d>, image: &Vector<Point2d>) -> SfmResult<Option<Intrinsics>> {
         let current = self.intrinsics[camera];
         let longer = |k: &Intrinsics| 2.0 * k.cx_px.max(k.cy_px) + 1.0;
         let mut placed: Vec<f64> = (0..self.images.len())
@@ -345,16 +346,16 @@ impl Mapper<'_> {
         placed.sort_by(f64::total_cmp);
         let mut factors: Vec<f64> = (0..=14).map(|n| 0.5 * 1.104_f64.powi(n)).collect();
         factors.extend(placed.get(placed.len() / 2));
-        let mut best = (current, 0);
+        let mut best: Option<(Intrinsics, usize)> = None;
         for focal_px in factors.iter().map(|f| f * longer(&current)) {
             let k = Intrinsics { focal_px, ..current };
             if let Some((_, inliers)) = pnp_ransac(&k, object, image, self.options.max_reprojection_px, 500, 0.999)?
-                && inliers > best.1
+                && best.is_none_or(|(_, most)| inliers > most)
             {
-                best = (k, inliers);
+                best = Some((k, inliers));
             }
         }
-        Ok(best.0)
+        Ok(best.map(|(k, _)| k))
     }
 
     /// Global bundle adjustment of every registered image and point, then outlier filtering.

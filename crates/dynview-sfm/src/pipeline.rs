@@ -436,13 +436,9 @@ fn refine_all<K: Serialize>(
     let points_world: Vec<Vector3<f64>> = r.points.iter().map(|p| p.xyz).collect();
     let mut out = Vec::new();
     for (c, camera) in frames.cameras.iter().enumerate() {
-        let still_pose = model
-            .still_cameras
-            .get(c)
-            .is_some_and(|s| *s)
-            .then(|| model.keyframes.iter().zip(&r.poses).find_map(|(k, p)| if k.camera == c { *p } else { None }))
-            .flatten();
-        if let Some(pose) = still_pose {
+        if model.still_cameras.get(c) == Some(&true)
+            && let Some(pose) = model.keyframes.iter().zip(&r.poses).find_map(|(k, p)| p.filter(|_| k.camera == c))
+        {
             // A camera that stands still has one pose, which its keyframes fixed together.
             out.push(vec![pose; camera.files.len()]);
             report.refine.push(RefineReport { still: true, ..RefineReport::default() });

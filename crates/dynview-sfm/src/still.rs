@@ -36,10 +36,6 @@ pub const SAME_FEATURE_PX: f32 = 0.75;
 /// within this distance (px).
 pub const GUIDED_EPIPOLAR_PX: f64 = 2.0;
 
-/// Fewest pooled inliers whose fundamental matrix guides more matching: one from fewer could be
-/// wrong, and matching along its lines would only confirm it.
-pub const MIN_GUIDING_INLIERS: usize = 30;
-
 /// Fewest pooled inliers between features that one keyframe alone has (on either side) for a
 /// pooled pair to be kept. Such matches are on what moves (people) or changes, which differs
 /// from one time step to the next and so cannot repeat a wrong match the way repeated static
@@ -73,15 +69,15 @@ pub fn still_cameras(camera_count: usize, keys: &[Keyframe], features: &[Feature
     (0..camera_count)
         .map(|c| {
             let own: Vec<usize> = (0..keys.len()).filter(|&i| keys[i].camera == c).collect();
-            let links: Vec<(usize, usize)> = shifts.iter().filter(|((a, _), _)| keys[*a].camera == c).map(|(&ab, _)| ab).collect();
-            if own.len() < 2 || shifts.iter().any(|((a, _), &shift)| keys[*a].camera == c && shift > STILL_SHIFT_PX) {
+            let own_shifts: Vec<(&(usize, usize), &f64)> = shifts.iter().filter(|((a, _), _)| keys[*a].camera == c).collect();
+            if own.len() < 2 || own_shifts.iter().any(|(_, shift)| **shift > STILL_SHIFT_PX) {
                 return false;
             }
             // Every keyframe must be linked to the first through verified pairs.
             let mut joined = vec![own[0]];
-            while let Some(next) = links
+            while let Some(next) = own_shifts
                 .iter()
-                .find_map(|(a, b)| (joined.contains(a) != joined.contains(b)).then_some(if joined.contains(a) { *b } else { *a }))
+                .find_map(|((a, b), _)| (joined.contains(a) != joined.contains(b)).then_some(if joined.contains(a) { *b } else { *a }))
             {
                 joined.push(next);
             }
@@ -124,10 +120,11 @@ pub fn pool(
         feature_of_key: Vec::new(),
         untrusted_pairs: 0,
     };
+    let is_still = |camera: usize| still.get(camera) == Some(&true);
     let mut image_of_camera: HashMap<usize, usize> = HashMap::new();
     let mut grids: HashMap<usize, HashMap<(i32, i32), Vec<u32>>> = HashMap::new();
     for (k, f) in keys.iter().zip(features) {
-        if !still.get(k.camera).copied().unwrap_or(false) {
+        if !is_still(k.camera) {
             out.image_of_key.push(out.keys.len());
             out.feature_of_key.push((0..f.len() as u32).collect());
             out.keys.push(*k);
@@ -157,8 +154,7 @@ pub fn pool(
         if ia == ib {
             continue;
         }
-        let is_still = |i: usize| still.get(keys[i].camera).copied().unwrap_or(false);
-        if !is_still(*a) && !is_still(*b) {
+        if !is_still(keys[*a].camera) && !is_still(keys[*b].camera) {
             out.pairs.push((ia, ib, v.clone()));
             continue;
         }
@@ -179,8 +175,9 @@ pub fn pool(
         let mut v = verify(xy_a, xy_b, &matches, options)?;
         let moving = v.inliers.iter().filter(|m| seen_in[ia][m[0] as usize] == 1 && seen_in[ib][m[1] as usize] == 1).count();
         if moving < MIN_MOVING_INLIERS || (moving as f64) < MIN_MOVING_SHARE * v.inliers.len() as f64 || v.is_degenerate(options) {
-            // Only the static background supports this geometry: repeated structure (a dome's
-            // panels, lamps, loudspeakers) matches the same wrong way in every frame.
+            // Only the static background supports this geometry (or a plane explains it all):
+            // repeated structure (a dome's panels, lamps, loudspeakers) matches the same wrong
+            // way in every frame.
             out.untrusted_pairs += usize::from(!v.inliers.is_empty());
             continue;
         }
