@@ -9,14 +9,16 @@ export const RENDERERS = {
 
 /**
  * Picks the renderer at start: the one the URL forces (`?renderer=cpu|gpu`) when the worker
- * has it, else the GPU when the worker has it and the browser has WebGPU, else the CPU.
+ * has it, else the one the worker chose (`choice`: it never picks a software GPU and times
+ * both when the GPU is real), else the CPU.
  * @param {string[]} backends what the worker can run
- * @param {boolean} hasWebGpu whether `navigator.gpu` exists
  * @param {string | null} [forced] the renderer the URL asks for
+ * @param {string | null} [chosen] the worker's choice
  */
-export function chooseRenderer(backends, hasWebGpu, forced = null) {
+export function chooseRenderer(backends, forced = null, chosen = null) {
   if (forced && backends.includes(forced)) return forced;
-  return backends.includes("gpu") && hasWebGpu ? "gpu" : "cpu";
+  if (chosen && backends.includes(chosen)) return chosen;
+  return "cpu";
 }
 
 /** Talks to `worker.js`. Frames and errors arrive through the callbacks. */
@@ -83,7 +85,7 @@ export class RendererClient {
     this.worker.postMessage({ type: "canvas", canvas }, [canvas]);
   }
 
-  /** Opens a scene by URL or files; resolves with `{info, backends, gpu}`. */
+  /** Opens a scene by URL or files; resolves with `{info, backends, gpu, choice}`. */
   open(message, transfer = []) {
     return new Promise((resolve, reject) => {
       this.openWaiter = { resolve, reject };
@@ -91,13 +93,15 @@ export class RendererClient {
     });
   }
 
-  /** `gpu`: whether to set up the GPU path too. */
-  openUrl(url, gpu = false) {
-    return this.open({ type: "open", url, gpu });
+  /** `gpu`: whether to set up the GPU path too; `choose`: whether the worker picks the
+   * faster renderer (it times a small frame on each when the GPU is a real one, or always
+   * with `trial`). */
+  openUrl(url, gpu = false, { choose = false, trial = false } = {}) {
+    return this.open({ type: "open", url, gpu, choose, trial });
   }
 
-  openFiles(files, paths, gpu = false) {
-    return this.open({ type: "open-files", files, paths, gpu });
+  openFiles(files, paths, gpu = false, { choose = false, trial = false } = {}) {
+    return this.open({ type: "open-files", files, paths, gpu, choose, trial });
   }
 
   /** Calls a Viewer query in the worker; resolves with its value. */

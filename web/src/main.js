@@ -36,6 +36,7 @@ const state = {
   renderer: "cpu",
   gpu: null, // {name} of the adapter, or {error}
   gpuNote: "", // why the GPU path is not in use, shown in the overlay
+  choice: null, // {renderer, reason}: the worker's pick at start
   latestId: 0,
   shownId: 0,
   rendering: false,
@@ -57,6 +58,9 @@ const client = new RendererClient({ onFrame, onProgress, onError: showError, onI
 /** Whether to set up the GPU path (also when the URL starts on the CPU: the menu can switch). */
 const gpuWanted = "gpu" in navigator && "transferControlToOffscreen" in gpuCanvas;
 if (gpuWanted) client.setCanvas(gpuCanvas.transferControlToOffscreen());
+/** How the worker picks the renderer: unless the URL forces one; `?renderer-trial` times both
+ * even on a software GPU (tests). */
+const choosing = { choose: gpuWanted && !forcedRenderer, trial: new URLSearchParams(location.search).has("renderer-trial") };
 const controls = new ViewControls(canvas, {
   onChange: (view) => {
     state.view = view;
@@ -329,9 +333,10 @@ async function open(opening, label) {
   loading.querySelector(".loading-text").textContent = `Opening ${label}…`;
   loading.querySelector(".progress-fill").style.width = "0%";
   try {
-    const { info, backends, gpu } = await opening;
+    const { info, backends, gpu, choice } = await opening;
     state.info = info;
     state.gpu = gpu;
+    state.choice = choice;
     setupScene(info, backends);
   } catch (e) {
     state.info = null;
@@ -366,8 +371,11 @@ function setupScene(info, backends) {
       return option;
     }),
   );
-  state.renderer = chooseRenderer(backends, "gpu" in navigator, forcedRenderer);
-  state.gpuNote = forcedRenderer === "gpu" && state.renderer !== "gpu" ? `GPU unavailable (${state.gpu?.error}): rendering on the CPU` : "";
+  state.renderer = chooseRenderer(backends, forcedRenderer, state.choice?.renderer);
+  if (forcedRenderer === "gpu" && state.renderer !== "gpu") state.gpuNote = `GPU unavailable (${state.gpu?.error}): rendering on the CPU`;
+  else if (state.choice?.reason) state.gpuNote = `${RENDERERS[state.renderer]} chosen: ${state.choice.reason}`;
+  else state.gpuNote = "";
+  select.title = state.gpuNote || (forcedRenderer ? `chosen by the URL (?renderer=${forcedRenderer})` : "");
   select.value = state.renderer;
   const fromHash = decodeHash(location.hash);
   state.view = fromHash ? fromHash.view : info.start_view;
@@ -416,7 +424,7 @@ function wire() {
   $("help-button").onclick = () => $("help").showModal();
   $("folder-input").onchange = (e) => {
     const entries = filesFromInput(e.target);
-    open(client.openFiles(entries.map((x) => x.file), entries.map((x) => x.path), gpuWanted), "from the chosen folder");
+    open(client.openFiles(entries.map((x) => x.file), entries.map((x) => x.path), gpuWanted, choosing), "from the chosen folder");
   };
   const viewport = $("viewport");
   viewport.addEventListener("dragover", (e) => (e.preventDefault(), viewport.classList.add("dragging")));
@@ -425,7 +433,7 @@ function wire() {
     e.preventDefault();
     viewport.classList.remove("dragging");
     const entries = await filesFromDrop(e.dataTransfer);
-    open(client.openFiles(entries.map((x) => x.file), entries.map((x) => x.path), gpuWanted), "from the dropped folder");
+    open(client.openFiles(entries.map((x) => x.file), entries.map((x) => x.path), gpuWanted, choosing), "from the dropped folder");
   });
   window.addEventListener("keydown", (e) => {
     if (e.target.closest?.("input, select, textarea") || e.ctrlKey || e.metaKey || e.altKey || !state.info) return;
@@ -443,7 +451,7 @@ function wire() {
 
 wire();
 const sceneUrl = new URLSearchParams(location.search).get("scene");
-if (sceneUrl) open(client.openUrl(new URL(sceneUrl, location.href).href, gpuWanted), `at ${sceneUrl}`);
+if (sceneUrl) open(client.openUrl(new URL(sceneUrl, location.href).href, gpuWanted, choosing), `at ${sceneUrl}`);
 else $("landing").hidden = false;
 
 /** Hooks for end-to-end tests and for curious users in the console. */

@@ -6,13 +6,16 @@
 // request. The page never waits on either.
 //
 // Messages in:  {type: "canvas", canvas}         the OffscreenCanvas the GPU path draws into
-//               | {type: "open", url, gpu} | {type: "open-files", files, paths, gpu}
-//                                                 gpu: whether to set up the GPU path
+//               | {type: "open", url, gpu, choose} | {type: "open-files", files, paths, gpu, choose}
+//                                                 gpu: whether to set up the GPU path;
+//                                                 choose: whether to pick the renderer;
+//                                                 trial: time both even on a software GPU
 //               | {type: "render", request}      request: {id, renderer, view, time_step,
 //                                                 width, height, streaming, max_level, mode}
 //               | {type: "call", id, method, args}   (small synchronous queries)
 //               | {type: "prefetch", time_step}
-// Messages out: {type: "opened", info, backends, gpu: {name, presents} | {error}}
+// Messages out: {type: "opened", info, backends, gpu: {name, presents, software} | {error},
+//                 choice: {renderer, reason}}
 //               | {type: "error", id, message} | {type: "gpu-lost", message}
 //               | {type: "progress", time_step, stats, done, total}
 //               | {type: "frame", id, level, done, image, elapsed_ms, temporal_used, last}
@@ -147,12 +150,14 @@ const calls = {
 
 // Whether this browser can present WebGPU canvases, tried on a throwaway device and canvas:
 // headless Chromium on SwiftShader cannot (its first present loses the device), and a lost
-// device cannot be revived. Resolves with `{presents, info}` (`info`: the adapter's).
+// device cannot be revived. Resolves with `{presents, info, software}` (`info`: the
+// adapter's; `software`: a CPU rasterizer such as SwiftShader, WebGPU's fallback adapter).
 let presentProbe = null;
 function probePresentation() {
   presentProbe ??= (async () => {
     const adapter = await navigator.gpu.requestAdapter();
-    if (!adapter) return { presents: false, info: null };
+    if (!adapter) return { presents: false, info: null, software: false };
+    const software = isSoftware(adapter);
     const device = await adapter.requestDevice();
     let lost = false;
     device.lost.then(() => (lost = true));
@@ -171,17 +176,26 @@ function probePresentation() {
       lost = true;
     }
     device.destroy();
-    return { presents: !lost, info: adapter.info };
+    return { presents: !lost, info: adapter.info, software };
   })();
   return presentProbe;
 }
 
-// Sets up the GPU path for the opened viewer: `{name, presents}` of the adapter (`presents`:
-// frames are drawn into the page's canvas; else read back), or `{error}` saying why there is none.
+// Whether `adapter` renders on the CPU: WebGPU's fallback adapter (`info.isFallbackAdapter`, or
+// the adapter's own flag in older browsers), or a software rasterizer by name.
+function isSoftware(adapter) {
+  const info = adapter.info || {};
+  const named = [info.vendor, info.architecture, info.description].filter(Boolean).join(" ");
+  return Boolean(info.isFallbackAdapter ?? adapter.isFallbackAdapter) || /swiftshader|llvmpipe|lavapipe|software/i.test(named);
+}
+
+// Sets up the GPU path for the opened viewer: `{name, presents, software}` of the adapter
+// (`presents`: frames are drawn into the page's canvas; else read back), or `{error}` saying
+// why there is none.
 async function enableGpu() {
   if (!navigator.gpu) return { error: "this browser has no WebGPU (navigator.gpu)" };
   try {
-    const { presents, info } = await probePresentation();
+    const { presents, info, software } = await probePresentation();
     const target = presents ? canvas : null;
     if (target) {
       const first = viewer.info().cameras[0];
@@ -191,10 +205,47 @@ async function enableGpu() {
     const described = await viewer.enableGpu(target);
     // Browsers often leave the adapter's description empty; vendor and architecture remain.
     const named = [info?.vendor, info?.architecture].filter(Boolean).join(" ");
-    return { name: [named, described].filter(Boolean).join(" ") || "adapter", presents: Boolean(target) };
+    const name = [named, described].filter(Boolean).join(" ") || "adapter";
+    return { name: software && !/software/i.test(name) ? `${name} (software)` : name, presents: Boolean(target), software };
   } catch (e) {
     return { error: message(e) };
   }
+}
+
+/** The size of the frame timed on each renderer when both are real. */
+const TRIAL_SIZE = { width: 240, height: 136 };
+
+// Picks the renderer to start on: `{renderer, reason}`. Never a software adapter over the CPU
+// worker; when the GPU is a real one (or `trial` asks), one small frame of the start view is
+// timed on each (the GPU twice: its first frame also builds pipelines and buffers) and the
+// faster one is kept.
+async function chooseRenderer(gpu, trial) {
+  if (!gpu.name) return { renderer: "cpu", reason: `no GPU: ${gpu.error}` };
+  if (gpu.software && !trial) return { renderer: "cpu", reason: `the GPU (${gpu.name}) is a software adapter, slower than the CPU worker` };
+  const info = viewer.info();
+  const t = info.start_time_step;
+  await ensureLoaded(t);
+  const request = { view: info.start_view, time_step: t, ...TRIAL_SIZE, streaming: false, mode: "color" };
+  const time = async (render) => {
+    const started = performance.now();
+    await render();
+    return performance.now() - started;
+  };
+  let gpuMs;
+  try {
+    gpuMs = await time(() => viewer.renderGpu(request));
+    gpuMs = Math.min(gpuMs, await time(() => viewer.renderGpu(request)));
+  } catch (e) {
+    return { renderer: "cpu", reason: `a trial frame failed on the GPU (${message(e)})` };
+  }
+  const cpuMs = await time(async () => {
+    viewer.begin(request);
+    while (!viewer.step().done);
+  });
+  viewer.jump(); // the trial frames are no previous frame of anything
+  const faster = gpuMs <= cpuMs ? "gpu" : "cpu";
+  const size = `${TRIAL_SIZE.width}x${TRIAL_SIZE.height}`;
+  return { renderer: faster, reason: `a ${size} frame took ${gpuMs.toFixed(0)} ms on the GPU and ${cpuMs.toFixed(0)} ms on the CPU` };
 }
 
 self.onmessage = async (event) => {
@@ -207,7 +258,8 @@ self.onmessage = async (event) => {
       viewer = null;
       viewer = msg.type === "open" ? await Viewer.openUrl(msg.url) : await Viewer.openFiles(msg.files, msg.paths);
       const gpu = msg.gpu ? await enableGpu() : { error: "not requested" };
-      post({ type: "opened", info: viewer.info(), backends: gpu.name ? ["cpu", "gpu"] : ["cpu"], gpu });
+      const choice = msg.choose ? await chooseRenderer(gpu, Boolean(msg.trial)) : { renderer: null, reason: "" };
+      post({ type: "opened", info: viewer.info(), backends: gpu.name ? ["cpu", "gpu"] : ["cpu"], gpu, choice });
     } else if (!viewer) {
       throw new Error("no scene is open");
     } else if (msg.type === "render") {

@@ -1,5 +1,5 @@
 // End-to-end tests of the viewer's GPU path: headless Chromium with WebGPU enabled
-// (SwiftShader, on the CPU). It cannot present WebGPU canvases, so the worker reads each
+// (SwiftShader, on the CPU: the page itself starts on the CPU, so the tests force the GPU). It cannot present WebGPU canvases, so the worker reads each
 // frame's picture back; the render itself is the GPU's. See helpers.mjs for the environment.
 
 import { test, before, after } from "node:test";
@@ -15,8 +15,36 @@ const openPage = (url) => openIn(browser, url);
 const overlay = (page) => page.textContent("#overlay");
 const renderer = (page) => page.$eval("#renderer", (el) => el.value);
 
-test("with WebGPU the page renders on the GPU, equal to the native CPU render", async () => {
+test("with a software WebGPU adapter (SwiftShader) the page starts on the CPU and says why", async () => {
   const { page, errors } = await openPage();
+  await firstFrame(page);
+  assert.equal(await renderer(page), "cpu");
+  const text = await overlay(page);
+  assert.match(text, /^CPU/);
+  assert.match(text, /CPU \(wasm, worker\) chosen: the GPU \(.*swiftshader.*\) is a software adapter/i);
+  assert.match(await page.$eval("#renderer", (el) => el.title), /software adapter/);
+  const gpuOption = await page.$eval('#renderer option[value="gpu"]', (el) => ({ disabled: el.disabled, text: el.textContent }));
+  assert.ok(!gpuOption.disabled, "the menu should still offer the software GPU");
+  assert.match(gpuOption.text, /software/);
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
+test("timing a frame on each renderer keeps the faster (the CPU, against SwiftShader)", async () => {
+  const { page, errors } = await openPage(`${SCENE_URL}&renderer-trial`);
+  await firstFrame(page);
+  assert.equal(await renderer(page), "cpu");
+  const text = await overlay(page);
+  const times = text.match(/CPU \(wasm, worker\) chosen: a 240x136 frame took (\d+) ms on the GPU and (\d+) ms on the CPU/);
+  assert.ok(times, `the overlay does not give the trial's times: ${text}`);
+  console.log(`renderer trial: GPU ${times[1]} ms, CPU ${times[2]} ms`);
+  assert.ok(Number(times[2]) < Number(times[1]), "the slower renderer was kept");
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
+test("?renderer=gpu forces the GPU, equal to the native CPU render", async () => {
+  const { page, errors } = await openPage(`${SCENE_URL}&renderer=gpu`);
   const started = Date.now();
   await firstFrame(page);
   console.log(`GPU path: first frame after ${Date.now() - started} ms`);
@@ -60,7 +88,7 @@ test("?renderer=cpu starts on the CPU; the menu switches to the GPU and back, sa
 });
 
 test("a lost GPU device falls back to the CPU and says so in the overlay", async () => {
-  const { page } = await openPage();
+  const { page } = await openPage(`${SCENE_URL}&renderer=gpu`);
   await firstFrame(page);
   assert.equal(await renderer(page), "gpu");
   await page.evaluate(() => window.dynview.loseGpu());
