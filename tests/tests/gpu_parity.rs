@@ -102,6 +102,31 @@ fn gpu_buffers_are_allocated_once_per_resolution_and_reused() {
 /// Largest difference of a displayed byte from dynview-core's picture, per display mode: color
 /// and weights are exact up to rounding; the depth map's range comes from a 1024-bin histogram
 /// on the GPU instead of a sort, which moves colors by a few levels.
+#[test]
+fn a_frame_is_one_submit_with_shared_passes_and_reused_bind_groups() {
+    let Setup { ctx, renderer, camera, params, inputs } = setup();
+    let mut per_frame = Vec::new();
+    let mut previous: Option<dynview_gpu::GpuFrame> = None;
+    for _ in 0..8 {
+        let before = ctx.counters();
+        let frame = renderer.render(&ctx, &params, &camera, &inputs, previous.as_ref()).unwrap();
+        per_frame.push(ctx.counters() - before);
+        previous = Some(frame);
+    }
+    eprintln!("per frame: {per_frame:?}");
+    for (i, counts) in per_frame.iter().enumerate() {
+        assert_eq!(counts.submits, 1, "frame {i} was submitted {} times", counts.submits);
+        assert!(counts.dispatches > 100, "frame {i}: only {} dispatches", counts.dispatches);
+        assert!(counts.passes * 10 <= counts.dispatches, "frame {i}: {} passes for {} dispatches", counts.passes, counts.dispatches);
+    }
+    // Once the pool has settled (which buffers are idle when a frame starts repeats), streaming
+    // frames take the same buffers in the same roles: every bind group comes from the cache.
+    assert!(per_frame[0].bind_groups_created > 0);
+    for (i, counts) in per_frame.iter().enumerate().skip(5) {
+        assert_eq!(counts.bind_groups_created, 0, "streaming frame {i} created bind groups: {counts:?}");
+    }
+}
+
 fn display_tolerance(mode: DisplayMode) -> (u8, f64) {
     match mode {
         DisplayMode::Color | DisplayMode::Weights => (1, 0.0),

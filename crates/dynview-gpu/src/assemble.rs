@@ -143,10 +143,9 @@ impl AssembleKernels {
     }
 
     fn run(&self, ctx: &GpuContext, kernel: &Kernel, uniform: &AssembleParams, buffers: &[&GpuImage]) {
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("assemble") });
+        let _frame = ctx.frame();
         let buffers: Vec<&wgpu::Buffer> = buffers.iter().map(|b| &b.buffer).collect();
-        kernel.dispatch(ctx, &mut encoder, bytemuck::bytes_of(uniform), &buffers, uniform.width as usize, uniform.height as usize);
-        ctx.queue.submit([encoder.finish()]);
+        kernel.dispatch(ctx, bytemuck::bytes_of(uniform), &buffers, uniform.width as usize, uniform.height as usize);
     }
 
     /// The temporal terms (`temporal`: `lambda_T w_T` and the previous depth per pixel) with
@@ -181,11 +180,10 @@ impl AssembleKernels {
         };
         let rows = GpuImage::zeroed(ctx, w, h, 1)?;
         let prior = GpuImage::zeroed(ctx, w, h, 2)?;
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("plane prior") });
+        let _frame = ctx.frame();
         let bytes = bytemuck::bytes_of(&uniform);
-        self.support_rows.dispatch(ctx, &mut encoder, bytes, &[&mask.buffer, &rows.buffer], w, h);
-        self.plane_prior.dispatch(ctx, &mut encoder, bytes, &[&rows.buffer, &prior.buffer, &temporal.buffer], w, h);
-        ctx.queue.submit([encoder.finish()]);
+        self.support_rows.dispatch(ctx, bytes, &[&mask.buffer, &rows.buffer], w, h);
+        self.plane_prior.dispatch(ctx, bytes, &[&rows.buffer, &prior.buffer, &temporal.buffer], w, h);
         Ok(prior)
     }
 

@@ -49,10 +49,9 @@ impl BlendKernel {
         let mut weights = [0.0; MAX_VIEWS];
         weights[..view_weights.len()].copy_from_slice(view_weights);
         let params = BlendParams { width: w as u32, height: h as u32, views: warps.count as u32, _pad0: 0, view_weights: weights };
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("blend") });
+        let _frame = ctx.frame();
         let buffers = [&warps.colors.buffer, &warps.visibility.buffer, &fallback.buffer, &out.buffer];
-        self.blend.dispatch(ctx, &mut encoder, bytemuck::bytes_of(&params), &buffers, w, h);
-        ctx.queue.submit([encoder.finish()]);
+        self.blend.dispatch(ctx, bytemuck::bytes_of(&params), &buffers, w, h);
         Ok(out)
     }
 }

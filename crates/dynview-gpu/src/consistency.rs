@@ -47,15 +47,14 @@ impl ConsistencyKernels {
         let counters = GpuImage::zeroed(ctx, 2, 1, 1)?;
         let params = ConsistencyParams { width: w as u32, height: h as u32, ratio, _pad: 0 };
         let buffers = [&sparse.depth.buffer, &sparse.mask.buffer, &flags.buffer, &counters.buffer];
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("consistency") });
+        let _frame = ctx.frame();
         let uniform = bytemuck::bytes_of(&params);
-        self.count.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
+        self.count.dispatch(ctx, uniform, &buffers, w, h);
         if ratio > 0.0 {
-            self.isolated.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
-            self.occluded.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
+            self.isolated.dispatch(ctx, uniform, &buffers, w, h);
+            self.occluded.dispatch(ctx, uniform, &buffers, w, h);
         }
-        self.apply.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
-        ctx.queue.submit([encoder.finish()]);
+        self.apply.dispatch(ctx, uniform, &buffers, w, h);
         Ok(counters)
     }
 }

@@ -1,4 +1,9 @@
-//! Adapter and device acquisition.
+//! Adapter and device acquisition, and recording work on the device.
+
+use std::sync::{Mutex, MutexGuard, PoisonError};
+
+use crate::kernel::Kernel;
+use crate::recorder::{DispatchTarget, GpuCounters, Recorder};
 
 /// Errors of the GPU path.
 #[derive(Debug, thiserror::Error)]
@@ -27,8 +32,11 @@ pub enum GpuError {
 }
 
 /// Storage buffers no longer in use, by size in bytes: images of the sizes a frame needs are
-/// allocated once and reused by every later frame of the same resolution.
-pub(crate) type BufferPool = std::sync::Arc<std::sync::Mutex<std::collections::HashMap<u64, Vec<wgpu::Buffer>>>>;
+/// allocated once and reused by every later frame of the same resolution. Each size's idle
+/// buffers are ordered (by wgpu's identity) and the first is taken: which buffer a frame gets
+/// depends on which are idle, not on the order they came back, so frames that begin with the
+/// same idle buffers use the same buffers in the same roles, and their bind groups are reused.
+pub(crate) type BufferPool = std::sync::Arc<std::sync::Mutex<std::collections::HashMap<u64, std::collections::BTreeSet<wgpu::Buffer>>>>;
 
 /// Most idle buffers kept per size.
 pub(crate) const POOL_BUFFERS_PER_SIZE: usize = 64;
@@ -47,8 +55,26 @@ pub struct GpuContext {
     /// The adapter.
     pub adapter: wgpu::Adapter,
     pub(crate) pool: BufferPool,
-    /// Timestamps per compute pass while a profile is being taken.
-    profiler: std::sync::Mutex<Option<crate::profile::Profiler>>,
+    /// The open encoder and pass, shared uniforms, cached bind groups, counters and profiler.
+    recorder: Mutex<Recorder>,
+    /// Zeros over a reused image's buffer (`shaders/zero.wgsl`), compiled on first use.
+    zero: std::sync::OnceLock<Kernel>,
+}
+
+/// Keeps a frame open: work recorded meanwhile goes into one command buffer, submitted when the
+/// outermost guard drops ([`GpuContext::frame`]).
+#[must_use = "the frame closes when the guard drops"]
+pub struct FrameGuard<'a> {
+    ctx: &'a GpuContext,
+}
+
+impl Drop for FrameGuard<'_> {
+    fn drop(&mut self) {
+        let mut recorder = self.ctx.recorder();
+        if recorder.close_frame() {
+            recorder.flush();
+        }
+    }
 }
 
 impl GpuContext {
@@ -76,16 +102,90 @@ impl GpuContext {
             })
             .await
             .map_err(|e| GpuError::NoDevice(e.to_string()))?;
-        Ok(Self { device, queue, adapter_info, instance, adapter, pool: BufferPool::default(), profiler: Default::default() })
+        let recorder = Mutex::new(Recorder::new(&device, &queue));
+        Ok(Self { device, queue, adapter_info, instance, adapter, pool: BufferPool::default(), recorder, zero: Default::default() })
+    }
+
+    /// The zero-fill kernel.
+    pub(crate) fn zero_kernel(&self) -> &Kernel {
+        self.zero.get_or_init(|| Kernel::new(self, &crate::shaders::module(self, crate::shaders::ZERO), "zero", &[false], 8))
+    }
+
+    fn recorder(&self) -> MutexGuard<'_, Recorder> {
+        self.recorder.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Opens a frame: everything recorded until the guard drops is submitted at once, in one
+    /// command buffer (frames nest; the outermost submits). Outside a frame every operation is
+    /// submitted when it is recorded.
+    pub fn frame(&self) -> FrameGuard<'_> {
+        self.recorder().open_frame();
+        FrameGuard { ctx: self }
+    }
+
+    /// Submits what was recorded so far, even inside a frame (before a read-back or a present).
+    pub fn flush(&self) {
+        self.recorder().flush();
+    }
+
+    /// Submits, passes, dispatches, bind groups and uniform bytes so far.
+    pub fn counters(&self) -> GpuCounters {
+        self.recorder().counters
+    }
+
+    /// Records dispatches of `kernel` (see [`Recorder::dispatch`]); submitted at once outside a
+    /// frame.
+    pub(crate) fn dispatch(
+        &self,
+        kernel: &DispatchTarget<'_>,
+        uniforms: &[&[u8]],
+        sequence: &[usize],
+        buffers: &[&wgpu::Buffer],
+        groups: (u32, u32, u32),
+    ) {
+        let mut recorder = self.recorder();
+        recorder.dispatch(kernel, uniforms, sequence, buffers, groups);
+        if !recorder.in_frame() {
+            recorder.flush();
+        }
+    }
+
+    /// Records commands (copies, clears, render passes) with `record`, in order with the
+    /// dispatches; submitted at once outside a frame. `record` must not use the context.
+    pub(crate) fn encode<R>(&self, record: impl FnOnce(&mut wgpu::CommandEncoder) -> R) -> R {
+        let mut recorder = self.recorder();
+        let out = record(recorder.encoder());
+        if !recorder.in_frame() {
+            recorder.flush();
+        }
+        out
+    }
+
+    /// Counts a bind group made outside the recorder (the display's, once per draw).
+    pub(crate) fn note_bind_group(&self) {
+        self.recorder().counters.bind_groups_created += 1;
+    }
+
+    /// Writes `data` into `buffer` at `offset`, after the work recorded so far (which is
+    /// submitted first when there is any: a queue write lands before the next submit's commands).
+    pub(crate) fn write_buffer(&self, buffer: &wgpu::Buffer, offset: u64, data: &[u8]) {
+        let mut recorder = self.recorder();
+        if recorder.pending() {
+            recorder.flush();
+        }
+        self.queue.write_buffer(buffer, offset, data);
     }
 
     /// Starts timing every compute pass (timestamp queries) until [`Self::finish_profile`];
-    /// false when the device has no timestamp queries.
+    /// false when the device has no timestamp queries. While profiling, every dispatch call
+    /// gets its own pass.
     pub fn start_profile(&self) -> bool {
         if !self.device.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
             return false;
         }
-        *self.profiler.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(crate::profile::Profiler::new());
+        let mut recorder = self.recorder();
+        recorder.end_pass();
+        recorder.profiler = Some(crate::profile::Profiler::new());
         true
     }
 
@@ -93,28 +193,19 @@ impl GpuContext {
     /// [`Self::start_profile`] (empty when it was not started). Blocks until the GPU is done.
     #[cfg(not(target_family = "wasm"))]
     pub fn finish_profile(&self) -> Result<Vec<crate::profile::StageTime>, GpuError> {
-        let profiler = self.profiler.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
+        let profiler = {
+            let mut recorder = self.recorder();
+            recorder.flush();
+            recorder.profiler.take()
+        };
         profiler.map_or(Ok(Vec::new()), |p| p.finish(self))
     }
 
     /// Labels the compute passes that follow (while profiling).
     pub(crate) fn set_stage(&self, level: usize, stage: &'static str) {
-        if let Some(p) = self.profiler.lock().unwrap_or_else(std::sync::PoisonError::into_inner).as_mut() {
+        if let Some(p) = self.recorder().profiler.as_mut() {
             p.set_stage(level, stage);
         }
-    }
-
-    /// Begins a compute pass on `encoder`; while profiling, it writes its start and end
-    /// timestamps under the current stage.
-    pub(crate) fn begin_compute_pass<'e>(&self, encoder: &'e mut wgpu::CommandEncoder, label: Option<&str>) -> wgpu::ComputePass<'e> {
-        let timestamps =
-            self.profiler.lock().unwrap_or_else(std::sync::PoisonError::into_inner).as_mut().map(|p| p.next_pass(&self.device));
-        let timestamp_writes = timestamps.as_ref().map(|(query_set, first)| wgpu::ComputePassTimestampWrites {
-            query_set,
-            beginning_of_pass_write_index: Some(*first),
-            end_of_pass_write_index: Some(first + 1),
-        });
-        encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label, timestamp_writes })
     }
 
     /// Idle pooled buffers and their bytes (images dropped since, kept for reuse).
@@ -125,12 +216,14 @@ impl GpuContext {
 
     /// Blocks until the GPU has finished all submitted work (native; a no-op on WebGPU).
     pub fn wait(&self) -> Result<(), GpuError> {
+        self.flush();
         self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::ReadBack(e.to_string()))
     }
 
     /// Resolves when the GPU has finished the work submitted so far (natively after waiting
     /// for it; in the browser from the event loop, without blocking).
     pub async fn finished(&self) -> Result<(), GpuError> {
+        self.flush();
         let signal = crate::readback::Signal::default();
         let callback = signal.clone();
         self.queue.on_submitted_work_done(move || callback.fire(Ok(())));

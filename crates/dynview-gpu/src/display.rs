@@ -48,6 +48,8 @@ pub struct FrameDisplay {
     layout: wgpu::BindGroupLayout,
     format: wgpu::TextureFormat,
     bounds: wgpu::Buffer,
+    /// `[u32::MAX, 0]`, copied into `bounds` before each search.
+    bounds_start: wgpu::Buffer,
     histogram: wgpu::Buffer,
     range: wgpu::Buffer,
 }
@@ -113,6 +115,11 @@ impl FrameDisplay {
             layout,
             format,
             bounds: buffer("depth bounds", 8),
+            bounds_start: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("depth bounds start"),
+                contents: bytemuck::cast_slice(&[u32::MAX, 0u32]),
+                usage: wgpu::BufferUsages::COPY_SRC,
+            }),
             histogram: buffer("depth histogram", BINS * 4),
             range: buffer("depth range", 8),
         }
@@ -124,20 +131,22 @@ impl FrameDisplay {
     }
 
     /// The range of the false-color depth map of `depth` (1 channel), left in a GPU buffer for
-    /// the draw; recorded into `encoder`.
-    fn depth_range(&self, ctx: &GpuContext, encoder: &mut wgpu::CommandEncoder, depth: &GpuImage) {
-        ctx.queue.write_buffer(&self.bounds, 0, bytemuck::cast_slice(&[u32::MAX, 0u32]));
-        encoder.clear_buffer(&self.histogram, 0, None);
+    /// the draw.
+    fn depth_range(&self, ctx: &GpuContext, depth: &GpuImage) {
+        ctx.encode(|encoder| {
+            encoder.copy_buffer_to_buffer(&self.bounds_start, 0, &self.bounds, 0, 8);
+            encoder.clear_buffer(&self.histogram, 0, None);
+        });
         let params = RangeParams { width: depth.width as u32, height: depth.height as u32, _pad: [0; 2] };
         let buffers = [&depth.buffer, &self.bounds, &self.histogram, &self.range];
         let (w, h) = (depth.width, depth.height);
-        self.bounds_of.dispatch(ctx, encoder, bytemuck::bytes_of(&params), &buffers, w, h);
-        self.histogram_of.dispatch(ctx, encoder, bytemuck::bytes_of(&params), &buffers, w, h);
-        self.percentiles.dispatch(ctx, encoder, bytemuck::bytes_of(&params), &buffers, 1, 1);
+        self.bounds_of.dispatch(ctx, bytemuck::bytes_of(&params), &buffers, w, h);
+        self.histogram_of.dispatch(ctx, bytemuck::bytes_of(&params), &buffers, w, h);
+        self.percentiles.dispatch(ctx, bytemuck::bytes_of(&params), &buffers, 1, 1);
     }
 
     /// Draws `frame`'s finest level as `mode` into `target` (`width x height` pixels of this
-    /// display's format), scaled with bilinear filtering of the color. Submits the work; nothing
+    /// display's format), scaled with bilinear filtering of the color. Recorded in the open frame (submitted at once outside one); nothing
     /// is read back.
     pub fn draw(
         &self,
@@ -160,9 +169,9 @@ impl FrameDisplay {
                 (&scratch, 0)
             }
         };
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("display") });
+        let _frame = ctx.frame();
         if mode == DisplayMode::Depth {
-            self.depth_range(ctx, &mut encoder, depth);
+            self.depth_range(ctx, depth);
         }
         let params = DisplayParams {
             src_width: color.width as u32,
@@ -194,7 +203,8 @@ impl FrameDisplay {
                 wgpu::BindGroupEntry { binding: 4, resource: self.range.as_entire_binding() },
             ],
         });
-        {
+        ctx.note_bind_group();
+        ctx.encode(|encoder| {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("display"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -211,8 +221,7 @@ impl FrameDisplay {
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &bind_group, &[]);
             pass.draw(0..3, 0..1);
-        }
-        ctx.queue.submit([encoder.finish()]);
+        });
         Ok(())
     }
 
@@ -241,16 +250,16 @@ impl FrameDisplay {
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("picture") });
-        encoder.copy_texture_to_buffer(
-            texture.as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row_bytes), rows_per_image: Some(height) },
-            },
-            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-        );
-        ctx.queue.submit([encoder.finish()]);
+        ctx.encode(|encoder| {
+            encoder.copy_texture_to_buffer(
+                texture.as_image_copy(),
+                wgpu::TexelCopyBufferInfo {
+                    buffer: &buffer,
+                    layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row_bytes), rows_per_image: Some(height) },
+                },
+                wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            )
+        });
         let padded = crate::readback::read_bytes(ctx, &buffer, size).await?;
         let bgra = matches!(self.format, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb);
         let mut rgba = Vec::with_capacity((row_bytes * height) as usize);

@@ -24,13 +24,36 @@ pub struct GpuImage {
 }
 
 impl Drop for GpuImage {
+    // The pool's keys are wgpu's identities, which never change.
+    #[allow(clippy::mutable_key_type)]
     fn drop(&mut self) {
         let mut pool = self.pool.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         let idle = pool.entry(self.buffer.size()).or_default();
         if idle.len() < POOL_BUFFERS_PER_SIZE {
-            idle.push(self.buffer.clone());
+            idle.insert(self.buffer.clone());
         }
     }
+}
+
+/// `zero.wgsl`'s uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ZeroParams {
+    words: u32,
+    row_words: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+/// Words per row of the zero fill's grid.
+const ZERO_ROW_WORDS: usize = 4096;
+
+/// Records zeros over `buffer` (a dispatch, which stays in the frame's compute pass).
+fn zero(ctx: &GpuContext, buffer: &wgpu::Buffer) {
+    let words = (buffer.size() / 4) as usize;
+    let row_words = words.min(ZERO_ROW_WORDS);
+    let params = ZeroParams { words: words as u32, row_words: row_words as u32, _pad0: 0, _pad1: 0 };
+    ctx.zero_kernel().dispatch(ctx, bytemuck::bytes_of(&params), &[buffer], row_words, words.div_ceil(row_words));
 }
 
 const IMAGE_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_SRC).union(wgpu::BufferUsages::COPY_DST);
@@ -59,7 +82,7 @@ impl GpuImage {
         let size = Self::check(ctx, width, height, channels)?;
         let buffer = match Self::take(ctx, size) {
             Some(buffer) => {
-                ctx.queue.write_buffer(&buffer, 0, bytemuck::cast_slice(data));
+                ctx.write_buffer(&buffer, 0, bytemuck::cast_slice(data));
                 buffer
             }
             None => ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -73,7 +96,7 @@ impl GpuImage {
 
     /// An idle pooled buffer of `size` bytes.
     fn take(ctx: &GpuContext, size: u64) -> Option<wgpu::Buffer> {
-        ctx.pool.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get_mut(&size).and_then(Vec::pop)
+        ctx.pool.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get_mut(&size).and_then(std::collections::BTreeSet::pop_first)
     }
 
     /// An image of zeros (a reused buffer is cleared on the GPU first).
@@ -81,9 +104,7 @@ impl GpuImage {
         let size = Self::check(ctx, width, height, channels)?;
         let buffer = match Self::take(ctx, size) {
             Some(buffer) => {
-                let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("clear") });
-                encoder.clear_buffer(&buffer, 0, None);
-                ctx.queue.submit([encoder.finish()]);
+                zero(ctx, &buffer);
                 buffer
             }
             None => ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -213,9 +234,8 @@ impl ImageKernels {
             scale_y: image.height as f32 / height as f32,
             _pad: 0,
         };
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("resample") });
-        kernel.dispatch(ctx, &mut encoder, bytemuck::bytes_of(&dims), &[&image.buffer, &out.buffer], width, height);
-        ctx.queue.submit([encoder.finish()]);
+        let _frame = ctx.frame();
+        kernel.dispatch(ctx, bytemuck::bytes_of(&dims), &[&image.buffer, &out.buffer], width, height);
         Ok(out)
     }
 
@@ -260,14 +280,13 @@ impl ImageKernels {
             _pad: 0,
             fallback: [fallback[0], fallback[1], fallback[2], 0.0],
         };
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("push-pull") });
+        let _frame = ctx.frame();
         // Pull: premultiplied levels down to 1x1.
         let (w, h) = (values.width, values.height);
         let mut levels = vec![(GpuImage::zeroed(ctx, w, h, channels)?, GpuImage::zeroed(ctx, w, h, 1)?)];
         let (v0, w0) = &levels[0];
         self.premultiply.dispatch(
             ctx,
-            &mut encoder,
             bytemuck::bytes_of(&pull_dims((w, h), (w, h))),
             &[&values.buffer, &weights.buffer, &v0.buffer, &w0.buffer],
             w,
@@ -278,14 +297,7 @@ impl ImageKernels {
             let (nw, nh) = (half(fine_v.width), half(fine_v.height));
             let (cv, cw) = (GpuImage::zeroed(ctx, nw, nh, channels)?, GpuImage::zeroed(ctx, nw, nh, 1)?);
             let d = pull_dims((fine_v.width, fine_v.height), (nw, nh));
-            self.pull.dispatch(
-                ctx,
-                &mut encoder,
-                bytemuck::bytes_of(&d),
-                &[&fine_v.buffer, &fine_w.buffer, &cv.buffer, &cw.buffer],
-                nw,
-                nh,
-            );
+            self.pull.dispatch(ctx, bytemuck::bytes_of(&d), &[&fine_v.buffer, &fine_w.buffer, &cv.buffer, &cw.buffer], nw, nh);
             levels.push((cv, cw));
         }
         // Push: the 1x1 top (no coarser fill: its binding takes the top's weights, unread), then
@@ -294,7 +306,6 @@ impl ImageKernels {
         let mut filled = GpuImage::zeroed(ctx, 1, 1, channels)?;
         self.top.dispatch(
             ctx,
-            &mut encoder,
             bytemuck::bytes_of(&push_dims((1, 1), (1, 1))),
             &[&top_v.buffer, &top_w.buffer, &top_w.buffer, &filled.buffer],
             1,
@@ -303,17 +314,9 @@ impl ImageKernels {
         for (v, wt) in levels.iter().rev().skip(1) {
             let next = GpuImage::zeroed(ctx, v.width, v.height, channels)?;
             let d = push_dims((v.width, v.height), (filled.width, filled.height));
-            self.push.dispatch(
-                ctx,
-                &mut encoder,
-                bytemuck::bytes_of(&d),
-                &[&v.buffer, &wt.buffer, &filled.buffer, &next.buffer],
-                v.width,
-                v.height,
-            );
+            self.push.dispatch(ctx, bytemuck::bytes_of(&d), &[&v.buffer, &wt.buffer, &filled.buffer, &next.buffer], v.width, v.height);
             filled = next;
         }
-        ctx.queue.submit([encoder.finish()]);
         Ok(filled)
     }
 }
@@ -323,6 +326,7 @@ impl ImageKernels {
 pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
     use crate::shaders::layout_tests::mirror;
     vec![
+        mirror!(shaders::ZERO, "Params", ZeroParams { words, row_words, _pad0, _pad1 }),
         mirror!(shaders::PYRAMID, "Dims", PyramidDims { src_width, src_height, dst_width, dst_height, channels, scale_x, scale_y, _pad }),
         mirror!(
             shaders::PUSHPULL_PULL,

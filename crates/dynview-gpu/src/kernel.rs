@@ -1,9 +1,8 @@
-//! A compute pipeline with its bind group layout: a uniform block at binding 0, then storage
-//! buffers.
-
-use wgpu::util::DeviceExt;
+//! A compute pipeline with its bind group layout: a uniform block at binding 0 (at a dynamic
+//! offset into the context's shared uniform buffer), then storage buffers.
 
 use crate::context::GpuContext;
+use crate::recorder::{DispatchTarget, next_kernel_id};
 
 /// A compute pipeline whose bind group is a uniform block then storage buffers.
 #[derive(Debug)]
@@ -11,6 +10,7 @@ pub(crate) struct Kernel {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
     workgroup: u32,
+    id: u64,
 }
 
 impl Kernel {
@@ -20,7 +20,7 @@ impl Kernel {
         let buffer_entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: binding == 0, min_binding_size: None },
             count: None,
         };
         let mut entries = vec![buffer_entry(0, wgpu::BufferBindingType::Uniform)];
@@ -41,34 +41,28 @@ impl Kernel {
             compilation_options: Default::default(),
             cache: None,
         });
-        Self { pipeline, layout, workgroup }
+        Self { pipeline, layout, workgroup, id: next_kernel_id() }
     }
 
     /// Records one dispatch covering `width x height` invocations (`ceil(n / workgroup)`
     /// groups per axis) with `uniform` and `buffers`.
-    pub(crate) fn dispatch(
+    pub(crate) fn dispatch(&self, ctx: &GpuContext, uniform: &[u8], buffers: &[&wgpu::Buffer], width: usize, height: usize) {
+        self.dispatch_sequence(ctx, &[uniform], &[0], buffers, width, height);
+    }
+
+    /// Records one dispatch per entry of `sequence`, each with uniform block
+    /// `uniforms[sequence[i]]` (blocks of one layout), over the same buffers and size.
+    pub(crate) fn dispatch_sequence(
         &self,
         ctx: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        uniform: &[u8],
+        uniforms: &[&[u8]],
+        sequence: &[usize],
         buffers: &[&wgpu::Buffer],
         width: usize,
         height: usize,
     ) {
-        let device = &ctx.device;
-        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("dims"),
-            contents: uniform,
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() }];
-        for (i, b) in buffers.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: b.as_entire_binding() });
-        }
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &self.layout, entries: &entries });
-        let mut pass = ctx.begin_compute_pass(encoder, None);
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups((width as u32).div_ceil(self.workgroup), (height as u32).div_ceil(self.workgroup), 1);
+        let groups = ((width as u32).div_ceil(self.workgroup), (height as u32).div_ceil(self.workgroup), 1);
+        let target = DispatchTarget { id: self.id, pipeline: &self.pipeline, layout: &self.layout };
+        ctx.dispatch(&target, uniforms, sequence, buffers, groups);
     }
 }

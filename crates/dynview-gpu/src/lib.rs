@@ -14,7 +14,10 @@
 //! the Rust mirrors are tested against.
 //!
 //! Images live in storage buffers taken from a pool on the context: each size is allocated
-//! once and reused by every later frame at that resolution. [`FrameDisplay`] draws a frame into
+//! once and reused by every later frame at that resolution. A frame is recorded into one
+//! command encoder and submitted once ([`GpuContext::frame`]); its dispatches share compute
+//! passes, their uniform blocks share one buffer at dynamic offsets, and their bind groups are
+//! cached, so a streaming frame creates none ([`GpuContext::counters`]). [`FrameDisplay`] draws a frame into
 //! a canvas (or any texture) straight from those buffers. [`GpuContext::start_profile`] times
 //! every compute pass with timestamp queries, summed per level and stage ([`StageTime`]).
 
@@ -28,6 +31,7 @@ mod kernel;
 mod profile;
 mod rank;
 mod readback;
+mod recorder;
 mod renderer;
 mod shaders;
 mod solver;
@@ -38,12 +42,13 @@ mod warp;
 pub use assemble::{AssembleKernels, GpuSystem, PackedViews};
 pub use blend::{BlendKernel, MAX_VIEWS};
 pub use consistency::ConsistencyKernels;
-pub use context::{GpuContext, GpuError};
+pub use context::{FrameGuard, GpuContext, GpuError};
 pub use display::FrameDisplay;
 pub use image::{GpuImage, ImageKernels};
 pub use profile::StageTime;
 pub use rank::RankKernels;
 pub use readback::{read_bytes, read_floats};
+pub use recorder::GpuCounters;
 pub use renderer::{GpuFrame, GpuInputs, GpuRenderer};
 pub use shaders::SHADERS;
 pub use solver::GridSolver;

@@ -52,11 +52,10 @@ impl RankKernels {
         let uniform = crate::assemble::SupportParams::support_only(w, h, support_radius_px(level), support);
         let rows = GpuImage::zeroed(ctx, w, h, 1)?;
         let out = GpuImage::zeroed(ctx, w, h, 1)?;
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("unsupported") });
+        let _frame = ctx.frame();
         let bytes = bytemuck::bytes_of(&uniform);
-        self.support_rows.dispatch(ctx, &mut encoder, bytes, &[&mask.buffer, &rows.buffer], w, h);
-        self.unsupported.dispatch(ctx, &mut encoder, bytes, &[&rows.buffer, &out.buffer], w, h);
-        ctx.queue.submit([encoder.finish()]);
+        self.support_rows.dispatch(ctx, bytes, &[&mask.buffer, &rows.buffer], w, h);
+        self.unsupported.dispatch(ctx, bytes, &[&rows.buffer, &out.buffer], w, h);
         Ok(out)
     }
 
@@ -75,9 +74,8 @@ impl RankKernels {
         let mut packed = [0.0; MAX_VIEWS];
         packed[..views].copy_from_slice(preferences);
         let uniform = RankParams { width: w as u32, height: h as u32, views: views as u32, _pad0: 0, preferences: packed };
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("rank preference") });
-        self.rank_preference.dispatch(ctx, &mut encoder, bytemuck::bytes_of(&uniform), &[&unsupported.buffer, &w_p.buffer], w, h);
-        ctx.queue.submit([encoder.finish()]);
+        let _frame = ctx.frame();
+        self.rank_preference.dispatch(ctx, bytemuck::bytes_of(&uniform), &[&unsupported.buffer, &w_p.buffer], w, h);
         Ok(())
     }
 }

@@ -60,9 +60,8 @@ pub async fn read_bytes(ctx: &GpuContext, buffer: &wgpu::Buffer, size: u64) -> R
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read-back") });
-    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
-    ctx.queue.submit([encoder.finish()]);
+    ctx.encode(|encoder| encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size));
+    ctx.flush();
     let slice = staging.slice(..);
     let signal = Signal::default();
     let callback = signal.clone();

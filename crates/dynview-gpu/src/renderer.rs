@@ -125,6 +125,8 @@ impl GpuRenderer {
             return Err(GpuError::InvalidParams { field: "inputs", reason: "no input views".into() });
         }
         let previous = if params.method == Method::Full { previous } else { None };
+        // The whole frame in one command buffer and one submit.
+        let _frame = ctx.frame();
         let poses: Vec<_> = inputs.views.iter().map(|(c, _)| c.camera_from_world).collect();
         let ChosenViews { indices: chosen, blend_weights } =
             choose_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views);
@@ -248,9 +250,8 @@ impl GpuRenderer {
     /// A copy of `image` (the level's solution, kept while the next level overwrites its own).
     fn copy(&self, ctx: &GpuContext, image: &GpuImage) -> Result<GpuImage, GpuError> {
         let out = GpuImage::zeroed(ctx, image.width, image.height, image.channels)?;
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("copy") });
-        encoder.copy_buffer_to_buffer(&image.buffer, 0, &out.buffer, 0, (image.width * image.height * image.channels * 4) as u64);
-        ctx.queue.submit([encoder.finish()]);
+        let bytes = (image.width * image.height * image.channels * 4) as u64;
+        ctx.encode(|encoder| encoder.copy_buffer_to_buffer(&image.buffer, 0, &out.buffer, 0, bytes));
         Ok(out)
     }
 }

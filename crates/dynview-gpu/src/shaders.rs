@@ -65,6 +65,8 @@ pub(crate) const TEMPORAL_WEIGHTS: Shader = shader!("temporal_weights.wgsl", "co
 pub(crate) const TEMPORAL_TERMS: Shader = shader!("temporal_terms.wgsl");
 /// The range of the false-color depth display.
 pub(crate) const DEPTH_RANGE: Shader = shader!("depth_range.wgsl", "common/float_bits.wgsl");
+/// Zeros over a buffer (a reused image).
+pub(crate) const ZERO: Shader = shader!("zero.wgsl");
 /// Drawing a frame into a render target.
 pub(crate) const DISPLAY: Shader = shader!("display.wgsl", "common/float_bits.wgsl");
 
@@ -91,6 +93,7 @@ pub const SHADERS: &[(&str, &str)] = &[
     TEMPORAL_WEIGHTS,
     TEMPORAL_TERMS,
     DEPTH_RANGE,
+    ZERO,
     DISPLAY,
 ];
 

@@ -1,14 +1,16 @@
 //! The red-black over-relaxed Gauss-Seidel solver of dynview-core's grid systems on the GPU
-//! (`shaders/red_black.wgsl`): one dispatch per colour, all sweeps in one command buffer.
+//! (`shaders/red_black.wgsl`): one dispatch per colour, all sweeps in one compute pass.
 
 #[cfg(not(target_family = "wasm"))]
 use dynview_core::raster::Rgb;
 #[cfg(not(target_family = "wasm"))]
 use dynview_core::render::solve::GridSystem;
+#[cfg(not(target_family = "wasm"))]
 use wgpu::util::DeviceExt;
 
 use crate::context::{GpuContext, GpuError};
 use crate::image::GpuImage;
+use crate::kernel::Kernel;
 use crate::shaders;
 
 /// `red_black.wgsl`'s uniform block.
@@ -31,59 +33,14 @@ const WORKGROUP: u32 = 8;
 /// The compiled sweep pipeline.
 #[derive(Debug)]
 pub struct GridSolver {
-    pipeline: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
-}
-
-fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
+    sweep: Kernel,
 }
 
 impl GridSolver {
     /// Compiles the pipeline on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
-        let device = &ctx.device;
         let module = shaders::module(ctx, shaders::RED_BLACK);
-        let uniform = wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
-            count: None,
-        };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("red_black"),
-            entries: &[
-                uniform,
-                storage_entry(1, true),
-                storage_entry(2, true),
-                storage_entry(3, true),
-                storage_entry(4, true),
-                storage_entry(5, false),
-            ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("red_black"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("red_black"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("sweep"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        Self { pipeline, layout }
+        Self { sweep: Kernel::new(ctx, &module, "sweep", &[true, true, true, true, false], WORKGROUP) }
     }
 
     /// `sweeps` red-black sweeps of a system already on the GPU, on `u` (in place; `u`'s
@@ -101,51 +58,19 @@ impl GridSolver {
             }
         }
         let buffers = [&sys.right.buffer, &sys.down.buffer, &sys.inv_diag.buffer, &sys.rhs.buffer, &u.buffer];
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("red_black") });
-        self.record(ctx, &mut encoder, buffers, w, h, u.channels as u32, sweeps, omega);
-        ctx.queue.submit([encoder.finish()]);
+        self.record(ctx, buffers, w, h, u.channels as u32, sweeps, omega);
         Ok(())
     }
 
-    /// Records `sweeps` sweeps over the buffers (right, down, inv_diag, rhs, u).
+    /// Records `sweeps` sweeps over the buffers (right, down, inv_diag, rhs, u): one dispatch
+    /// per colour, all in one compute pass.
     #[allow(clippy::too_many_arguments)]
-    fn record(
-        &self,
-        ctx: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        buffers: [&wgpu::Buffer; 5],
-        width: usize,
-        height: usize,
-        channels: u32,
-        sweeps: usize,
-        omega: f32,
-    ) {
-        let device = &ctx.device;
-        let bind_groups: Vec<wgpu::BindGroup> = (0..2u32)
-            .map(|parity| {
-                let params =
-                    SweepParams { width: width as u32, height: height as u32, parity, channels, omega, _pad0: 0, _pad1: 0, _pad2: 0 };
-                let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("red_black params"),
-                    contents: bytemuck::bytes_of(&params),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                });
-                let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() }];
-                for (i, b) in buffers.iter().enumerate() {
-                    entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: b.as_entire_binding() });
-                }
-                device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("red_black"), layout: &self.layout, entries: &entries })
-            })
-            .collect();
-        let mut pass = ctx.begin_compute_pass(encoder, Some("red_black"));
-        pass.set_pipeline(&self.pipeline);
-        let groups = ((width as u32).div_ceil(WORKGROUP), (height as u32).div_ceil(WORKGROUP));
-        for _ in 0..sweeps {
-            for bind_group in &bind_groups {
-                pass.set_bind_group(0, bind_group, &[]);
-                pass.dispatch_workgroups(groups.0, groups.1, 1);
-            }
-        }
+    fn record(&self, ctx: &GpuContext, buffers: [&wgpu::Buffer; 5], width: usize, height: usize, channels: u32, sweeps: usize, omega: f32) {
+        let params =
+            |parity| SweepParams { width: width as u32, height: height as u32, parity, channels, omega, _pad0: 0, _pad1: 0, _pad2: 0 };
+        let (red, black) = (params(0), params(1));
+        let sequence: Vec<usize> = (0..2 * sweeps).map(|i| i % 2).collect();
+        self.sweep.dispatch_sequence(ctx, &[bytemuck::bytes_of(&red), bytemuck::bytes_of(&black)], &sequence, &buffers, width, height);
     }
 
     /// `sweeps` red-black sweeps of the depth system `sys` on `u` (in place), as
@@ -199,9 +124,7 @@ impl GridSolver {
         let inv_diag = storage("inv_diag", &sys.inv_diag, read);
         let rhs = storage("rhs", rhs, read);
         let unknowns = storage("u", u, read | wgpu::BufferUsages::COPY_SRC);
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("red_black") });
-        self.record(ctx, &mut encoder, [&right, &down, &inv_diag, &rhs, &unknowns], sys.width, sys.height, channels, sweeps, omega);
-        ctx.queue.submit([encoder.finish()]);
+        self.record(ctx, [&right, &down, &inv_diag, &rhs, &unknowns], sys.width, sys.height, channels, sweeps, omega);
         read_buffer(ctx, &unknowns, u)
     }
 }

@@ -222,7 +222,7 @@ impl SplatKernels {
         };
         let counters = GpuImage::zeroed(ctx, 2, 1, 1)?;
         let params = FootprintParams { width: w as u32, height: h as u32, radius: radius as u32, _pad0: 0 };
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("footprint") });
+        let _frame = ctx.frame();
         let buffers = [
             &sparse.depth.buffer,
             &sparse.color.buffer,
@@ -232,8 +232,7 @@ impl SplatKernels {
             &out.mask.buffer,
             &counters.buffer,
         ];
-        self.footprint.dispatch(ctx, &mut encoder, bytemuck::bytes_of(&params), &buffers, w, h);
-        ctx.queue.submit([encoder.finish()]);
+        self.footprint.dispatch(ctx, bytemuck::bytes_of(&params), &buffers, w, h);
         Ok((out, counters))
     }
 
@@ -243,10 +242,9 @@ impl SplatKernels {
         let (w, h) = (sparse.mask.width, sparse.mask.height);
         let out = GpuImage::zeroed(ctx, w, h, 4)?;
         let params = PackParams { width: w as u32, height: h as u32, _pad0: 0, _pad1: 0 };
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("pack color and mask") });
+        let _frame = ctx.frame();
         let buffers = [&sparse.color.buffer, &sparse.mask.buffer, &out.buffer];
-        self.pack_color_mask.dispatch(ctx, &mut encoder, bytemuck::bytes_of(&params), &buffers, w, h);
-        ctx.queue.submit([encoder.finish()]);
+        self.pack_color_mask.dispatch(ctx, bytemuck::bytes_of(&params), &buffers, w, h);
         Ok(out)
     }
 
@@ -270,25 +268,17 @@ impl SplatKernels {
         let element_color = GpuImage::zeroed(ctx, count, 1, 3)?;
         let zbuf = GpuImage::zeroed(ctx, w, h, 1)?;
         let winner = GpuImage::zeroed(ctx, w, h, 1)?;
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("splat") });
+        let _frame = ctx.frame();
         let elements = [&element_target.buffer, &element_depth.buffer, &element_color.buffer];
-        project.kernel.dispatch(
-            ctx,
-            &mut encoder,
-            project.params,
-            &[geometry, colors, elements[0], elements[1], elements[2]],
-            project.count,
-            1,
-        );
+        project.kernel.dispatch(ctx, project.params, &[geometry, colors, elements[0], elements[1], elements[2]], project.count, 1);
         let resolve = ResolveParams { count: project.count as u32, pixels: (w * h) as u32, _pad0: 0, _pad1: 0 };
         let buffers =
             [elements[0], elements[1], elements[2], &zbuf.buffer, &winner.buffer, &out.depth.buffer, &out.color.buffer, &out.mask.buffer];
         let uniform = bytemuck::bytes_of(&resolve);
-        self.clear.dispatch(ctx, &mut encoder, uniform, &buffers, w * h, 1);
+        self.clear.dispatch(ctx, uniform, &buffers, w * h, 1);
         for kernel in [&self.nearest_depth, &self.first_index, &self.write] {
-            kernel.dispatch(ctx, &mut encoder, uniform, &buffers, project.count, 1);
+            kernel.dispatch(ctx, uniform, &buffers, project.count, 1);
         }
-        ctx.queue.submit([encoder.finish()]);
         Ok(out)
     }
 }

@@ -37,9 +37,8 @@ pub struct TemporalKernels {
 }
 
 fn submit(ctx: &GpuContext, kernel: &Kernel, uniform: &[u8], buffers: &[&wgpu::Buffer], width: usize, height: usize) {
-    let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("temporal") });
-    kernel.dispatch(ctx, &mut encoder, uniform, buffers, width, height);
-    ctx.queue.submit([encoder.finish()]);
+    let _frame = ctx.frame();
+    kernel.dispatch(ctx, uniform, buffers, width, height);
 }
 
 impl TemporalKernels {

@@ -98,7 +98,7 @@ impl WarpKernels {
         };
         let target = GpuImage::zeroed(ctx, w, h, 1)?;
         let depth_in_input = GpuImage::zeroed(ctx, w, h, 1)?;
-        let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("warp") });
+        let _frame = ctx.frame();
         let mut zbufs = Vec::with_capacity(count);
         for (s, (input_camera, input)) in inputs.iter().enumerate() {
             if (input.width, input.height, input.channels) != (input_camera.width_px as usize, input_camera.height_px as usize, 3) {
@@ -135,11 +135,10 @@ impl WarpKernels {
                 &out.valid.buffer,
             ];
             let uniform = bytemuck::bytes_of(&params);
-            self.clear_zbuf.dispatch(ctx, &mut encoder, uniform, &buffers, input.width * input.height, 1);
-            self.warp.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
-            self.visible.dispatch(ctx, &mut encoder, uniform, &buffers, w, h);
+            self.clear_zbuf.dispatch(ctx, uniform, &buffers, input.width * input.height, 1);
+            self.warp.dispatch(ctx, uniform, &buffers, w, h);
+            self.visible.dispatch(ctx, uniform, &buffers, w, h);
         }
-        ctx.queue.submit([encoder.finish()]);
         Ok(out)
     }
 }
