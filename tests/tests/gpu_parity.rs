@@ -8,7 +8,7 @@ use dynview_core::metrics::psnr;
 use dynview_core::raster::Raster;
 use dynview_core::render::{Method, RenderHooks, RenderParams, render_frame};
 use dynview_core::scene::ScenePackage;
-use dynview_gpu::{FrameDisplay, GpuContext, GpuInputs, GpuRenderer, wgpu};
+use dynview_gpu::{FrameDisplay, GpuContext, GpuInputs, GpuRenderer, GpuStreamingRenderer, StreamRequest, wgpu};
 use dynview_interchange::camera_path::parse_path;
 use dynview_tests::small_event;
 
@@ -125,6 +125,79 @@ fn a_frame_is_one_submit_with_shared_passes_and_reused_bind_groups() {
     for (i, counts) in per_frame.iter().enumerate().skip(5) {
         assert_eq!(counts.bind_groups_created, 0, "streaming frame {i} created bind groups: {counts:?}");
     }
+}
+
+#[test]
+fn long_dispatches_fold_into_rows_within_the_device_limit() {
+    // A device that allows only 64 workgroups per dimension: every linear dispatch of the frame
+    // (points, pixels, z-buffers, zero fills: hundreds of workgroups of 64) must fold into rows;
+    // the 2D kernels (workgroups of 8x8 over at most 336 pixels a side) fit as they are.
+    let Setup { ctx, renderer, camera, params, inputs } = setup();
+    let frame = download_rgb(&ctx, &renderer.render(&ctx, &params, &camera, &inputs, None).unwrap());
+    let limits = wgpu::Limits { max_compute_workgroups_per_dimension: 64, ..wgpu::Limits::default() };
+    let small = GpuContext::with_limits_blocking(limits).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(small.device.limits().max_compute_workgroups_per_dimension, 64);
+    let package = ScenePackage::open(small_event().join("scene")).unwrap();
+    let small_inputs = GpuInputs::upload(&small, &package.time_step_inputs(0, params.levels).unwrap()).unwrap();
+    assert!(
+        (camera.width_px * camera.height_px).div_ceil(64) > 64 * 4,
+        "the frame is too small to need folding: {}x{}",
+        camera.width_px,
+        camera.height_px
+    );
+    let folded = download_rgb(&small, &GpuRenderer::new(&small).render(&small, &params, &camera, &small_inputs, None).unwrap());
+    let db = psnr(&folded, &frame);
+    eprintln!("folded dispatches vs plain: {db:.1} dB");
+    assert!(db >= 90.0, "folding the dispatches changed the frame: {db:.1} dB");
+}
+
+#[test]
+fn a_frame_past_the_storage_limit_is_an_error_naming_the_size_and_the_limit() {
+    let limits = wgpu::Limits { max_storage_buffer_binding_size: 1 << 18, ..wgpu::Limits::default() };
+    let ctx = GpuContext::with_limits_blocking(limits).unwrap_or_else(|e| panic!("{e}"));
+    let renderer = GpuRenderer::new(&ctx);
+    let package = ScenePackage::open(small_event().join("scene")).unwrap();
+    let path = parse_path(&std::fs::read(small_event().join("camera_path.json")).unwrap(), "camera_path.json", None).unwrap();
+    let params = RenderParams::default();
+    let inputs = GpuInputs::upload(&ctx, &package.time_step_inputs(0, params.levels).unwrap()).unwrap();
+    let error = renderer.render(&ctx, &params, &path[0].camera, &inputs, None).unwrap_err().to_string();
+    assert!(error.contains("bytes, the device binds at most 262144"), "{error}");
+    assert!(error.contains(&format!("image of {}x", path[0].camera.width_px)), "{error}");
+}
+
+#[test]
+fn the_gpu_streaming_renderer_keeps_the_previous_frame_and_the_uploaded_steps() {
+    let ctx = GpuContext::new_blocking().unwrap_or_else(|e| panic!("{e}"));
+    let renderer = GpuRenderer::new(&ctx);
+    let mut streaming = GpuStreamingRenderer::new(&ctx, 2);
+    let package = ScenePackage::open(small_event().join("scene")).unwrap();
+    let path = parse_path(&std::fs::read(small_event().join("camera_path.json")).unwrap(), "camera_path.json", None).unwrap();
+    let params = RenderParams::default();
+    let steps: Vec<_> = (0..3).map(|t| package.time_step_inputs(t, params.levels).unwrap()).collect();
+    let request = |t: usize, streaming: bool, keep: bool| StreamRequest {
+        camera: path[t].camera,
+        time_step: t as u32,
+        inputs: &steps[t],
+        streaming,
+        keep,
+    };
+    let (first, temporal) = streaming.render(&ctx, &params, &request(0, true, true)).unwrap();
+    assert!(!temporal, "the first frame has no previous frame");
+    // A preview is not kept: the next streaming frame still follows the first.
+    let (_, temporal) = streaming.render(&ctx, &params, &request(1, true, false)).unwrap();
+    assert!(temporal);
+    let (second, temporal) = streaming.render(&ctx, &params, &request(1, true, true)).unwrap();
+    assert!(temporal && streaming.has_previous());
+    let inputs = GpuInputs::upload(&ctx, &steps[1]).unwrap();
+    let expected = renderer.render(&ctx, &params, &path[1].camera, &inputs, Some(&first)).unwrap();
+    let db = psnr(&download_rgb(&ctx, &second), &download_rgb(&ctx, &expected));
+    assert!(db >= 90.0, "the streaming frame is not the frame rendered after the first: {db:.1} dB");
+    // Two steps stay uploaded, the least recently used goes first.
+    streaming.render(&ctx, &params, &request(2, true, true)).unwrap();
+    assert_eq!(streaming.uploaded_steps(), vec![1, 2]);
+    streaming.jump();
+    let (_, temporal) = streaming.render(&ctx, &params, &request(2, true, true)).unwrap();
+    assert!(!temporal, "a jump forgets the previous frame");
 }
 
 fn display_tolerance(mode: DisplayMode) -> (u8, f64) {

@@ -79,8 +79,16 @@ impl Drop for FrameGuard<'_> {
 
 impl GpuContext {
     /// Requests an adapter (any backend this build has; the software one when nothing else)
-    /// and a device with WebGPU's default limits.
+    /// and a device with the adapter's own limits on buffer sizes and dispatches (inputs and
+    /// outputs of any size a camera gives where the adapter allows them), WebGPU's defaults
+    /// otherwise.
     pub async fn new() -> Result<Self, GpuError> {
+        Self::with_limits(None).await
+    }
+
+    /// [`Self::new`] with the device's limits given (`None`: as [`Self::new`] asks); tests ask
+    /// for small ones to exercise what large inputs need.
+    pub async fn with_limits(limits: Option<wgpu::Limits>) -> Result<Self, GpuError> {
         // Backends and validation from WGPU_BACKEND / WGPU_VALIDATION etc. when set; debug
         // builds validate.
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
@@ -92,10 +100,17 @@ impl GpuContext {
             .await
             .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
         let adapter_info = adapter.get_info();
+        let own = adapter.limits();
+        let required_limits = limits.unwrap_or_else(|| wgpu::Limits {
+            max_buffer_size: own.max_buffer_size,
+            max_storage_buffer_binding_size: own.max_storage_buffer_binding_size,
+            max_compute_workgroups_per_dimension: own.max_compute_workgroups_per_dimension,
+            ..wgpu::Limits::default().using_resolution(own)
+        });
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("dynview"),
-                required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
+                required_limits,
                 // For `cargo xtask bench`'s time per stage, where the adapter has them.
                 required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
                 ..Default::default()
@@ -108,7 +123,9 @@ impl GpuContext {
 
     /// The zero-fill kernel.
     pub(crate) fn zero_kernel(&self) -> &Kernel {
-        self.zero.get_or_init(|| Kernel::new(self, &crate::shaders::module(self, crate::shaders::ZERO), "zero", &[false], 8))
+        self.zero.get_or_init(|| {
+            Kernel::new(self, &crate::shaders::module(self, crate::shaders::ZERO), "zero", &[false], crate::kernel::LINEAR_WORKGROUP)
+        })
     }
 
     fn recorder(&self) -> MutexGuard<'_, Recorder> {
@@ -159,6 +176,12 @@ impl GpuContext {
             recorder.flush();
         }
         out
+    }
+
+    /// The most bytes one storage buffer may hold and bind on this device.
+    pub fn storage_limit_bytes(&self) -> u64 {
+        let limits = self.device.limits();
+        limits.max_storage_buffer_binding_size.min(limits.max_buffer_size)
     }
 
     /// Counts a bind group made outside the recorder (the display's, once per draw).
@@ -236,5 +259,11 @@ impl GpuContext {
     #[cfg(not(target_family = "wasm"))]
     pub fn new_blocking() -> Result<Self, GpuError> {
         pollster::block_on(Self::new())
+    }
+
+    /// [`GpuContext::with_limits`], blocking (native only).
+    #[cfg(not(target_family = "wasm"))]
+    pub fn with_limits_blocking(limits: wgpu::Limits) -> Result<Self, GpuError> {
+        pollster::block_on(Self::with_limits(Some(limits)))
     }
 }

@@ -10,7 +10,6 @@ use crate::shaders;
 
 /// An image in a storage buffer. Its buffer comes from, and goes back to when dropped, the
 /// context's pool.
-#[derive(Debug)]
 pub struct GpuImage {
     /// The pixels, `channels` floats each, row-major.
     pub buffer: wgpu::Buffer,
@@ -21,6 +20,16 @@ pub struct GpuImage {
     /// Floats per pixel (1 to 4).
     pub channels: usize,
     pool: BufferPool,
+}
+
+impl std::fmt::Debug for GpuImage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuImage")
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("channels", &self.channels)
+            .finish_non_exhaustive()
+    }
 }
 
 impl Drop for GpuImage {
@@ -40,20 +49,16 @@ impl Drop for GpuImage {
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct ZeroParams {
     words: u32,
-    row_words: u32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
-
-/// Words per row of the zero fill's grid.
-const ZERO_ROW_WORDS: usize = 4096;
 
 /// Records zeros over `buffer` (a dispatch, which stays in the frame's compute pass).
 fn zero(ctx: &GpuContext, buffer: &wgpu::Buffer) {
     let words = (buffer.size() / 4) as usize;
-    let row_words = words.min(ZERO_ROW_WORDS);
-    let params = ZeroParams { words: words as u32, row_words: row_words as u32, _pad0: 0, _pad1: 0 };
-    ctx.zero_kernel().dispatch(ctx, bytemuck::bytes_of(&params), &[buffer], row_words, words.div_ceil(row_words));
+    let params = ZeroParams { words: words as u32, _pad0: 0, _pad1: 0, _pad2: 0 };
+    ctx.zero_kernel().dispatch(ctx, bytemuck::bytes_of(&params), &[buffer], words, 1);
 }
 
 const IMAGE_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_SRC).union(wgpu::BufferUsages::COPY_DST);
@@ -63,8 +68,8 @@ impl GpuImage {
         if width == 0 || height == 0 || !(1..=4).contains(&channels) {
             return Err(GpuError::Size(format!("image of {width}x{height}x{channels}: empty or unsupported channel count")));
         }
-        let bytes = (width * height * channels * 4) as u64;
-        let limit = ctx.device.limits().max_storage_buffer_binding_size;
+        let bytes = (width as u64) * (height as u64) * (channels as u64) * 4;
+        let limit = ctx.storage_limit_bytes();
         if bytes > limit {
             return Err(GpuError::Size(format!(
                 "image of {width}x{height}x{channels} needs {bytes} bytes, the device binds at most {limit}"
@@ -326,7 +331,7 @@ impl ImageKernels {
 pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
     use crate::shaders::layout_tests::mirror;
     vec![
-        mirror!(shaders::ZERO, "Params", ZeroParams { words, row_words, _pad0, _pad1 }),
+        mirror!(shaders::ZERO, "Params", ZeroParams { words, _pad0, _pad1, _pad2 }),
         mirror!(shaders::PYRAMID, "Dims", PyramidDims { src_width, src_height, dst_width, dst_height, channels, scale_x, scale_y, _pad }),
         mirror!(
             shaders::PUSHPULL_PULL,

@@ -4,6 +4,10 @@
 use crate::context::GpuContext;
 use crate::recorder::{DispatchTarget, next_kernel_id};
 
+/// Workgroup size of the linear kernels (`@workgroup_size(64)`, dispatched over `n x 1`):
+/// their index comes from `common/linear.wgsl`.
+pub(crate) const LINEAR_WORKGROUP: u32 = 64;
+
 /// A compute pipeline whose bind group is a uniform block then storage buffers.
 #[derive(Debug)]
 pub(crate) struct Kernel {
@@ -61,7 +65,15 @@ impl Kernel {
         width: usize,
         height: usize,
     ) {
-        let groups = ((width as u32).div_ceil(self.workgroup), (height as u32).div_ceil(self.workgroup), 1);
+        let groups = if self.workgroup == LINEAR_WORKGROUP {
+            // A linear kernel over `width` elements, folded into rows (`common/linear.wgsl`).
+            debug_assert_eq!(height, 1, "a linear kernel covers width x 1");
+            let total = (width as u32).div_ceil(LINEAR_WORKGROUP).max(1);
+            let row = ctx.device.limits().max_compute_workgroups_per_dimension.max(1);
+            if total <= row { (total, 1, 1) } else { (row, total.div_ceil(row), 1) }
+        } else {
+            ((width as u32).div_ceil(self.workgroup), (height as u32).div_ceil(self.workgroup), 1)
+        };
         let target = DispatchTarget { id: self.id, pipeline: &self.pipeline, layout: &self.layout };
         ctx.dispatch(&target, uniforms, sequence, buffers, groups);
     }

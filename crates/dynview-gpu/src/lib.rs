@@ -36,6 +36,7 @@ mod renderer;
 mod shaders;
 mod solver;
 mod splat;
+mod streaming;
 mod temporal;
 mod warp;
 
@@ -53,6 +54,7 @@ pub use renderer::{GpuFrame, GpuInputs, GpuRenderer};
 pub use shaders::SHADERS;
 pub use solver::GridSolver;
 pub use splat::{GpuCloud, GpuSplat, SplatKernels};
+pub use streaming::{GpuStreamingRenderer, StreamRequest};
 pub use temporal::TemporalKernels;
 pub use warp::{GpuWarps, WarpKernels};
 

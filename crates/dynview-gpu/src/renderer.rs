@@ -44,7 +44,7 @@ impl GpuInputs {
                 Ok((v.camera, levels))
             })
             .collect::<Result<Vec<_>, GpuError>>()?;
-        Ok(Self { cloud: GpuCloud::upload(ctx, &inputs.cloud), positions_world: inputs.cloud.positions_world.clone(), views })
+        Ok(Self { cloud: GpuCloud::upload(ctx, &inputs.cloud)?, positions_world: inputs.cloud.positions_world.clone(), views })
     }
 }
 

@@ -31,7 +31,7 @@ pub(crate) const PUSHPULL_PULL: Shader = shader!("pushpull_pull.wgsl");
 /// Push-pull hole filling: the push (the coarser fill where a level is unknown).
 pub(crate) const PUSHPULL_PUSH: Shader = shader!("pushpull_push.wgsl", "common/bilinear.wgsl");
 /// Backward warps of the input views and their visibility.
-pub(crate) const WARP: Shader = shader!("warp.wgsl", "common/float_bits.wgsl", "common/outside.wgsl");
+pub(crate) const WARP: Shader = shader!("warp.wgsl", "common/float_bits.wgsl", "common/outside.wgsl", "common/linear.wgsl");
 /// `w_P^s` of every view.
 pub(crate) const PROJECTION_WEIGHTS: Shader = shader!("assemble/projection_weights.wgsl", "assemble/params.wgsl", "common/agreement.wgsl");
 /// `w_D` and the sparse attachment `lambda_PC w_H`.
@@ -45,12 +45,13 @@ pub(crate) const RANK_PREFERENCE: Shader = shader!("assemble/rank_preference.wgs
 /// The color system.
 pub(crate) const COLOR_SYSTEM: Shader = shader!("assemble/color_system.wgsl", "assemble/params.wgsl");
 /// Projection of the sparse cloud's points into a camera.
-pub(crate) const SPLAT_POINTS: Shader = shader!("splat_points.wgsl", "common/outside.wgsl", "common/splat_emit.wgsl");
+pub(crate) const SPLAT_POINTS: Shader = shader!("splat_points.wgsl", "common/outside.wgsl", "common/splat_emit.wgsl", "common/linear.wgsl");
 /// Forward warp of a rendered frame's pixels into a camera.
 pub(crate) const SPLAT_PIXELS: Shader =
-    shader!("splat_pixels.wgsl", "common/float_bits.wgsl", "common/outside.wgsl", "common/splat_emit.wgsl");
+    shader!("splat_pixels.wgsl", "common/float_bits.wgsl", "common/outside.wgsl", "common/splat_emit.wgsl", "common/linear.wgsl");
 /// The z-buffer resolve of a splat.
-pub(crate) const SPLAT_RESOLVE: Shader = shader!("splat_resolve.wgsl", "common/float_bits.wgsl", "common/outside.wgsl");
+pub(crate) const SPLAT_RESOLVE: Shader =
+    shader!("splat_resolve.wgsl", "common/float_bits.wgsl", "common/outside.wgsl", "common/linear.wgsl");
 /// The sparse samples attached over their footprints.
 pub(crate) const SPLAT_FOOTPRINT: Shader = shader!("splat_footprint.wgsl");
 /// The sparse maps' color and mask as one RGBA image.
@@ -66,7 +67,7 @@ pub(crate) const TEMPORAL_TERMS: Shader = shader!("temporal_terms.wgsl");
 /// The range of the false-color depth display.
 pub(crate) const DEPTH_RANGE: Shader = shader!("depth_range.wgsl", "common/float_bits.wgsl");
 /// Zeros over a buffer (a reused image).
-pub(crate) const ZERO: Shader = shader!("zero.wgsl");
+pub(crate) const ZERO: Shader = shader!("zero.wgsl", "common/linear.wgsl");
 /// Drawing a frame into a render target.
 pub(crate) const DISPLAY: Shader = shader!("display.wgsl", "common/float_bits.wgsl");
 

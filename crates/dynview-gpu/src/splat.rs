@@ -34,8 +34,17 @@ pub struct GpuCloud {
 }
 
 impl GpuCloud {
-    /// Uploads `cloud` (positions as f32 triples, colors as packed RGBA8).
-    pub fn upload(ctx: &GpuContext, cloud: &PointCloud) -> Self {
+    /// Uploads `cloud` (positions as f32 triples, colors as packed RGBA8); an error when its
+    /// positions pass the device's storage limit.
+    pub fn upload(ctx: &GpuContext, cloud: &PointCloud) -> Result<Self, GpuError> {
+        let bytes = cloud.len() as u64 * 12;
+        let limit = ctx.storage_limit_bytes();
+        if bytes > limit {
+            return Err(GpuError::Size(format!(
+                "a cloud of {} points needs {bytes} bytes of positions, the device binds at most {limit}",
+                cloud.len()
+            )));
+        }
         // Buffers may not be empty: pad with one unused element.
         let mut positions: Vec<f32> = cloud.positions_world.as_flattened().to_vec();
         let mut colors: Vec<u32> = cloud.colors.iter().map(|c| u32::from_le_bytes([c[0], c[1], c[2], 255])).collect();
@@ -48,11 +57,11 @@ impl GpuCloud {
                 usage: wgpu::BufferUsages::STORAGE,
             })
         };
-        Self {
+        Ok(Self {
             positions: init("cloud positions", bytemuck::cast_slice(&positions)),
             colors: init("cloud colors", bytemuck::cast_slice(&colors)),
             count: cloud.len(),
-        }
+        })
     }
 }
 

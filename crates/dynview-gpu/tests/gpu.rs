@@ -473,7 +473,7 @@ fn cloud_and_frame_splats_on_the_gpu_match_the_cpu() {
     }
     let cam = camera(DVec3::new(0.5, 0.5, 6.0), 80, 48);
     let cpu = project_cloud(&cloud, &cam);
-    let gpu = kernels.project_cloud(&ctx, &GpuCloud::upload(&ctx, &cloud), &cam).unwrap();
+    let gpu = kernels.project_cloud(&ctx, &GpuCloud::upload(&ctx, &cloud).unwrap(), &cam).unwrap();
     assert_splats_agree(&ctx, &gpu, &cpu, "cloud");
     // Footprints of the CPU's maps (uploaded, so both start from the same maps): the same
     // pixels take the same point, and the counters give the covered pixels after.
@@ -492,7 +492,7 @@ fn cloud_and_frame_splats_on_the_gpu_match_the_cpu() {
     }
     assert!(cpu.with_footprint(2).covered() > 2 * cpu.covered(), "the footprints must widen the maps");
     // An empty cloud gives empty maps.
-    let empty = kernels.project_cloud(&ctx, &GpuCloud::upload(&ctx, &PointCloud::default()), &cam).unwrap();
+    let empty = kernels.project_cloud(&ctx, &GpuCloud::upload(&ctx, &PointCloud::default()).unwrap(), &cam).unwrap();
     assert!(empty.mask.download(&ctx).unwrap().iter().all(|&m| m == 0.0));
 
     // A rendered frame forward-warped into a moved camera.

@@ -13,8 +13,8 @@ use std::sync::{Arc, Mutex, PoisonError};
 use dynview_core::camera::Camera;
 use dynview_core::display::DisplayMode;
 use dynview_core::render::pyramid::camera_at;
-use dynview_core::render::{Method, RenderParams, TimeStepInputs};
-use dynview_gpu::{FrameDisplay, GpuContext, GpuError, GpuFrame, GpuInputs, GpuRenderer, wgpu};
+use dynview_core::render::{RenderParams, TimeStepInputs};
+use dynview_gpu::{FrameDisplay, GpuContext, GpuFrame, GpuStreamingRenderer, StreamRequest, wgpu};
 
 /// Why the device is gone, once it is (set by wgpu's callbacks).
 type LostReason = Arc<Mutex<Option<String>>>;
@@ -44,15 +44,11 @@ pub(crate) struct GpuRendered {
 /// The GPU, its kernels, the canvas surface, and the frames kept between renders.
 pub(crate) struct GpuView {
     pub ctx: GpuContext,
-    renderer: GpuRenderer,
+    renderer: RefCell<GpuStreamingRenderer>,
     display: FrameDisplay,
     /// The canvas and its surface; `None`: pictures are read back instead.
     canvas: Option<(web_sys::OffscreenCanvas, wgpu::Surface<'static>)>,
     configured: RefCell<(u32, u32)>,
-    /// Uploaded inputs by time step, most recent last.
-    uploaded: RefCell<Vec<(u32, Rc<GpuInputs>)>>,
-    /// The last full frame (the previous frame of streaming playback).
-    last_full: RefCell<Option<Rc<GpuFrame>>>,
     /// The frame on the canvas (for pictures).
     shown: RefCell<Option<Rc<GpuFrame>>>,
     lost: LostReason,
@@ -108,19 +104,9 @@ impl GpuView {
             }
             None => (None, wgpu::TextureFormat::Rgba8Unorm),
         };
-        let renderer = GpuRenderer::new(&ctx);
+        let renderer = RefCell::new(GpuStreamingRenderer::new(&ctx, UPLOADED_STEPS));
         let display = FrameDisplay::new(&ctx, format);
-        Ok(Self {
-            ctx,
-            renderer,
-            display,
-            canvas,
-            configured: RefCell::new((0, 0)),
-            uploaded: RefCell::default(),
-            last_full: RefCell::default(),
-            shown: RefCell::default(),
-            lost,
-        })
+        Ok(Self { ctx, renderer, display, canvas, configured: RefCell::new((0, 0)), shown: RefCell::default(), lost })
     }
 
     /// The adapter, in words (browsers may keep its name to themselves: then empty).
@@ -147,29 +133,12 @@ impl GpuView {
 
     /// Forgets the last full frame: the next streaming render has no temporal terms.
     pub fn jump(&self) {
-        *self.last_full.borrow_mut() = None;
+        self.renderer.borrow_mut().jump();
     }
 
     /// Forgets everything uploaded (the render parameters' pyramid depth changed).
     pub fn clear(&self) {
-        self.uploaded.borrow_mut().clear();
-        self.jump();
-    }
-
-    fn inputs(&self, time_step: u32, inputs: &TimeStepInputs) -> Result<Rc<GpuInputs>, GpuError> {
-        let mut uploaded = self.uploaded.borrow_mut();
-        if let Some(i) = uploaded.iter().position(|(t, _)| *t == time_step) {
-            let entry = uploaded.remove(i);
-            let found = entry.1.clone();
-            uploaded.push(entry);
-            return Ok(found);
-        }
-        let fresh = Rc::new(GpuInputs::upload(&self.ctx, inputs)?);
-        if uploaded.len() >= UPLOADED_STEPS {
-            uploaded.remove(0);
-        }
-        uploaded.push((time_step, fresh.clone()));
-        Ok(fresh)
+        self.renderer.borrow_mut().clear();
     }
 
     /// Encodes and submits the render and its drawing into the canvas; returns at once (the
@@ -186,17 +155,20 @@ impl GpuView {
             }
             _ => request.camera,
         };
-        let inputs = self.inputs(request.time_step, request.inputs).map_err(error)?;
-        let previous = if request.streaming { self.last_full.borrow().clone() } else { None };
-        let frame = Rc::new(self.renderer.render(&self.ctx, params, &camera, &inputs, previous.as_deref()).map_err(error)?);
+        // The render and its drawing in one submit.
+        let _frame = self.ctx.frame();
+        let stream = StreamRequest {
+            camera,
+            time_step: request.time_step,
+            inputs: request.inputs,
+            streaming: request.streaming,
+            keep: request.preview_level.is_none_or(|l| l == 0),
+        };
+        let (frame, temporal_used) = self.renderer.borrow_mut().render(&self.ctx, params, &stream).map_err(error)?;
         if self.canvas.is_some() {
             self.draw(&frame, request.mode)?;
         }
-        let temporal_used = previous.is_some() && params.method == Method::Full && params.temporal_levels > 0;
         let rendered = GpuRendered { width: frame.color().width, height: frame.color().height, temporal_used };
-        if request.preview_level.is_none_or(|l| l == 0) {
-            *self.last_full.borrow_mut() = Some(frame.clone());
-        }
         *self.shown.borrow_mut() = Some(frame);
         Ok(rendered)
     }
@@ -229,6 +201,8 @@ impl GpuView {
         };
         let view = texture.texture.create_view(&wgpu::TextureViewDescriptor::default());
         self.display.draw(&self.ctx, frame, mode, &view, size.0, size.1).map_err(error)?;
+        // The frame's work must be submitted before the texture is presented.
+        self.ctx.flush();
         self.ctx.queue.present(texture);
         Ok(())
     }

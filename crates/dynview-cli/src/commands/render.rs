@@ -11,7 +11,7 @@ use dynview_core::fsutil::write_atomic;
 use dynview_core::raster::{RgbRaster, ScalarRaster};
 use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer, TimeStepInputs};
 use dynview_core::scene::ScenePackage;
-use dynview_gpu::{GpuContext, GpuFrame, GpuInputs, GpuRenderer};
+use dynview_gpu::{GpuContext, GpuStreamingRenderer, StreamRequest};
 use dynview_interchange::camera_path::parse_path;
 
 use crate::progress::StageBars;
@@ -49,17 +49,17 @@ pub struct Args {
     gpu: bool,
 }
 
-/// The renderer a run uses: the CPU's streaming renderer, or the GPU's with its previous frame.
+/// The renderer a run uses: the CPU's streaming renderer, or the GPU's.
 enum Backend {
     Cpu(StreamingRenderer),
-    Gpu { ctx: Box<GpuContext>, renderer: Box<GpuRenderer>, previous: Option<Box<GpuFrame>>, inputs: Option<(u32, GpuInputs)> },
+    Gpu { ctx: Box<GpuContext>, renderer: Box<GpuStreamingRenderer> },
 }
 
 impl Backend {
     fn jump(&mut self) {
         match self {
             Self::Cpu(r) => r.jump(),
-            Self::Gpu { previous, .. } => *previous = None,
+            Self::Gpu { renderer, .. } => renderer.jump(),
         }
     }
 
@@ -79,18 +79,14 @@ impl Backend {
                 let ms = output.timings.total_ms;
                 Ok((output.color, output.depth, ms))
             }
-            Self::Gpu { ctx, renderer, previous, inputs: uploaded } => {
-                if uploaded.as_ref().is_none_or(|(ut, _)| *ut != t) {
-                    *uploaded = Some((t, GpuInputs::upload(ctx, inputs)?));
-                }
-                let gpu_inputs = &uploaded.as_ref().context("inputs not uploaded")?.1;
+            Self::Gpu { ctx, renderer } => {
                 let start = clock();
-                let frame = renderer.render(ctx, params, camera, gpu_inputs, previous.as_deref())?;
+                let request = StreamRequest { camera: *camera, time_step: t, inputs, streaming: true, keep: true };
+                let (frame, _) = renderer.render(ctx, params, &request)?;
                 let color = frame.color().download_rgb(ctx)?;
                 let depth = frame.depth().download(ctx)?;
                 let ms = clock() - start;
                 let depth = ScalarRaster { width: color.width, height: color.height, data: depth };
-                *previous = Some(Box::new(frame));
                 Ok((color, depth, ms))
             }
         }
@@ -152,8 +148,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         let ctx = GpuContext::new_blocking()?;
         println!("GPU: {} ({:?})", ctx.adapter_info.name, ctx.adapter_info.backend);
-        let renderer = GpuRenderer::new(&ctx);
-        Backend::Gpu { ctx: Box::new(ctx), renderer: Box::new(renderer), previous: None, inputs: None }
+        let renderer = GpuStreamingRenderer::new(&ctx, 1);
+        Backend::Gpu { ctx: Box::new(ctx), renderer: Box::new(renderer) }
     } else {
         Backend::Cpu(StreamingRenderer::new())
     };

@@ -24,8 +24,8 @@ struct Params {
 @group(0) @binding(2) var<storage, read> colors_rgba8: array<u32>;
 
 @compute @workgroup_size(64)
-fn project_points(@builtin(global_invocation_id) id: vec3<u32>) {
-    let e = id.x;
+fn project_points(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let e = linear_index(id, groups);
     if (e >= params.count) {
         return;
     }

@@ -21,8 +21,8 @@ struct Params {
 @group(0) @binding(8) var<storage, read_write> out_mask: array<f32>;
 
 @compute @workgroup_size(64)
-fn clear(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
+fn clear(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(id, groups);
     if (i >= params.pixels) {
         return;
     }
@@ -36,8 +36,8 @@ fn clear(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 
 @compute @workgroup_size(64)
-fn nearest_depth(@builtin(global_invocation_id) id: vec3<u32>) {
-    let e = id.x;
+fn nearest_depth(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let e = linear_index(id, groups);
     if (e >= params.count || element_target[e] == OUTSIDE) {
         return;
     }
@@ -45,8 +45,8 @@ fn nearest_depth(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 
 @compute @workgroup_size(64)
-fn first_index(@builtin(global_invocation_id) id: vec3<u32>) {
-    let e = id.x;
+fn first_index(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let e = linear_index(id, groups);
     if (e >= params.count || element_target[e] == OUTSIDE) {
         return;
     }
@@ -57,8 +57,8 @@ fn first_index(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 
 @compute @workgroup_size(64)
-fn write(@builtin(global_invocation_id) id: vec3<u32>) {
-    let e = id.x;
+fn write(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let e = linear_index(id, groups);
     if (e >= params.count || element_target[e] == OUTSIDE) {
         return;
     }

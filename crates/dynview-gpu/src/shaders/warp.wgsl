@@ -41,9 +41,10 @@ struct Params {
 @group(0) @binding(8) var<storage, read_write> valid: array<f32>;
 
 @compute @workgroup_size(64)
-fn clear_zbuf(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (id.x < params.input_width * params.input_height) {
-        atomicStore(&zbuf[id.x], INFINITY_BITS);
+fn clear_zbuf(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(id, groups);
+    if (i < params.input_width * params.input_height) {
+        atomicStore(&zbuf[i], INFINITY_BITS);
     }
 }
 
