@@ -3,14 +3,13 @@
 
 use dynview_core::StageProgress;
 use nalgebra::{Matrix3, Vector2, Vector3};
-use opencv::calib3d;
-use opencv::core::{Mat, Point2d, Point3d, Vector};
-use opencv::prelude::*;
+use opencv::core::{Point2d, Point3d, Vector};
 
 use crate::error::{SfmError, SfmResult};
 use crate::geometry::{Intrinsics, Pose, Ray, ray_angle_rad, reprojection_error_px, triangulate_robust};
 use crate::matching::{MatchOptions, TwoView};
 use crate::pnp::pnp_ransac;
+use crate::relative::{RelativePose, place_along, relative_pose};
 use crate::tracks::Tracks;
 
 /// How the keyframe reconstruction runs.
@@ -62,6 +61,11 @@ impl Default for MapperOptions {
     }
 }
 
+/// Fewest of an image's 2D-3D correspondences that must agree on the translation's length
+/// when it is placed from a verified pair (`relative::place_along`); at least half of them
+/// must, too.
+const MIN_PAIR_SCALE_INLIERS: usize = 5;
+
 /// How far real principal points lie from the image centre, as a share of the longer image
 /// side (radially): 0.6-1.9% on the Panoptic cameras, 0.5-1.6% on Pose2Sim's, 2.9% on the
 /// Middlebury temple.
@@ -106,6 +110,10 @@ pub struct Reconstruction {
     /// Whether the final adjustment kept the refined principal points.
     #[serde(default)]
     pub principal_point_refined: bool,
+    /// Images placed from a verified pair with a placed image (too few 2D-3D correspondences
+    /// for PnP), in order.
+    #[serde(default)]
+    pub placed_from_pair: Vec<usize>,
 }
 
 impl Reconstruction {
@@ -155,6 +163,8 @@ struct Mapper<'a> {
     principal_point_refined: bool,
     /// Per physical camera, how far its principal point usually lies from the centre (px).
     principal_prior_px: Vec<f64>,
+    /// Images placed from a verified pair rather than by PnP, in order.
+    placed_from_pair: Vec<usize>,
 }
 
 fn pixel(xy: [f32; 2]) -> Vector2<f64> {
@@ -221,26 +231,10 @@ impl Mapper<'_> {
     /// of its points when it has enough.
     fn try_initial_pair(&mut self, a: usize, b: usize, pair: &TwoView) -> SfmResult<Option<f64>> {
         let (ka, kb) = (self.intrinsics[self.images[a].camera], self.intrinsics[self.images[b].camera]);
-        let to_cv = |v: Vector2<f64>| Point2d::new(v.x, v.y);
-        let pa: Vector<Point2d> = pair.inliers.iter().map(|m| to_cv(ka.normalized(self.observation(a, m[0])))).collect();
-        let pb: Vector<Point2d> = pair.inliers.iter().map(|m| to_cv(kb.normalized(self.observation(b, m[1])))).collect();
-        let identity = Mat::eye(3, 3, opencv::core::CV_64F).and_then(|m| m.to_mat()).map_err(SfmError::cv("identity"))?;
-        let threshold = 1.0 / ka.focal_px.min(kb.focal_px);
-        let mut mask = Mat::default();
-        let e = calib3d::find_essential_mat(&pa, &pb, &identity, calib3d::USAC_MAGSAC, 0.9999, threshold, 10_000, &mut mask)
-            .map_err(SfmError::cv("essential matrix of the initial pair"))?;
-        if e.rows() != 3 || e.cols() != 3 {
-            return Ok(None);
-        }
-        let (mut r, mut t) = (Mat::default(), Mat::default());
-        let good = calib3d::recover_pose_estimated(&e, &pa, &pb, &identity, &mut r, &mut t, &mut mask)
-            .map_err(SfmError::cv("relative pose of the initial pair"))?;
-        if (good as usize) < self.options.min_initial_points {
-            return Ok(None);
-        }
-        let rotation = Matrix3::from_fn(|i, j| r.at_2d::<f64>(i as i32, j as i32).copied().unwrap_or(f64::NAN));
-        let translation = Vector3::from_fn(|i, _| t.at_2d::<f64>(i as i32, 0).copied().unwrap_or(f64::NAN));
-        if !rotation.iter().chain(translation.iter()).all(|v| v.is_finite()) {
+        let pa: Vec<Vector2<f64>> = pair.inliers.iter().map(|m| self.observation(a, m[0])).collect();
+        let pb: Vec<Vector2<f64>> = pair.inliers.iter().map(|m| self.observation(b, m[1])).collect();
+        let Some(RelativePose { rotation, translation, in_front }) = relative_pose(&ka, &kb, &pa, &pb)? else { return Ok(None) };
+        if in_front < self.options.min_initial_points {
             return Ok(None);
         }
         self.poses[a] = Some(Pose { rotation: Matrix3::identity(), center_world: Vector3::zeros() });
@@ -453,6 +447,63 @@ impl Mapper<'_> {
         }
     }
 
+    /// Places an unregistered image from a verified pair with a registered one when PnP has
+    /// too few correspondences (`relative`): the pair gives its rotation and translation
+    /// direction, its points the translation's length. The strongest pairs are tried first,
+    /// each once per number of registered images; returns the image placed.
+    fn register_from_pair(
+        &mut self,
+        pairs: &[(usize, usize, TwoView)],
+        match_options: &MatchOptions,
+        tried: &mut std::collections::HashSet<(usize, usize, usize)>,
+    ) -> SfmResult<Option<usize>> {
+        let registered = self.registered();
+        let mut candidates: Vec<(usize, usize, &TwoView, bool)> = pairs
+            .iter()
+            .filter(|(_, _, v)| v.inliers.len() >= self.options.min_initial_points && !v.is_degenerate(match_options))
+            .filter_map(|(a, b, v)| match (self.poses[*a].is_some(), self.poses[*b].is_some()) {
+                (true, false) => Some((*b, *a, v, false)),
+                (false, true) => Some((*a, *b, v, true)),
+                _ => None,
+            })
+            .collect();
+        candidates.sort_by_key(|(new, placed, v, _)| (std::cmp::Reverse(v.inliers.len()), *new, *placed));
+        for (new, placed, pair, new_is_a) in candidates {
+            if !tried.insert((new, placed, registered)) {
+                continue;
+            }
+            let column = |image_is_a: bool| usize::from(!image_is_a);
+            let pixels = |image: usize, is_a: bool| -> Vec<Vector2<f64>> {
+                pair.inliers.iter().map(|m| self.observation(image, m[column(is_a)])).collect()
+            };
+            let (k_new, k_placed) = (self.intrinsics[self.images[new].camera], self.intrinsics[self.images[placed].camera]);
+            let Some(relative) = relative_pose(&k_placed, &k_new, &pixels(placed, !new_is_a), &pixels(new, new_is_a))? else {
+                continue;
+            };
+            let Some(placed_pose) = self.poses[placed] else { continue };
+            if relative.in_front < self.options.min_initial_points {
+                continue;
+            }
+            let correspondences: Vec<(Vector3<f64>, Vector2<f64>)> = self.tracks.track_of[new]
+                .iter()
+                .enumerate()
+                .filter_map(|(f, track)| {
+                    let point = self.points[self.point_of_track[(*track)? as usize]?].as_ref()?;
+                    Some((point.xyz, self.observation(new, f as u32)))
+                })
+                .collect();
+            let min_inliers = MIN_PAIR_SCALE_INLIERS.max(correspondences.len().div_ceil(2));
+            if let Some((pose, _)) =
+                place_along(&k_new, &placed_pose, &relative, &correspondences, self.options.max_reprojection_px, min_inliers)
+            {
+                self.poses[new] = Some(pose);
+                self.placed_from_pair.push(new);
+                return Ok(Some(new));
+            }
+        }
+        Ok(None)
+    }
+
     fn next_image(&self, failed: &[bool]) -> Option<usize> {
         (0..self.images.len())
             .filter(|&i| self.poses[i].is_none() && !failed[i])
@@ -520,6 +571,7 @@ pub fn reconstruct(
         principal_point_std_px: Vec::new(),
         principal_point_refined: false,
         principal_prior_px,
+        placed_from_pair: Vec::new(),
     };
     // Pairs of two physical cameras first (frames of one camera may have no baseline), then
     // the most matches; a pair is accepted only if enough points triangulate at a wide angle.
@@ -560,12 +612,22 @@ pub fn reconstruct(
     progress("keyframe SfM", mapper.registered() as u64, total);
     let mut failed = vec![false; images.len()];
     let mut last_ba = mapper.registered();
-    while let Some(i) = mapper.next_image(&failed) {
+    let mut tried_pairs = std::collections::HashSet::new();
+    loop {
         SfmError::check_interrupt(interrupt)?;
-        if !mapper.register(i)? {
-            failed[i] = true;
-            continue;
-        }
+        let i = match mapper.next_image(&failed) {
+            Some(i) => {
+                if !mapper.register(i)? {
+                    failed[i] = true;
+                    continue;
+                }
+                i
+            }
+            None => match mapper.register_from_pair(pairs, match_options, &mut tried_pairs)? {
+                Some(i) => i,
+                None => break,
+            },
+        };
         mapper.extend_from_image(i);
         let n = mapper.registered();
         if n <= 8 || n as f64 >= 1.25 * last_ba as f64 {
@@ -590,5 +652,6 @@ pub fn reconstruct(
         points: mapper.points.into_iter().flatten().collect(),
         principal_point_std_px: mapper.principal_point_std_px,
         principal_point_refined: mapper.principal_point_refined,
+        placed_from_pair: mapper.placed_from_pair,
     })
 }

@@ -36,6 +36,7 @@ pub mod pipeline;
 pub mod pnp;
 pub mod points;
 pub mod refine;
+mod relative;
 pub mod static_cloud;
 pub mod still;
 pub mod timesteps;

@@ -170,6 +170,10 @@ pub struct PrepReport {
     pub keyframes: usize,
     /// Keyframes registered.
     pub keyframes_registered: usize,
+    /// Keyframes placed from a verified pair with a placed keyframe, the translation's length
+    /// from their few points, because PnP had too few correspondences ("camera frame t").
+    #[serde(default)]
+    pub keyframes_placed_from_pair: Vec<String>,
     /// Points of the keyframe model.
     pub keyframe_points: usize,
     /// RMS reprojection error of the keyframe model (px).
@@ -385,6 +389,12 @@ fn pose_stages(
     let r = &model.reconstruction;
     report.keyframes = keys.len();
     report.keyframes_registered = r.poses.iter().flatten().count();
+    report.keyframes_placed_from_pair = r
+        .placed_from_pair
+        .iter()
+        .filter_map(|&k| keys.get(k))
+        .map(|k| format!("{} frame {}", frames.cameras[k.camera].name, k.frame))
+        .collect();
     report.keyframe_points = r.points.len();
     let errors = r.reprojection_errors_px(&model.map_images(&features));
     report.keyframe_rms_px = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();

@@ -233,7 +233,14 @@ pub fn unpool(pooled: &Pooled, reconstruction: Reconstruction) -> Reconstruction
             observations: p.observations.iter().flat_map(|o| keys_of_feature.get(o).cloned().unwrap_or_default()).collect(),
         })
         .collect();
-    Reconstruction { poses: pooled.image_of_key.iter().map(|&i| reconstruction.poses[i]).collect(), points, ..reconstruction }
+    let placed_from_pair =
+        (0..pooled.image_of_key.len()).filter(|&k| reconstruction.placed_from_pair.contains(&pooled.image_of_key[k])).collect();
+    Reconstruction {
+        poses: pooled.image_of_key.iter().map(|&i| reconstruction.poses[i]).collect(),
+        points,
+        placed_from_pair,
+        ..reconstruction
+    }
 }
 
 #[cfg(test)]
@@ -286,10 +293,12 @@ mod tests {
             points: vec![MapPoint { xyz: nalgebra::Vector3::new(0.0, 0.0, 1.0), observations: vec![(0, 0)] }],
             principal_point_std_px: vec![],
             principal_point_refined: false,
+            placed_from_pair: vec![0],
         };
         let back = unpool(&pooled, r);
         assert_eq!(back.poses, vec![Some(pose), Some(pose)]);
         assert_eq!(back.points[0].observations, vec![(0, 0), (1, 0)]);
+        assert_eq!(back.placed_from_pair, vec![0, 1]);
     }
 
     /// Pixels of `points` in a camera of focal 500 px at the centre of a 640x360 image, turned by

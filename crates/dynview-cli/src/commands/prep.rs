@@ -172,6 +172,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "keyframes: {}/{} registered, {} points, RMS reprojection error {:.3} px",
             report.keyframes_registered, report.keyframes, report.keyframe_points, report.keyframe_rms_px
         );
+        if !report.keyframes_placed_from_pair.is_empty() {
+            println!("  placed from a verified pair (too few shared points for PnP): {}", report.keyframes_placed_from_pair.join(", "));
+        }
         for (name, source) in report.focal_source.iter().enumerate() {
             println!("  focal of camera {name}: {source}");
         }

@@ -1,0 +1,37 @@
+//! The keyframe reconstruction on a real weakly textured object: Middlebury's templeSparseRing
+//! (16 views on a ring, `../shared/data`). Three views after a gap share fewer than 20
+//! triangulated points with the rest, too few for PnP; one is placed from its verified pair with
+//! a placed view, and then the others by PnP. Every view must be registered, accurately.
+
+use std::sync::atomic::AtomicBool;
+
+use dynview_eval::align::{PoseEvalOptions, evaluate_poses};
+use dynview_eval::sfm_data::{poses_from_colmap, read_colmap_text};
+use dynview_eval::sfm_datasets::prepare;
+use dynview_eval::sfm_runners::OURS_MODEL_DIR;
+use dynview_sfm::{PrepOptions, Stage, run};
+
+#[test]
+fn every_view_of_the_temple_ring_is_registered_accurately() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let dataset = prepare("temple", dir.path()).expect("the temple ring from ../shared/data/middlebury-temple-sparse-ring");
+    let out = dir.path().join("out");
+    let options = PrepOptions { keyframe_interval: 1, stop_after: Stage::Keyframes, ..PrepOptions::default() };
+    let report = run(&dataset.images_dir, &out, &options, &|_, _, _| {}, &AtomicBool::new(false)).expect("prep");
+    assert_eq!((report.keyframes_registered, report.keyframes), (16, 16), "placed from pairs: {:?}", report.keyframes_placed_from_pair);
+    assert!(!report.keyframes_placed_from_pair.is_empty(), "PnP alone registered every view: the test no longer covers pair placement");
+    let model = read_colmap_text(&out.join(OURS_MODEL_DIR)).expect("the keyframe model");
+    let accuracy = evaluate_poses(&poses_from_colmap(&model), &dataset.ground_truth, PoseEvalOptions::default()).expect("alignment");
+    eprintln!(
+        "temple: {}/{} registered, rotation median {:.3} deg (max {:.3}), placed from pairs: {:?}",
+        accuracy.registered,
+        accuracy.ground_truth_images,
+        accuracy.rotation_error_median_deg,
+        accuracy.rotation_error_max_deg,
+        report.keyframes_placed_from_pair
+    );
+    assert_eq!(accuracy.registered, 16);
+    // Measured 0.202 deg (max 0.397) on 2026-11-25; COLMAP 3.8 registers 13 at 0.497.
+    assert!(accuracy.rotation_error_median_deg <= 0.25, "rotation median {:.3} deg", accuracy.rotation_error_median_deg);
+    assert!(accuracy.rotation_error_max_deg <= 0.6, "rotation max {:.3} deg", accuracy.rotation_error_max_deg);
+}
