@@ -14,6 +14,8 @@ const canvas = $("view");
 const ctx = canvas.getContext("2d");
 const scratch = document.createElement("canvas");
 const gpuCanvas = $("view-gpu");
+/** `?embed`: inside a `<dynview-viewer>` element (src/embed.js): the view and the timeline only. */
+if (new URLSearchParams(location.search).has("embed")) document.body.classList.add("embed");
 /** `?renderer=cpu|gpu` forces a renderer (when it is available). */
 const forcedRenderer = new URLSearchParams(location.search).get("renderer");
 

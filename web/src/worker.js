@@ -220,7 +220,7 @@ const TRIAL_SIZE = { width: 240, height: 136 };
 // timed on each (the GPU twice: its first frame also builds pipelines and buffers) and the
 // faster one is kept.
 async function chooseRenderer(gpu, trial) {
-  if (!gpu.name) return { renderer: "cpu", reason: `no GPU: ${gpu.error}` };
+  if (!gpu.name) return { renderer: "cpu", reason: "" }; // the Renderer menu says why there is none
   if (gpu.software && !trial) return { renderer: "cpu", reason: `the GPU (${gpu.name}) is a software adapter, slower than the CPU worker` };
   const info = viewer.info();
   const t = info.start_time_step;

@@ -56,6 +56,9 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         for (name, dir) in &scenes {
             println!("    http://{addr}/?scene=scenes/{name}/\n        ({})", dir.display());
         }
+        if scenes.iter().any(|(name, _)| name == "demo") {
+            println!("    http://{addr}/embed.html\n        (a page that embeds the demo scene with <dynview-viewer>)");
+        }
         println!("\n    (Ctrl-C stops the server)");
     })
 }

@@ -29,6 +29,8 @@ fn router(site: &Site) -> Router {
     app.fallback_service(ServeDir::new(&site.web_dir))
         // Development server: always revalidate, so a rebuilt page or package is picked up.
         .layer(SetResponseHeaderLayer::overriding(header::CACHE_CONTROL, HeaderValue::from_static("no-cache")))
+        // Pages of other origins may embed the viewer (`src/embed.js` is a module, fetched with CORS).
+        .layer(SetResponseHeaderLayer::overriding(header::ACCESS_CONTROL_ALLOW_ORIGIN, HeaderValue::from_static("*")))
 }
 
 /// A server running on a background thread; dropped, it stops.

@@ -22,6 +22,10 @@ export const MIN_PSNR_VS_NATIVE_DB = 40;
 export function launch({ webgpu = false } = {}) {
   fs.mkdirSync(OUT, { recursive: true });
   const args = ["--no-sandbox", "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run"];
+  // A page the test itself fulfils (the embedding page of another origin) has no address, so
+  // Chromium's local network access checks would treat it as public and refuse its requests to
+  // the server on 127.0.0.1; on the web, the embedding page and the viewer's host are both public.
+  args.push("--disable-features=LocalNetworkAccessChecks");
   if (webgpu) args.push("--enable-unsafe-webgpu");
   return chromium.launch({ executablePath: process.env.CHROMIUM || "/usr/bin/chromium", args });
 }

@@ -218,3 +218,46 @@ test("a keyframe path plays back and exports as a WebM video and a camera_path.j
   assert.deepEqual(errors, []);
   await page.close();
 });
+
+test("<dynview-viewer> embeds the viewer in a plain page of another origin, equal to the native render", async () => {
+  // The host page is served (by the test) from localhost, the viewer from 127.0.0.1: two
+  // origins, no cross-origin-isolation headers.
+  const viewer = new URL(BASE);
+  const host = new URL(BASE);
+  host.hostname = "localhost";
+  const hostPage = `${host.origin}/my-page.html`;
+  const page = await browser.newPage({ viewport: { width: 900, height: 760 } });
+  const errors = [];
+  page.on("pageerror", (e) => errors.push(e.message));
+  await page.route(hostPage, (route) =>
+    route.fulfill({
+      contentType: "text/html",
+      body: `<!doctype html><html><head><meta charset="utf-8"><script type="module" src="${viewer.origin}/src/embed.js"></script></head>
+        <body><h1>My page</h1><dynview-viewer src="${viewer.origin}/scenes/e2e/" style="width: 800px"></dynview-viewer></body></html>`,
+    }),
+  );
+  await page.goto(hostPage);
+  assert.equal(await page.evaluate(() => window.crossOriginIsolated), false);
+  const frame = await (await page.waitForSelector("dynview-viewer iframe")).contentFrame();
+  assert.ok(frame, "the element holds no frame");
+  await firstFrame(frame);
+  // The view and the timeline, without the app's bars.
+  assert.ok(await frame.isVisible("#view"));
+  assert.ok(await frame.isVisible("#timeline"));
+  for (const bar of ["body > header.bar", "#controls", "#path", "#overlay"]) assert.ok(!(await frame.isVisible(bar)), `${bar} shows in the embed`);
+  await page.screenshot({ path: path.join(OUT, "14-embedded.png") });
+  // Full resolution (the scale menu is hidden: set it as the menu would), then the same
+  // picture as the native render of the embed's view.
+  const n = await framesDone(frame);
+  await frame.$eval("#scale", (el) => {
+    el.value = "1";
+    el.dispatchEvent(new Event("change"));
+  });
+  const image = await nextDoneFrame(frame, n);
+  const native = await nativeRenderOfPage(frame);
+  const db = psnr(image, native);
+  console.log(`embedded vs native render: ${db.toFixed(1)} dB`);
+  assert.ok(db > MIN_PSNR_VS_NATIVE_DB, `the embedded frame differs from the native render: ${db.toFixed(1)} dB`);
+  assert.deepEqual(errors, []);
+  await page.close();
+});
