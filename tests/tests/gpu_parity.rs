@@ -255,6 +255,11 @@ fn timestamp_queries_time_every_stage_of_every_level_without_changing_the_frame(
     // All red-black sweeps of a solve are one pass: one per outer iteration.
     let depth_solve = stages.iter().find(|s| s.level == 0 && s.stage == "depth solve").unwrap();
     assert_eq!(depth_solve.passes, params.outer_iterations_at(0));
+    // Each sweep binds the system (right, down, inv_diag, rhs: 4 floats a pixel) and the depth
+    // (1 float a pixel), twice (red, black).
+    let (w, h) = (camera.width_px as u64, camera.height_px as u64);
+    let per_solve = 2 * params.depth_sweeps as u64 * 5 * 4 * w * h;
+    assert_eq!(depth_solve.bytes_bound, per_solve * params.outer_iterations_at(0) as u64, "{depth_solve:?}");
     let total: f64 = stages.iter().map(|s| s.ms).sum();
     assert!(total > 0.0, "{stages:?}");
     eprintln!("GPU time of a profiled frame: {total:.1} ms in {} passes", stages.iter().map(|s| s.passes).sum::<usize>());

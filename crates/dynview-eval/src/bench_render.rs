@@ -85,15 +85,27 @@ pub fn run() -> anyhow::Result<()> {
             let c = &f.counters;
             let _ = writeln!(
                 gpu_rows,
-                "| {w}x{h} | {:.1} | {gpu_ms_sum:.2} | {} | {} | {} | {} | {} |",
-                f.wall_ms, c.dispatches, c.passes, c.bind_groups_created, c.submits, c.uniform_bytes
+                "| {w}x{h} | {:.1} | {gpu_ms_sum:.2} | {} | {} | {} | {} | {} | {:.0} |",
+                f.wall_ms,
+                c.dispatches,
+                c.passes,
+                c.bind_groups_created,
+                c.submits,
+                c.uniform_bytes,
+                c.bytes_bound as f64 / 1e6
             );
         } else if let Some(f) = &gpu_figures {
             let c = &f.counters;
             let _ = writeln!(
                 gpu_rows,
-                "| {w}x{h} | {:.1} | - | {} | {} | {} | {} | {} |",
-                f.wall_ms, c.dispatches, c.passes, c.bind_groups_created, c.submits, c.uniform_bytes
+                "| {w}x{h} | {:.1} | - | {} | {} | {} | {} | {} | {:.0} |",
+                f.wall_ms,
+                c.dispatches,
+                c.passes,
+                c.bind_groups_created,
+                c.submits,
+                c.uniform_bytes,
+                c.bytes_bound as f64 / 1e6
             );
         }
         let (gpu_cell, ratio_cell) = match gpu_ms {
@@ -122,8 +134,8 @@ pub fn run() -> anyhow::Result<()> {
             report,
             "\nGPU, a streaming frame (after {GPU_SETTLING_FRAMES} frames in a row): wall ms (median of {RUNS}), GPU ms (sum of the \
              timestamp queries of one profiled frame), and the work recorded per frame\n\n\
-             | output | wall ms | GPU ms | dispatches | passes | bind groups created | submits | uniform bytes |\n\
-             | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n{gpu_rows}"
+             | output | wall ms | GPU ms | dispatches | passes | bind groups created | submits | uniform bytes | MB bound |\n\
+             | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n{gpu_rows}"
         );
     }
     println!("\n{report}{details}");
@@ -204,6 +216,14 @@ fn gpu_stage_table(
         let sum: f64 = stages.iter().filter(|s| s.level == level).map(|s| s.ms).sum();
         let passes: usize = stages.iter().filter(|s| s.level == level).map(|s| s.passes).sum();
         let _ = writeln!(table, "| {level} | {} | {sum:.2} | {passes} |", cells.join(" | "));
+    }
+    // Per stage over all levels: the bytes its dispatches bound against its time.
+    let _ = writeln!(table, "\n| stage | GPU ms | MB bound | GB/s (bound / time) |\n| --- | ---: | ---: | ---: |");
+    for stage in GPU_STAGES {
+        let ms: f64 = stages.iter().filter(|s| s.stage == stage).map(|s| s.ms).sum();
+        let bytes: u64 = stages.iter().filter(|s| s.stage == stage).map(|s| s.bytes_bound).sum();
+        let rate = if ms > 0.0 { bytes as f64 / (ms * 1e6) } else { 0.0 };
+        let _ = writeln!(table, "| {stage} | {ms:.2} | {:.1} | {rate:.1} |", bytes as f64 / 1e6);
     }
     Ok(Some((total_ms, table)))
 }

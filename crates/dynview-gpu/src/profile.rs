@@ -23,6 +23,10 @@ pub struct StageTime {
     pub ms: f64,
     /// Compute passes it took.
     pub passes: usize,
+    /// Bytes of the storage buffers its dispatches bound, summed over the dispatches: an upper
+    /// bound of the memory traffic (a kernel reads or writes each bound buffer at most about
+    /// once; most read every byte), for bandwidth against the time.
+    pub bytes_bound: u64,
 }
 
 /// The query sets of a profiled frame and the label of each pass.
@@ -31,12 +35,14 @@ pub(crate) struct Profiler {
     sets: Vec<wgpu::QuerySet>,
     /// (level, stage) of each pass, in order; pass `i` wrote queries `2i` and `2i + 1`.
     labels: Vec<(usize, &'static str)>,
+    /// Bytes bound by each pass's dispatches.
+    bytes: Vec<u64>,
     current: (usize, &'static str),
 }
 
 impl Profiler {
     pub(crate) fn new() -> Self {
-        Self { sets: Vec::new(), labels: Vec::new(), current: (0, "other") }
+        Self { sets: Vec::new(), labels: Vec::new(), bytes: Vec::new(), current: (0, "other") }
     }
 
     pub(crate) fn set_stage(&mut self, level: usize, stage: &'static str) {
@@ -55,7 +61,15 @@ impl Profiler {
             }));
         }
         self.labels.push(self.current);
+        self.bytes.push(0);
         (self.sets[set].clone(), index % QUERIES_PER_SET)
+    }
+
+    /// Counts `bytes` bound by a dispatch of the current pass.
+    pub(crate) fn add_bytes(&mut self, bytes: u64) {
+        if let Some(last) = self.bytes.last_mut() {
+            *last += bytes;
+        }
     }
 
     /// Resolves the queries and sums them per label (blocks until the GPU is done; native).
@@ -80,13 +94,17 @@ impl Profiler {
             let bytes = pollster::block_on(crate::readback::read_bytes(ctx, &resolved, size))?;
             ticks.extend(bytes.chunks_exact(8).map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default())));
         }
-        let mut sums: BTreeMap<(usize, &'static str), (f64, usize)> = BTreeMap::new();
+        let mut sums: BTreeMap<(usize, &'static str), (f64, usize, u64)> = BTreeMap::new();
         for (pass, label) in self.labels.iter().enumerate() {
             let (start, end) = (ticks[2 * pass], ticks[2 * pass + 1]);
             let entry = sums.entry(*label).or_default();
             entry.0 += end.saturating_sub(start) as f64 * period_ns / 1e6;
             entry.1 += 1;
+            entry.2 += self.bytes[pass];
         }
-        Ok(sums.into_iter().map(|((level, stage), (ms, passes))| StageTime { level, stage, ms, passes }).collect())
+        Ok(sums
+            .into_iter()
+            .map(|((level, stage), (ms, passes, bytes_bound))| StageTime { level, stage, ms, passes, bytes_bound })
+            .collect())
     }
 }

@@ -24,6 +24,9 @@ pub struct GpuCounters {
     pub bind_groups_created: u64,
     /// Bytes of uniform data written, alignment padding included.
     pub uniform_bytes: u64,
+    /// Bytes of the storage buffers bound, summed over the dispatches (an upper bound of the
+    /// memory traffic).
+    pub bytes_bound: u64,
 }
 
 impl std::ops::Sub for GpuCounters {
@@ -36,6 +39,7 @@ impl std::ops::Sub for GpuCounters {
             dispatches: self.dispatches - earlier.dispatches,
             bind_groups_created: self.bind_groups_created - earlier.bind_groups_created,
             uniform_bytes: self.uniform_bytes - earlier.uniform_bytes,
+            bytes_bound: self.bytes_bound - earlier.bytes_bound,
         }
     }
 }
@@ -241,6 +245,11 @@ impl Recorder {
             pass.dispatch_workgroups(groups.0, groups.1, groups.2);
         }
         self.counters.dispatches += sequence.len() as u64;
+        let bound: u64 = buffers.iter().map(|b| b.size()).sum();
+        self.counters.bytes_bound += bound * sequence.len() as u64;
+        if let Some(profiler) = self.profiler.as_mut() {
+            profiler.add_bytes(bound * sequence.len() as u64);
+        }
         if profiled.is_some() {
             self.pass = None;
         }
