@@ -81,24 +81,12 @@ pub fn run() -> anyhow::Result<()> {
             Some((ctx, renderer)) => gpu_stage_table(ctx, renderer, &params, &camera, &inputs)?,
             None => None,
         };
-        if let (Some(f), Some((gpu_ms_sum, _))) = (&gpu_figures, &gpu_stages) {
+        if let Some(f) = &gpu_figures {
             let c = &f.counters;
+            let gpu_ms_sum = gpu_stages.as_ref().map_or("-".to_string(), |(sum, _)| format!("{sum:.2}"));
             let _ = writeln!(
                 gpu_rows,
-                "| {w}x{h} | {:.1} | {gpu_ms_sum:.2} | {} | {} | {} | {} | {} | {:.0} |",
-                f.wall_ms,
-                c.dispatches,
-                c.passes,
-                c.bind_groups_created,
-                c.submits,
-                c.uniform_bytes,
-                c.bytes_bound as f64 / 1e6
-            );
-        } else if let Some(f) = &gpu_figures {
-            let c = &f.counters;
-            let _ = writeln!(
-                gpu_rows,
-                "| {w}x{h} | {:.1} | - | {} | {} | {} | {} | {} | {:.0} |",
+                "| {w}x{h} | {:.1} | {gpu_ms_sum} | {} | {} | {} | {} | {} | {:.0} |",
                 f.wall_ms,
                 c.dispatches,
                 c.passes,
