@@ -1,6 +1,6 @@
 //! The full-pipeline rows of `cargo xtask eval`: `dynview prep` on the synthetic event's videos
-//! (with densification, and with `--no-densify` on the same poses), then the held-out camera
-//! paths rendered from the estimated package.
+//! (with densification, with `--no-densify` on the same poses, and with the event's true poses
+//! and intrinsics), then the held-out camera paths rendered from each package.
 //!
 //! The estimated world differs from the true one by a similarity (SfM fixes neither origin,
 //! orientation nor scale). It is fitted from the camera centres, every camera at every time
@@ -28,6 +28,9 @@ use crate::sfm_runners::dynview_binary;
 /// Largest PSNR drop of the full pipeline's (e) row below the ground-truth package's that
 /// issue 7 accepts, in dB.
 pub const ACCEPTED_PSNR_GAP_DB: f64 = 1.5;
+
+/// The label of the prep run on the event's true poses.
+pub const TRUE_POSES: &str = "true poses (--poses)";
 
 /// One prep configuration and its rows.
 pub struct Variant {
@@ -59,7 +62,7 @@ pub fn run(
 ) -> anyhow::Result<Vec<Variant>> {
     let dynview = dynview_binary()?;
     let videos = event.join(VIDEOS_DIR);
-    let root = workspace_root().join("target/eval");
+    let root = options.work_dir();
     let densified_out = root.join("prep");
     let plain_out = root.join("prep-no-densify");
     let mut variants = Vec::new();
@@ -69,8 +72,18 @@ pub fn run(
     let poses = densified_out.join("poses.json");
     let plain_args = vec!["--no-densify".to_string(), "--poses".into(), poses.display().to_string()];
     let plain = prep_once(&dynview, &videos, &plain_out, &plain_args, options.fresh)?;
-    let shown = "--no-densify --poses target/eval/prep/poses.json".to_string();
+    let shown = format!("--no-densify --poses {}", poses.strip_prefix(workspace_root()).unwrap_or(&poses).display());
     variants.push(evaluate_variant("sparse (--no-densify)", shown, &plain, truth, options, moving, still, frames)?);
+    // The same prep on the event's true poses and intrinsics (its COLMAP model): what our own
+    // poses cost end to end.
+    let true_poses = event.join("colmap");
+    if true_poses.join("images.txt").is_file() {
+        let true_out = root.join("prep-true-poses");
+        let args = vec!["--poses".to_string(), true_poses.display().to_string()];
+        let run = prep_once(&dynview, &videos, &true_out, &args, options.fresh)?;
+        let shown = format!("--poses {}", true_poses.strip_prefix(workspace_root()).unwrap_or(&true_poses).display());
+        variants.push(evaluate_variant(TRUE_POSES, shown, &run, truth, options, moving, still, frames)?);
+    }
     Ok(variants)
 }
 

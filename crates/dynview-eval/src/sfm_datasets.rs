@@ -51,6 +51,25 @@ const LAYOUTS: [SynthLayout; 3] = [
     SynthLayout { name: "arc12x60", cameras: 12, arc_deg: 60.0, focal_range: [1.0, 1.4], principal_offset_px: [4.0, 3.0] },
 ];
 
+/// The synthetic hand-held event of layout `name` (`arc5x40`, `arc8x90`, `arc12x60`): 41 frames
+/// at 640x360, without videos; `None` for another name.
+pub fn layout_config(name: &str) -> Option<(&'static str, SynthConfig)> {
+    let l = LAYOUTS.iter().find(|l| l.name == name)?;
+    let layout =
+        dynview_synth::rig::Layout { arc_deg: l.arc_deg, focal_range: Some(l.focal_range), principal_offset_px: l.principal_offset_px };
+    let config = SynthConfig {
+        cameras: l.cameras,
+        frames: 41,
+        width: 640,
+        height: 360,
+        handheld: true,
+        videos: false,
+        layout,
+        ..SynthConfig::default()
+    };
+    Some((l.name, config))
+}
+
 /// Synthetic frames taken from every camera.
 const SYNTHETIC_FRAMES: [u32; 3] = [0, 20, 40];
 /// Frames taken from every Pose2Sim video.
@@ -88,24 +107,7 @@ pub fn prepare(name: &str, bench_dir: &Path) -> anyhow::Result<Dataset> {
         "temple" => ("temple", temple(&images_dir)?),
         "pose2sim" => ("pose2sim", pose2sim(&images_dir)?),
         "panoptic" => ("panoptic", panoptic(&images_dir)?),
-        other if let Some(l) = LAYOUTS.iter().find(|l| l.name == other) => {
-            let layout = dynview_synth::rig::Layout {
-                arc_deg: l.arc_deg,
-                focal_range: Some(l.focal_range),
-                principal_offset_px: l.principal_offset_px,
-            };
-            let config = SynthConfig {
-                cameras: l.cameras,
-                frames: 41,
-                width: 640,
-                height: 360,
-                handheld: true,
-                videos: false,
-                layout,
-                ..SynthConfig::default()
-            };
-            (l.name, synthetic(&dir, &images_dir, &config)?)
-        }
+        other if let Some((name, config)) = layout_config(other) => (name, synthetic(&dir, &images_dir, &config)?),
         other => bail!("unknown dataset {other:?} (known: {})", DATASETS.join(", ")),
     };
     let images = list_images(&images_dir)?;
