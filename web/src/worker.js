@@ -219,7 +219,7 @@ const TRIAL_SIZE = { width: 240, height: 136 };
 // worker; when the GPU is a real one (or `trial` asks), one small frame of the start view is
 // timed on each (the GPU twice: its first frame also builds pipelines and buffers) and the
 // faster one is kept.
-async function chooseRenderer(gpu, trial) {
+async function pickRenderer(gpu, trial) {
   if (!gpu.name) return { renderer: "cpu", reason: "" }; // the Renderer menu says why there is none
   if (gpu.software && !trial) return { renderer: "cpu", reason: `the GPU (${gpu.name}) is a software adapter, slower than the CPU worker` };
   const info = viewer.info();
@@ -258,7 +258,7 @@ self.onmessage = async (event) => {
       viewer = null;
       viewer = msg.type === "open" ? await Viewer.openUrl(msg.url) : await Viewer.openFiles(msg.files, msg.paths);
       const gpu = msg.gpu ? await enableGpu() : { error: "not requested" };
-      const choice = msg.choose ? await chooseRenderer(gpu, Boolean(msg.trial)) : { renderer: null, reason: "" };
+      const choice = msg.choose ? await pickRenderer(gpu, Boolean(msg.trial)) : { renderer: null, reason: "" };
       post({ type: "opened", info: viewer.info(), backends: gpu.name ? ["cpu", "gpu"] : ["cpu"], gpu, choice });
     } else if (!viewer) {
       throw new Error("no scene is open");
