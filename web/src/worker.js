@@ -6,7 +6,7 @@
 // request. The page never waits on either.
 //
 // Messages in:  {type: "canvas", canvas}         the OffscreenCanvas the GPU path draws into
-//               | {type: "open", url, gpu, choose} | {type: "open-files", files, paths, gpu, choose}
+//               | {type: "open", url, gpu, choose, trial} | {type: "open-files", files, paths, gpu, choose, trial}
 //                                                 gpu: whether to set up the GPU path;
 //                                                 choose: whether to pick the renderer;
 //                                                 trial: time both even on a software GPU

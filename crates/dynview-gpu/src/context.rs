@@ -145,7 +145,7 @@ impl GpuContext {
         self.recorder().flush();
     }
 
-    /// Submits, passes, dispatches, bind groups and uniform bytes so far.
+    /// Submits, passes, dispatches, bind groups created, uniform bytes and bytes bound so far.
     pub fn counters(&self) -> GpuCounters {
         self.recorder().counters
     }
