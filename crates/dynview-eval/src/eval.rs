@@ -48,6 +48,11 @@ pub struct Options {
     /// prep runs and tables go to `target/eval/<layout>/`.
     #[arg(long)]
     pub layout: Option<String>,
+    /// An extra argument for the pipeline's `dynview prep` runs on our own poses (repeatable;
+    /// e.g. `--prep-arg=--centred-principal-point`). Those runs then work in folders of their
+    /// own, named after the arguments.
+    #[arg(long = "prep-arg", allow_hyphen_values = true)]
+    pub prep_args: Vec<String>,
 }
 
 impl Options {

@@ -63,11 +63,16 @@ pub fn run(
     let dynview = dynview_binary()?;
     let videos = event.join(VIDEOS_DIR);
     let root = options.work_dir();
-    let densified_out = root.join("prep");
-    let plain_out = root.join("prep-no-densify");
+    let suffix: String = options
+        .prep_args
+        .iter()
+        .map(|arg| format!("+{}", arg.trim_start_matches('-').replace(|c: char| !c.is_ascii_alphanumeric() && c != '.', "_")))
+        .collect();
+    let densified_out = root.join(format!("prep{suffix}"));
+    let plain_out = root.join(format!("prep-no-densify{suffix}"));
     let mut variants = Vec::new();
-    let densified = prep_once(&dynview, &videos, &densified_out, &[], options.fresh)?;
-    variants.push(evaluate_variant("densified", String::new(), &densified, truth, options, moving, still, frames)?);
+    let densified = prep_once(&dynview, &videos, &densified_out, &options.prep_args, options.fresh)?;
+    variants.push(evaluate_variant("densified", options.prep_args.join(" "), &densified, truth, options, moving, still, frames)?);
     // Same poses as the densified run (its poses.json), so the rows differ by the clouds alone.
     let poses = densified_out.join("poses.json");
     let plain_args = vec!["--no-densify".to_string(), "--poses".into(), poses.display().to_string()];
