@@ -143,7 +143,6 @@ impl AssembleKernels {
     }
 
     fn run(&self, ctx: &GpuContext, kernel: &Kernel, uniform: &AssembleParams, buffers: &[&GpuImage]) {
-        let _frame = ctx.frame();
         let buffers: Vec<&wgpu::Buffer> = buffers.iter().map(|b| &b.buffer).collect();
         kernel.dispatch(ctx, bytemuck::bytes_of(uniform), &buffers, uniform.width as usize, uniform.height as usize);
     }

@@ -49,7 +49,6 @@ impl BlendKernel {
         let mut weights = [0.0; MAX_VIEWS];
         weights[..view_weights.len()].copy_from_slice(view_weights);
         let params = BlendParams { width: w as u32, height: h as u32, views: warps.count as u32, _pad0: 0, view_weights: weights };
-        let _frame = ctx.frame();
         let buffers = [&warps.colors.buffer, &warps.visibility.buffer, &fallback.buffer, &out.buffer];
         self.blend.dispatch(ctx, bytemuck::bytes_of(&params), &buffers, w, h);
         Ok(out)

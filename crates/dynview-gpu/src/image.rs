@@ -239,7 +239,6 @@ impl ImageKernels {
             scale_y: image.height as f32 / height as f32,
             _pad: 0,
         };
-        let _frame = ctx.frame();
         kernel.dispatch(ctx, bytemuck::bytes_of(&dims), &[&image.buffer, &out.buffer], width, height);
         Ok(out)
     }

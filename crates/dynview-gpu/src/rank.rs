@@ -74,7 +74,6 @@ impl RankKernels {
         let mut packed = [0.0; MAX_VIEWS];
         packed[..views].copy_from_slice(preferences);
         let uniform = RankParams { width: w as u32, height: h as u32, views: views as u32, _pad0: 0, preferences: packed };
-        let _frame = ctx.frame();
         self.rank_preference.dispatch(ctx, bytemuck::bytes_of(&uniform), &[&unsupported.buffer, &w_p.buffer], w, h);
         Ok(())
     }

@@ -231,7 +231,6 @@ impl SplatKernels {
         };
         let counters = GpuImage::zeroed(ctx, 2, 1, 1)?;
         let params = FootprintParams { width: w as u32, height: h as u32, radius: radius as u32, _pad0: 0 };
-        let _frame = ctx.frame();
         let buffers = [
             &sparse.depth.buffer,
             &sparse.color.buffer,
@@ -251,7 +250,6 @@ impl SplatKernels {
         let (w, h) = (sparse.mask.width, sparse.mask.height);
         let out = GpuImage::zeroed(ctx, w, h, 4)?;
         let params = PackParams { width: w as u32, height: h as u32, _pad0: 0, _pad1: 0 };
-        let _frame = ctx.frame();
         let buffers = [&sparse.color.buffer, &sparse.mask.buffer, &out.buffer];
         self.pack_color_mask.dispatch(ctx, bytemuck::bytes_of(&params), &buffers, w, h);
         Ok(out)

@@ -36,11 +36,6 @@ pub struct TemporalKernels {
     terms: Kernel,
 }
 
-fn submit(ctx: &GpuContext, kernel: &Kernel, uniform: &[u8], buffers: &[&wgpu::Buffer], width: usize, height: usize) {
-    let _frame = ctx.frame();
-    kernel.dispatch(ctx, uniform, buffers, width, height);
-}
-
 impl TemporalKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
@@ -58,7 +53,7 @@ impl TemporalKernels {
         let w_t = GpuImage::zeroed(ctx, w, h, 1)?;
         let params = WeightsParams { width: w as u32, height: h as u32, views: warps.count as u32, sigma };
         let buffers = [&warps.colors.buffer, &warps.valid.buffer, &previous.color.buffer, &previous.mask.buffer, &w_t.buffer];
-        submit(ctx, &self.weights, bytemuck::bytes_of(&params), &buffers, w, h);
+        self.weights.dispatch(ctx, bytemuck::bytes_of(&params), &buffers, w, h);
         Ok(w_t)
     }
 
@@ -78,7 +73,7 @@ impl TemporalKernels {
         let params = TermsParams { width: w as u32, height: h as u32, coverage_scaling: u32::from(coverage_scaling), lambda_t };
         let buffers =
             [&w_t.buffer, &previous.depth.buffer, &previous.color.buffer, &counters.buffer, &depth_terms.buffer, &color_terms.buffer];
-        submit(ctx, &self.terms, bytemuck::bytes_of(&params), &buffers, w, h);
+        self.terms.dispatch(ctx, bytemuck::bytes_of(&params), &buffers, w, h);
         Ok((depth_terms, color_terms))
     }
 }
