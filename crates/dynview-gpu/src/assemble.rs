@@ -147,21 +147,34 @@ impl AssembleKernels {
         kernel.dispatch(ctx, bytemuck::bytes_of(uniform), &buffers, uniform.width as usize, uniform.height as usize);
     }
 
+    /// Row sums of the sparse `mask` (1 channel) over the points' support window at pyramid
+    /// `level`: what [`Self::plane_prior`] and [`crate::RankKernels::unsupported`] take, computed
+    /// once per level for both.
+    pub fn support_rows(&self, ctx: &GpuContext, mask: &GpuImage, level: usize) -> Result<GpuImage, GpuError> {
+        let (w, h) = (mask.width, mask.height);
+        check(mask, "sparse mask", w, h, 1)?;
+        // plane_support.wgsl's uniform block: `support_rows` reads the size and the radius.
+        let uniform = SupportParams::support_only(w, h, support_radius_px(level), 0.0);
+        let rows = GpuImage::zeroed(ctx, w, h, 1)?;
+        self.support_rows.dispatch(ctx, bytemuck::bytes_of(&uniform), &[&mask.buffer, &rows.buffer], w, h);
+        Ok(rows)
+    }
+
     /// The temporal terms (`temporal`: `lambda_T w_T` and the previous depth per pixel) with
-    /// the pull toward `plane` (in this level's pixels) folded in, at pyramid `level` with the
-    /// sparse `mask`: what [`Self::depth_system`] takes as its temporal terms. The weight is
-    /// dynview-core's `render::plane::plane_weights`.
+    /// the pull toward `plane` (in this level's pixels) folded in, at pyramid `level`, from the
+    /// sparse mask's [`Self::support_rows`]: what [`Self::depth_system`] takes as its temporal
+    /// terms. The weight is dynview-core's `render::plane::plane_weights`.
     pub fn plane_prior(
         &self,
         ctx: &GpuContext,
         params: &RenderParams,
-        mask: &GpuImage,
+        rows: &GpuImage,
         temporal: &GpuImage,
         plane: &PixelPlane,
         level: usize,
     ) -> Result<GpuImage, GpuError> {
-        let (w, h) = (mask.width, mask.height);
-        check(mask, "sparse mask", w, h, 1)?;
+        let (w, h) = (rows.width, rows.height);
+        check(rows, "support rows", w, h, 1)?;
         check(temporal, "temporal terms", w, h, 2)?;
         let uniform = SupportParams {
             width: w as u32,
@@ -177,12 +190,8 @@ impl AssembleKernels {
             plane_inverse_max: plane.inverse_depth_range[1],
             _pad1: 0,
         };
-        let rows = GpuImage::zeroed(ctx, w, h, 1)?;
         let prior = GpuImage::zeroed(ctx, w, h, 2)?;
-        let _frame = ctx.frame();
-        let bytes = bytemuck::bytes_of(&uniform);
-        self.support_rows.dispatch(ctx, bytes, &[&mask.buffer, &rows.buffer], w, h);
-        self.plane_prior.dispatch(ctx, bytes, &[&rows.buffer, &prior.buffer, &temporal.buffer], w, h);
+        self.plane_prior.dispatch(ctx, bytemuck::bytes_of(&uniform), &[&rows.buffer, &prior.buffer, &temporal.buffer], w, h);
         Ok(prior)
     }
 

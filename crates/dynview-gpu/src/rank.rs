@@ -24,7 +24,6 @@ struct RankParams {
 /// The kernels of the rank preference, compiled once per device.
 #[derive(Debug)]
 pub struct RankKernels {
-    support_rows: Kernel,
     unsupported: Kernel,
     rank_preference: Kernel,
 }
@@ -34,28 +33,24 @@ impl RankKernels {
     pub fn new(ctx: &GpuContext) -> Self {
         let support = shaders::module(ctx, shaders::PLANE_SUPPORT);
         Self {
-            support_rows: Kernel::new(ctx, &support, "support_rows", &[true, false], 8),
             unsupported: Kernel::new(ctx, &support, "unsupported", &[true, false], 8),
             rank_preference: Kernel::new(ctx, &shaders::module(ctx, shaders::RANK_PREFERENCE), "rank_preference", &[true, false], 8),
         }
     }
 
-    /// How far each pixel is from the points' support, in [0, 1], at pyramid `level` with the
-    /// sparse `mask`: dynview-core's `plane_weights(mask, level, 1, support)` (`support` is
-    /// `RenderParams::view_rank_support`). The window sums are integers, so they match exactly.
-    pub fn unsupported(&self, ctx: &GpuContext, mask: &GpuImage, level: usize, support: f32) -> Result<GpuImage, GpuError> {
-        let (w, h) = (mask.width, mask.height);
-        if mask.channels != 1 {
-            return Err(GpuError::Size(format!("sparse mask has {} channels, expected 1", mask.channels)));
+    /// How far each pixel is from the points' support, in [0, 1], at pyramid `level`, from the
+    /// sparse mask's [`crate::AssembleKernels::support_rows`]: dynview-core's
+    /// `plane_weights(mask, level, 1, support)` (`support` is `RenderParams::view_rank_support`).
+    /// The window sums are integers, so they match exactly.
+    pub fn unsupported(&self, ctx: &GpuContext, rows: &GpuImage, level: usize, support: f32) -> Result<GpuImage, GpuError> {
+        let (w, h) = (rows.width, rows.height);
+        if rows.channels != 1 {
+            return Err(GpuError::Size(format!("support rows have {} channels, expected 1", rows.channels)));
         }
         // plane_support.wgsl's uniform block, with only the support fields used.
         let uniform = crate::assemble::SupportParams::support_only(w, h, support_radius_px(level), support);
-        let rows = GpuImage::zeroed(ctx, w, h, 1)?;
         let out = GpuImage::zeroed(ctx, w, h, 1)?;
-        let _frame = ctx.frame();
-        let bytes = bytemuck::bytes_of(&uniform);
-        self.support_rows.dispatch(ctx, bytes, &[&mask.buffer, &rows.buffer], w, h);
-        self.unsupported.dispatch(ctx, bytes, &[&rows.buffer, &out.buffer], w, h);
+        self.unsupported.dispatch(ctx, bytemuck::bytes_of(&uniform), &[&rows.buffer, &out.buffer], w, h);
         Ok(out)
     }
 

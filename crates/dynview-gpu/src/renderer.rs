@@ -191,16 +191,20 @@ impl GpuRenderer {
             };
             ctx.set_stage(level, "splat");
             let sparse_color_mask = self.splat.pack_color_mask(ctx, &sparse)?;
+            // The points' support window, for the plane and the rank preference alike.
+            let rows = match plane.is_some() || params.view_rank_exponent > 0.0 {
+                true => Some(self.assemble.support_rows(ctx, &points.mask, level)?),
+                false => None,
+            };
             // The plane's pull joins the temporal terms of the depth system.
-            let temporal_depth = match plane {
-                Some(p) => self.assemble.plane_prior(ctx, params, &points.mask, &temporal_depth, &p.in_pixels(&cam), level)?,
-                None => temporal_depth,
+            let temporal_depth = match (plane, &rows) {
+                (Some(p), Some(rows)) => self.assemble.plane_prior(ctx, params, rows, &temporal_depth, &p.in_pixels(&cam), level)?,
+                _ => temporal_depth,
             };
             // Where points are scarce the color follows the best-ranked view.
-            let unsupported = if params.view_rank_exponent > 0.0 {
-                Some(self.rank.unsupported(ctx, &points.mask, level, params.view_rank_support)?)
-            } else {
-                None
+            let unsupported = match &rows {
+                Some(rows) if params.view_rank_exponent > 0.0 => Some(self.rank.unsupported(ctx, rows, level, params.view_rank_support)?),
+                _ => None,
             };
             for _ in 0..params.outer_iterations_at(level) {
                 ctx.set_stage(level, "weights");

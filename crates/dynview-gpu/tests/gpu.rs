@@ -380,7 +380,8 @@ fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
             [temporal[i], c[0], c[1], c[2]]
         })
         .collect();
-    let prior = assemble.plane_prior(&ctx, &params, &up(&sparse.mask.data, h, 1), &up(&temporal_depth, h, 2), &plane, 1).unwrap();
+    let rows = assemble.support_rows(&ctx, &up(&sparse.mask.data, h, 1), 1).unwrap();
+    let prior = assemble.plane_prior(&ctx, &params, &rows, &up(&temporal_depth, h, 2), &plane, 1).unwrap();
     // Window sums of a 0/1 mask are integers: the plane's weights are the CPU's exactly.
     let prior_weights: Vec<f32> = prior.download(&ctx).unwrap().chunks(2).map(|c| c[0]).collect();
     let cpu_weights: Vec<f32> = (0..n).map(|i| temporal[i] + plane_weight[i]).collect();

@@ -5,7 +5,7 @@
 use dynview_core::raster::Raster;
 use dynview_core::render::plane::plane_weights;
 use dynview_core::render::weights::{apply_rank_preference, rank_preferences};
-use dynview_gpu::{GpuContext, GpuImage, RankKernels};
+use dynview_gpu::{AssembleKernels, GpuContext, GpuImage, RankKernels};
 
 /// A deterministic pseudo-random sequence in [0, 1).
 fn noise(seed: u32) -> impl FnMut() -> f32 {
@@ -47,7 +47,8 @@ fn rank_preference_on_the_gpu_matches_the_cpu() {
     assert!(cpu_unsupported.contains(&0.0) && cpu_unsupported.contains(&1.0));
     assert!(cpu_unsupported.iter().any(|&u| u > 0.05 && u < 0.95), "the fade must be exercised");
     let gpu_mask = GpuImage::upload(&ctx, &mask.data, w, h, 1).unwrap();
-    let gpu_unsupported = kernels.unsupported(&ctx, &gpu_mask, level, support).unwrap();
+    let rows = AssembleKernels::new(&ctx).support_rows(&ctx, &gpu_mask, level).unwrap();
+    let gpu_unsupported = kernels.unsupported(&ctx, &rows, level, support).unwrap();
     assert_eq!(gpu_unsupported.download(&ctx).unwrap(), cpu_unsupported, "the support map");
 
     // w_P of three views, some invalid (-1 on the GPU, 0 on the CPU); the views rank 1, 0.3
