@@ -31,7 +31,8 @@ fn every_view_of_the_temple_ring_is_registered_accurately() {
         report.keyframes_placed_from_pair
     );
     assert_eq!(accuracy.registered, 16);
-    // Measured 0.202 deg (max 0.397) on 2026-11-25; COLMAP 3.8 registers 13 at 0.497.
-    assert!(accuracy.rotation_error_median_deg <= 0.25, "rotation median {:.3} deg", accuracy.rotation_error_median_deg);
+    // Measured 0.177 deg (max 0.566) on 2026-11-25 (exact matching); COLMAP 3.8 registers 13
+    // at 0.497. The issue asks 0.2.
+    assert!(accuracy.rotation_error_median_deg <= 0.2, "rotation median {:.3} deg", accuracy.rotation_error_median_deg);
     assert!(accuracy.rotation_error_max_deg <= 0.6, "rotation max {:.3} deg", accuracy.rotation_error_max_deg);
 }
