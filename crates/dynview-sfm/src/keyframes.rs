@@ -111,7 +111,7 @@ pub fn match_all_pairs(
         .par_iter()
         .map(|&(a, b)| {
             SfmError::check_interrupt(interrupt)?;
-            let matches = mutual_matches_shared(&mats, &indices, a, b, options.ratio)?;
+            let matches = mutual_matches_shared(&mats, &indices, a, b, options)?;
             let two_view = verify(&features[a].xy, &features[b].xy, &matches, options)?;
             progress("matching", done.fetch_add(1, Ordering::Relaxed) + 1, pairs.len() as u64);
             Ok((a, b, two_view))

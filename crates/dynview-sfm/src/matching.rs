@@ -23,11 +23,27 @@ pub struct MatchOptions {
     /// A pair whose homography explains this share of the fundamental matrix's inliers is
     /// treated as having no usable baseline (tripod frames, pure rotation, a plane).
     pub homography_ratio: f64,
+    /// Most descriptor comparisons (features of one image x the other's) for which a pair is
+    /// matched exactly (brute force) rather than through FLANN's kd-trees
+    /// ([`EXACT_MATCH_MAX_COMPARISONS`] by default; `usize::MAX`: every pair).
+    #[serde(default = "default_exact_max_comparisons")]
+    pub exact_max_comparisons: usize,
+}
+
+fn default_exact_max_comparisons() -> usize {
+    EXACT_MATCH_MAX_COMPARISONS
 }
 
 impl Default for MatchOptions {
     fn default() -> Self {
-        Self { ratio: 0.8, min_inliers: 15, max_sigma_px: 3.0, confidence: 0.9999, homography_ratio: 0.85 }
+        Self {
+            ratio: 0.8,
+            min_inliers: 15,
+            max_sigma_px: 3.0,
+            confidence: 0.9999,
+            homography_ratio: 0.85,
+            exact_max_comparisons: EXACT_MATCH_MAX_COMPARISONS,
+        }
     }
 }
 
@@ -67,12 +83,13 @@ pub struct DescriptorIndex {
     train: Mat,
 }
 
-/// Most descriptor comparisons (query rows x indexed rows) for which an image pair is matched
-/// exactly (brute force) rather than through the kd-trees. FLANN's default search (32 checks)
-/// misses true nearest neighbours; where exact matching is affordable it is used: on the
-/// Middlebury temple (1100-1600 features an image) and the Panoptic arc it costs 0-3 s more per
-/// run and cuts the rotation error (`docs/results/sfm.md`). 4 million comparisons is about
-/// 2000 features an image.
+/// The default of [`MatchOptions::exact_max_comparisons`]: most descriptor comparisons (query
+/// rows x indexed rows) for which an image pair is matched exactly (brute force) rather than
+/// through the kd-trees. FLANN's default search (32 checks) misses true nearest neighbours;
+/// where exact matching is affordable it is used: on the Middlebury temple (1100-1600 features
+/// an image) and the Panoptic arc it costs 0-3 s more per run and cuts the rotation error
+/// (`docs/results/sfm.md`). 4 million comparisons is about 2000 features an image. Every pair
+/// exact (`dynview prep --exact-matching`) is 4x slower on the 640x360 arcs, and more accurate.
 pub const EXACT_MATCH_MAX_COMPARISONS: usize = 4_000_000;
 
 impl DescriptorIndex {
@@ -96,14 +113,14 @@ impl DescriptorIndex {
     }
 
     /// For each row of `query`, the index of its nearest neighbour here when it passes Lowe's
-    /// ratio test against the second nearest; exact when the pair is small enough
-    /// ([`EXACT_MATCH_MAX_COMPARISONS`]), else through the kd-trees.
-    pub fn nearest_passing_ratio(&mut self, query: &Mat, ratio: f32) -> SfmResult<Vec<Option<u32>>> {
+    /// ratio test against the second nearest; exact when the pair needs at most
+    /// `exact_max_comparisons` comparisons, else through the kd-trees.
+    pub fn nearest_passing_ratio(&mut self, query: &Mat, ratio: f32, exact_max_comparisons: usize) -> SfmResult<Vec<Option<u32>>> {
         if query.rows() < 1 || self.len < 2 {
             return Ok(vec![None; query.rows().max(0) as usize]);
         }
         let mut matches = Vector::new();
-        if query.rows() as usize * self.len <= EXACT_MATCH_MAX_COMPARISONS {
+        if (query.rows() as usize).saturating_mul(self.len) <= exact_max_comparisons {
             let exact = BFMatcher::create(opencv::core::NORM_L2, false).map_err(SfmError::cv("creating an exact matcher"))?;
             exact.knn_train_match_def(query, &self.train, &mut matches, 2).map_err(SfmError::cv("exact knn matching"))?;
             return Ok(best_passing_ratio(&matches, ratio, self.len));
@@ -115,9 +132,13 @@ impl DescriptorIndex {
 
 /// Mutual nearest neighbours of two images whose indices are built, passing the ratio test both
 /// ways: pairs `[row of a, row of b]`.
-pub fn mutual_matches_indexed(a: (&Mat, &mut DescriptorIndex), b: (&Mat, &mut DescriptorIndex), ratio: f32) -> SfmResult<Vec<[u32; 2]>> {
-    let ab = b.1.nearest_passing_ratio(a.0, ratio)?;
-    let ba = a.1.nearest_passing_ratio(b.0, ratio)?;
+pub fn mutual_matches_indexed(
+    a: (&Mat, &mut DescriptorIndex),
+    b: (&Mat, &mut DescriptorIndex),
+    options: &MatchOptions,
+) -> SfmResult<Vec<[u32; 2]>> {
+    let ab = b.1.nearest_passing_ratio(a.0, options.ratio, options.exact_max_comparisons)?;
+    let ba = a.1.nearest_passing_ratio(b.0, options.ratio, options.exact_max_comparisons)?;
     Ok(mutual(&ab, &ba))
 }
 
@@ -134,11 +155,11 @@ pub fn mutual_matches_shared(
     indices: &[std::sync::Mutex<DescriptorIndex>],
     a: usize,
     b: usize,
-    ratio: f32,
+    options: &MatchOptions,
 ) -> SfmResult<Vec<[u32; 2]>> {
     let lock = |i: usize| indices[i].lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    let ab = lock(b).nearest_passing_ratio(&mats[a], ratio)?;
-    let ba = lock(a).nearest_passing_ratio(&mats[b], ratio)?;
+    let ab = lock(b).nearest_passing_ratio(&mats[a], options.ratio, options.exact_max_comparisons)?;
+    let ba = lock(a).nearest_passing_ratio(&mats[b], options.ratio, options.exact_max_comparisons)?;
     Ok(mutual(&ab, &ba))
 }
 
@@ -168,12 +189,12 @@ fn best_passing_ratio(matches: &Vector<Vector<DMatch>>, ratio: f32, train_len: u
 }
 
 /// Mutual nearest neighbours passing the ratio test in both directions.
-pub fn mutual_matches(a: &Mat, b: &Mat, ratio: f32) -> SfmResult<Vec<[u32; 2]>> {
+pub fn mutual_matches(a: &Mat, b: &Mat, options: &MatchOptions) -> SfmResult<Vec<[u32; 2]>> {
     if a.rows() < 2 || b.rows() < 2 {
         return Ok(Vec::new());
     }
     let (mut index_a, mut index_b) = (DescriptorIndex::build(a)?, DescriptorIndex::build(b)?);
-    mutual_matches_indexed((a, &mut index_a), (b, &mut index_b), ratio)
+    mutual_matches_indexed((a, &mut index_a), (b, &mut index_b), options)
 }
 
 fn points(xy: &[[f32; 2]], matches: &[[u32; 2]], side: usize) -> Vector<Point2f> {
@@ -220,4 +241,38 @@ pub fn verify(xy_a: &[[f32; 2]], xy_b: &[[f32; 2]], matches: &[[u32; 2]], option
         out.inliers = keep.iter().map(|&i| matches[i]).collect();
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `n` descriptors of 128 floats from a fixed generator, one row each.
+    fn descriptors(n: usize, seed: u32, noise: f32) -> Vec<Vec<f32>> {
+        let mut state = seed;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        (0..n).map(|_| (0..128).map(|_| next() * (1.0 - noise)).collect()).collect()
+    }
+
+    fn mat(rows: &[Vec<f32>]) -> Mat {
+        Mat::from_slice_2d(rows).expect("descriptor matrix")
+    }
+
+    #[test]
+    fn exact_and_indexed_matching_find_the_same_true_neighbours() {
+        let train = descriptors(300, 7, 0.0);
+        // Queries: the training rows in reverse order, slightly perturbed.
+        let query: Vec<Vec<f32>> =
+            train.iter().rev().enumerate().map(|(i, row)| row.iter().map(|v| v + 0.002 * ((i % 5) as f32)).collect()).collect();
+        let mut index = DescriptorIndex::build(&mat(&train)).expect("index");
+        let truth: Vec<Option<u32>> = (0..300).map(|i| Some(299 - i as u32)).collect();
+        let exact = index.nearest_passing_ratio(&mat(&query), 0.8, usize::MAX).expect("exact");
+        assert_eq!(exact, truth, "exact matching missed a true neighbour");
+        let indexed = index.nearest_passing_ratio(&mat(&query), 0.8, 0).expect("indexed");
+        let found = indexed.iter().zip(&truth).filter(|(a, b)| a == b).count();
+        assert!(found >= 290, "FLANN found {found} of 300 well-separated neighbours");
+    }
 }

@@ -297,7 +297,7 @@ pub fn refine_camera(
             .into_par_iter()
             .map(|t| {
                 SfmError::check_interrupt(interrupt)?;
-                let m = mutual_matches_shared(&mats, &indices, t - first, t + 1 - first, match_options.ratio)?;
+                let m = mutual_matches_shared(&mats, &indices, t - first, t + 1 - first, match_options)?;
                 let v = verify(&features[t].xy, &features[t + 1].xy, &m, match_options)?;
                 progress(&label, done.fetch_add(1, Ordering::Relaxed) + 1, total);
                 Ok(v.inliers)

@@ -60,6 +60,12 @@ pub struct Args {
     /// report's `intrinsics_refined` says which and why).
     #[arg(long)]
     centred_principal_point: bool,
+    /// Match every keyframe pair exactly (brute force). By default only pairs of up to 4
+    /// million descriptor comparisons (about 2000 features an image) are, the others through
+    /// FLANN's kd-trees: exact matching is more accurate and several times slower on large
+    /// images.
+    #[arg(long)]
+    exact_matching: bool,
     /// Cameras of one image size share one set of intrinsics (one camera model filmed
     /// everything). By default every camera has its own: equal image sizes say nothing about
     /// equal lenses or zoom.
@@ -143,6 +149,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     options.mapper.refine_distortion = args.refine_distortion;
     options.mapper.refine_principal_point = !args.centred_principal_point;
     options.mapper.share_intrinsics = args.shared_intrinsics;
+    if args.exact_matching {
+        options.matching.exact_max_comparisons = usize::MAX;
+    }
     options.refine.smoothness = args.smoothness;
     options.features.max_features = args.max_features;
     let interrupt = Arc::new(AtomicBool::new(false));
