@@ -22,7 +22,7 @@ use dynview_interchange::camera_path::PathFrame;
 
 use crate::eval::{Options, Row, Sequence, VIDEOS_DIR, evaluate_method};
 use crate::paths::workspace_root;
-use crate::prep_runs::{PrepRun, cloud_point_counts, package_poses, prep_once, stage_seconds};
+use crate::prep_runs::{PrepRun, cloud_point_counts, package_poses, prep_args_suffix, prep_once, stage_seconds};
 use crate::sfm_runners::dynview_binary;
 
 /// Largest PSNR drop of the full pipeline's (e) row below the ground-truth package's that
@@ -63,11 +63,7 @@ pub fn run(
     let dynview = dynview_binary()?;
     let videos = event.join(VIDEOS_DIR);
     let root = options.work_dir();
-    let suffix: String = options
-        .prep_args
-        .iter()
-        .map(|arg| format!("+{}", arg.trim_start_matches('-').replace(|c: char| !c.is_ascii_alphanumeric() && c != '.', "_")))
-        .collect();
+    let suffix = prep_args_suffix(&options.prep_args);
     let densified_out = root.join(format!("prep{suffix}"));
     let plain_out = root.join(format!("prep-no-densify{suffix}"));
     let mut variants = Vec::new();

@@ -144,12 +144,7 @@ pub fn run(options: Options) -> anyhow::Result<()> {
 /// The work folder under the workspace: `target/eval/real`, or one named after the extra prep
 /// arguments (so that runs with different arguments keep their own prepared steps).
 fn work_folder(prep_args: &[String]) -> String {
-    let mut folder = String::from("target/eval/real");
-    for arg in prep_args {
-        folder.push('+');
-        folder.extend(arg.trim_start_matches('-').chars().map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' }));
-    }
-    folder
+    format!("target/eval/real{}", crate::prep_runs::prep_args_suffix(prep_args))
 }
 
 fn section_path(work: &Path, capture: RealCapture) -> PathBuf {

@@ -59,6 +59,19 @@ pub fn prep_once(dynview: &Path, input: &Path, out: &Path, extra: &[String], fre
     run_prep(dynview, input, out, extra, fresh)
 }
 
+/// A folder-name suffix for extra prep arguments (`+arg` each, characters other than letters,
+/// digits and `.` as `_`), so that runs with different arguments keep their own folders.
+pub fn prep_args_suffix(prep_args: &[String]) -> String {
+    prep_args
+        .iter()
+        .map(|arg| {
+            let name: String =
+                arg.trim_start_matches('-').chars().map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' }).collect();
+            format!("+{name}")
+        })
+        .collect()
+}
+
 /// `report.json`'s `stage_seconds`: `[["stage", seconds], ...]` in run order.
 pub fn stage_seconds(out: &Path) -> anyhow::Result<Vec<(String, f64)>> {
     let path = out.join(REPORT_FILE);

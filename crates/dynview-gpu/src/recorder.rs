@@ -201,27 +201,29 @@ impl Recorder {
             })
             .collect();
         let key = BindKey { kernel: kernel.id, uniform_size, buffers: buffers.iter().map(|&b| b.clone()).collect() };
-        if !self.bind_groups.contains_key(&key) {
-            if self.bind_groups.len() >= BIND_GROUP_CACHE {
-                self.bind_groups.clear();
-            }
-            let mut entries = vec![wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &self.arena,
-                    offset: 0,
-                    size: std::num::NonZeroU64::new(uniform_size),
-                }),
-            }];
-            for (i, b) in buffers.iter().enumerate() {
-                entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: b.as_entire_binding() });
-            }
-            let bind_group =
-                self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: kernel.layout, entries: &entries });
-            self.counters.bind_groups_created += 1;
-            self.bind_groups.insert(BindKey { kernel: kernel.id, uniform_size, buffers: key.buffers.clone() }, bind_group);
+        if self.bind_groups.len() >= BIND_GROUP_CACHE && !self.bind_groups.contains_key(&key) {
+            self.bind_groups.clear();
         }
-        let bind_group = self.bind_groups[&key].clone();
+        let (device, arena, created) = (&self.device, &self.arena, &mut self.counters.bind_groups_created);
+        let bind_group = self
+            .bind_groups
+            .entry(key)
+            .or_insert_with(|| {
+                let mut entries = vec![wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: arena,
+                        offset: 0,
+                        size: std::num::NonZeroU64::new(uniform_size),
+                    }),
+                }];
+                for (i, b) in buffers.iter().enumerate() {
+                    entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: b.as_entire_binding() });
+                }
+                *created += 1;
+                device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: kernel.layout, entries: &entries })
+            })
+            .clone();
         // While profiling, every dispatch call gets its own pass with timestamps at its ends.
         let profiled = self.profiler.as_mut().map(|p| p.next_pass(&self.device));
         if profiled.is_some() {

@@ -267,16 +267,23 @@ impl Mapper<'_> {
     }
 
     /// Registers image `i` by PnP against the existing points.
+    /// Image `i`'s 2D-3D correspondences: (world point, pixel) of each feature whose track has
+    /// a point.
+    fn correspondences(&self, i: usize) -> Vec<(Vector3<f64>, Vector2<f64>)> {
+        self.tracks.track_of[i]
+            .iter()
+            .enumerate()
+            .filter_map(|(f, track)| {
+                let point = self.points[self.point_of_track[(*track)? as usize]?].as_ref()?;
+                Some((point.xyz, self.observation(i, f as u32)))
+            })
+            .collect()
+    }
+
     fn register(&mut self, i: usize) -> SfmResult<bool> {
-        let mut object = Vector::<Point3d>::new();
-        let mut image = Vector::<Point2d>::new();
-        for (f, track) in self.tracks.track_of[i].iter().enumerate() {
-            if let Some(point) = track.and_then(|t| self.point_of_track[t as usize]).and_then(|p| self.points[p].as_ref()) {
-                object.push(Point3d::new(point.xyz.x, point.xyz.y, point.xyz.z));
-                let xy = self.images[i].xy[f];
-                image.push(Point2d::new(f64::from(xy[0]), f64::from(xy[1])));
-            }
-        }
+        let correspondences = self.correspondences(i);
+        let object: Vector<Point3d> = correspondences.iter().map(|(x, _)| Point3d::new(x.x, x.y, x.z)).collect();
+        let image: Vector<Point2d> = correspondences.iter().map(|(_, p)| Point2d::new(p.x, p.y)).collect();
         if object.len() < self.options.min_registration_inliers {
             return Ok(false);
         }
@@ -472,26 +479,20 @@ impl Mapper<'_> {
             if !tried.insert((new, placed, registered)) {
                 continue;
             }
-            let column = |image_is_a: bool| usize::from(!image_is_a);
-            let pixels = |image: usize, is_a: bool| -> Vec<Vector2<f64>> {
-                pair.inliers.iter().map(|m| self.observation(image, m[column(is_a)])).collect()
+            // Each match is [feature in the pair's first image, feature in its second].
+            let (new_side, placed_side) = if new_is_a { (0, 1) } else { (1, 0) };
+            let pixels = |image: usize, side: usize| -> Vec<Vector2<f64>> {
+                pair.inliers.iter().map(|m| self.observation(image, m[side])).collect()
             };
             let (k_new, k_placed) = (self.intrinsics[self.images[new].camera], self.intrinsics[self.images[placed].camera]);
-            let Some(relative) = relative_pose(&k_placed, &k_new, &pixels(placed, !new_is_a), &pixels(new, new_is_a))? else {
+            let Some(relative) = relative_pose(&k_placed, &k_new, &pixels(placed, placed_side), &pixels(new, new_side))? else {
                 continue;
             };
             let Some(placed_pose) = self.poses[placed] else { continue };
             if relative.in_front < self.options.min_initial_points {
                 continue;
             }
-            let correspondences: Vec<(Vector3<f64>, Vector2<f64>)> = self.tracks.track_of[new]
-                .iter()
-                .enumerate()
-                .filter_map(|(f, track)| {
-                    let point = self.points[self.point_of_track[(*track)? as usize]?].as_ref()?;
-                    Some((point.xyz, self.observation(new, f as u32)))
-                })
-                .collect();
+            let correspondences = self.correspondences(new);
             let min_inliers = MIN_PAIR_SCALE_INLIERS.max(correspondences.len().div_ceil(2));
             if let Some((pose, _)) =
                 place_along(&k_new, &placed_pose, &relative, &correspondences, self.options.max_reprojection_px, min_inliers)
