@@ -177,7 +177,8 @@ pub fn reconstruct_keyframes(
     interrupt: &AtomicBool,
 ) -> SfmResult<KeyframeModel> {
     let still = still_cameras(frames.cameras.len(), keys, features, pairs);
-    let pooled = pool(keys, features, pairs, &still, match_options)?;
+    let pooled_cameras = crate::still::cameras_to_pool(&still, keys, pairs);
+    let pooled = pool(keys, features, pairs, &pooled_cameras, match_options)?;
     let (intrinsics, mut focal_source) = initial_intrinsics(frames, &pooled.keys, &pooled.pairs, known, match_options);
     let group = intrinsics_groups(frames, known, mapper_options.share_intrinsics);
     let group_count = group.iter().max().map_or(0, |g| g + 1);
@@ -201,8 +202,12 @@ pub fn reconstruct_keyframes(
             source.push_str(&format!("; shared by the {sharing} cameras of this image size"));
         }
     }
-    for (source, _) in focal_source.iter_mut().zip(&still).filter(|(_, s)| **s) {
-        source.push_str("; camera stands still: its keyframes pooled into one image");
+    for (c, source) in focal_source.iter_mut().enumerate().filter(|(c, _)| still[*c]) {
+        source.push_str(if pooled_cameras[c] {
+            "; camera stands still: its keyframes pooled into one image"
+        } else {
+            "; camera stands still (its keyframes match others well enough alone: not pooled)"
+        });
     }
     Ok(KeyframeModel { keyframes: keys.to_vec(), reconstruction, focal_source, still_cameras: still })
 }

@@ -47,6 +47,31 @@ pub const MIN_MOVING_INLIERS: usize = 20;
 /// 0.35-0.52 on the right Panoptic pairs over 4 and 15 time steps, 0.33 at most on the wrong.
 pub const MIN_MOVING_SHARE: f64 = 0.3;
 
+/// A still camera is pooled only when no single time step verified this many inliers between
+/// it and another camera: with such a pair it starts and joins a reconstruction as it is (twice
+/// the 50 an initial pair needs; one time step of two Panoptic cameras has at most 40).
+/// Richly textured static scenes (the synthetic tripod events) match mostly on their
+/// background, so a pooled pair of theirs has too few moving matches to be trusted, while
+/// their single time steps need no pooling.
+pub const MIN_SINGLE_STEP_INLIERS: usize = 100;
+
+/// Which still cameras to pool: those with no pair of [`MIN_SINGLE_STEP_INLIERS`] inliers
+/// with another camera at one time step.
+pub fn cameras_to_pool(still: &[bool], keys: &[Keyframe], pairs: &[(usize, usize, TwoView)]) -> Vec<bool> {
+    let mut rich = vec![false; still.len()];
+    for (a, b, v) in pairs {
+        let (ka, kb) = (&keys[*a], &keys[*b]);
+        if ka.camera != kb.camera && ka.frame == kb.frame && v.inliers.len() >= MIN_SINGLE_STEP_INLIERS {
+            for c in [ka.camera, kb.camera] {
+                if let Some(r) = rich.get_mut(c) {
+                    *r = true;
+                }
+            }
+        }
+    }
+    still.iter().zip(&rich).map(|(&s, &r)| s && !r).collect()
+}
+
 /// Per camera, whether it stands still: it has two keyframes or more, in every verified pair of
 /// them a quarter of the matches moved by at most [`STILL_SHIFT_PX`], and those pairs link all
 /// of them.

@@ -124,3 +124,21 @@ fn every_frame_is_posed_accurately_and_the_priors_reduce_jitter() {
     println!("jitter (RMS frame-to-frame change of the centre error): {:.4}% with priors, {:.4}% without", 100.0 * j_on, 100.0 * j_off);
     assert!(j_on < 0.8 * j_off, "priors must reduce jitter: {j_on} vs {j_off}");
 }
+
+/// The default demo's regime: tripod cameras on a richly textured event. Their keyframes match
+/// well at one time step, so they are not pooled (a pooled pair of theirs matches mostly on the
+/// static background and would not be trusted), and every camera is posed.
+#[test]
+fn tripod_cameras_on_a_textured_event_are_all_posed() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let event = dir.path().join("event");
+    let config = SynthConfig { cameras: 4, frames: 8, width: 480, height: 270, handheld: false, ..SynthConfig::default() };
+    dynview_synth::generate(&config, &event, &|_, _, _| {}).expect("synth");
+    let out = dir.path().join("prep");
+    let options = PrepOptions { keyframe_interval: 4, stop_after: Stage::Poses, ..PrepOptions::default() };
+    let report = run(&event.join("input"), &out, &options, &|_, _, _| {}, &AtomicBool::new(false)).expect("prep");
+    assert_eq!(report.keyframes_registered, report.keyframes, "{:?}", report.focal_source);
+    assert!(report.focal_source.iter().all(|s| s.contains("stands still") && s.contains("not pooled")), "{:?}", report.focal_source);
+    let poses = EventPoses::read(&out.join("poses.json")).expect("poses.json");
+    assert_eq!(poses.registered_frame_count(), 4 * 8, "every frame of every camera has a pose");
+}
