@@ -118,7 +118,7 @@ fn camera_path_matches_heldout_model_and_package_is_valid() {
         assert!((frame.camera.intrinsics.fy - truth.intrinsics.fy).abs() < 1e-6);
     }
     let package = ScenePackage::open(event.join("scene")).unwrap();
-    package.verify(|_| {}).unwrap();
+    package.verify(|_, _| {}).unwrap();
     assert_eq!(package.camera_count(), config.cameras);
     assert_eq!(package.time_step_count(), config.frames);
     // Clouds hold the sampled share of every camera's pixels (fewer where rays hit no surface).

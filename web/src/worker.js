@@ -23,8 +23,10 @@
 //               | {type: "reply", id, value} | {type: "idle"}
 
 import init, { Viewer } from "../pkg/dynview_web.js";
+import { VideoFrames } from "./video.js";
 
 let viewer = null;
+let video = null; // the decoders of a video package's frames
 let canvas = null; // the OffscreenCanvas of the GPU path
 let pending = null; // the newest render request not yet started
 let current = null; // the request whose job is in the viewer
@@ -63,7 +65,8 @@ function postPicture(request, report) {
 
 async function ensureLoaded(t) {
   if (viewer.isLoaded(t)) return;
-  await viewer.loadStep(t, (stats, done, total) => post({ type: "progress", time_step: t, stats, done, total }));
+  const progress = (stats, done, total) => post({ type: "progress", time_step: t, stats, done, total });
+  await (video ? video.load(t, progress) : viewer.loadStep(t, progress));
 }
 
 // Renders `request` on the GPU: submits it, waits (without blocking) until the GPU is done.
@@ -257,6 +260,8 @@ self.onmessage = async (event) => {
     } else if (msg.type === "open" || msg.type === "open-files") {
       viewer = null;
       viewer = msg.type === "open" ? await Viewer.openUrl(msg.url) : await Viewer.openFiles(msg.files, msg.paths);
+      const info = viewer.info();
+      video = info.video_codec ? new VideoFrames(viewer, info) : null;
       const gpu = msg.gpu ? await enableGpu() : { error: "not requested" };
       const choice = msg.choose ? await pickRenderer(gpu, Boolean(msg.trial)) : { renderer: null, reason: "" };
       post({ type: "opened", info: viewer.info(), backends: gpu.name ? ["cpu", "gpu"] : ["cpu"], gpu, choice });

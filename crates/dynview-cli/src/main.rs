@@ -34,6 +34,8 @@ enum Command {
     Merge(commands::merge::MergeArgs),
     /// Write one time step's cloud of a scene package as a PLY file.
     ExportPly(commands::package::PlyArgs),
+    /// Rewrite a scene package with its frames as video (format v2) or as JPEG files.
+    Repack(commands::package::RepackArgs),
     /// Render a camera path (nerfstudio camera_path.json or dynview path) through a scene.
     Render(commands::render::Args),
     /// Convert a calibration (COLMAP model, Qualisys .qca.txt, Middlebury *_par.txt) into
@@ -57,6 +59,7 @@ fn main() -> std::process::ExitCode {
         #[cfg(feature = "prep")]
         Command::Merge(args) => commands::merge::run_merge(args),
         Command::ExportPly(args) => commands::package::run_ply(args),
+        Command::Repack(args) => commands::package::run_repack(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

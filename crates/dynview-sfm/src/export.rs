@@ -6,7 +6,8 @@
 use std::path::{Path, PathBuf};
 
 use dynview_core::StageProgress;
-use dynview_core::scene::manifest::{FORMAT_NAME, FORMAT_VERSION};
+use dynview_core::scene::ffmpeg::VideoSettings;
+use dynview_core::scene::manifest::{FORMAT_NAME, FORMAT_VERSION, FramesIndexEntry};
 use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, PointCloud, SceneWriter, StartView};
 use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
@@ -22,6 +23,21 @@ pub const BOUNDS_TAIL_FRACTION: f64 = 0.001;
 pub const BOUNDS_MARGIN_FRACTION: f64 = 0.02;
 /// Most coordinates sampled per axis to choose the box.
 const BOUNDS_SAMPLES: usize = 4_000_000;
+
+/// What a package holds beside the prepared steps, and how.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PackageOptions {
+    /// The static cloud lent to every step (`None`: each step keeps only its own points).
+    pub static_cloud: Option<StaticOptions>,
+    /// The frames as one VP9 video per camera (format v2), or as JPEG files when `None`.
+    pub video: Option<VideoSettings>,
+}
+
+impl Default for PackageOptions {
+    fn default() -> Self {
+        Self { static_cloud: Some(StaticOptions::default()), video: Some(VideoSettings::default()) }
+    }
+}
 
 /// What an export wrote.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
@@ -103,9 +119,10 @@ pub fn export_package(
     sources: &[PathBuf],
     scene_dir: &Path,
     name: &str,
-    statics: Option<&StaticOptions>,
+    options: &PackageOptions,
     progress: StageProgress,
 ) -> SfmResult<ExportReport> {
+    let statics = options.static_cloud.as_ref();
     let Some(first) = sources.first() else {
         return Err(SfmError::Input { path: scene_dir.to_path_buf(), problem: "no prep output folders to join".into() });
     };
@@ -147,12 +164,17 @@ pub fn export_package(
     }
 
     let bounds = choose_bounds(&source_of, &event)?;
-    let manifest = manifest(&event, settings, bounds, name);
+    let mut manifest = manifest(&event, settings, bounds, name);
+    if let Some(video) = &options.video {
+        manifest.frame_format = FrameFormat::Vp9;
+        manifest.frames_index =
+            Some(FramesIndexEntry { file: "frames.idx".into(), byte_length: 0, keyframe_interval: video.keyframe_interval });
+    }
     let static_cloud = match statics {
         Some(options) => Some(static_cloud(&source_of, &manifest, options, progress)?),
         None => None,
     };
-    let mut writer = SceneWriter::create(scene_dir, manifest)?;
+    let mut writer = SceneWriter::create_with(scene_dir, manifest, options.video.unwrap_or_default())?;
     let mut report = ExportReport {
         time_steps: steps,
         cameras: event.cameras.len(),
@@ -302,6 +324,7 @@ fn manifest(event: &EventPoses, settings: &StepSettings, bounds: Bounds, name: &
         bounds,
         clouds: CloudsEntry { file: "clouds.bin".into(), byte_length: 0 },
         frame_format: FrameFormat::Jpeg,
+        frames_index: None,
         start_view: StartView {
             time_step: 0,
             pose: start_camera.poses[0],

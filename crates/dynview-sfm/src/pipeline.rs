@@ -88,8 +88,9 @@ pub struct PrepOptions {
     pub intrinsics: Option<PathBuf>,
     /// The per-timestep stage.
     pub steps: StepOptions,
-    /// The static cloud lent to every step (`None`: each step keeps only its own points).
-    pub static_cloud: Option<crate::static_cloud::StaticOptions>,
+    /// What the package holds and how: the static cloud, video or JPEG frames.
+    #[serde(default)]
+    pub package: crate::export::PackageOptions,
     /// Only these time steps (half-open, cut at the event's end) after the pose stage, and no
     /// package: a range job whose output `dynview merge` joins with the others.
     pub frames: Option<Range<usize>>,
@@ -112,7 +113,7 @@ impl Default for PrepOptions {
             poses: None,
             intrinsics: None,
             steps: StepOptions::default(),
-            static_cloud: Some(crate::static_cloud::StaticOptions::default()),
+            package: crate::export::PackageOptions::default(),
             frames: None,
             fps: None,
         }
@@ -252,7 +253,7 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: StageProgr
 
     let scene = out.join(SCENE_DIR);
     let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "event".into());
-    let package = export_package(&[out.to_path_buf()], &scene, &name, options.static_cloud.as_ref(), progress)?;
+    let package = export_package(&[out.to_path_buf()], &scene, &name, &options.package, progress)?;
     report.warnings.extend(package.warnings.iter().filter(|w| !report.warnings.contains(w)).cloned().collect::<Vec<_>>());
     report.package = Some(package);
     report.package_dir = Some(scene);

@@ -136,6 +136,6 @@ fn a_black_camera_an_unrelated_camera_and_a_short_video_give_warnings_and_a_pack
     assert_eq!(names, ["cam00", "cam01", "cam02", "cam03"]);
     assert_eq!(package.time_step_count(), 2);
     assert_eq!((package.manifest().cameras[0].width, package.manifest().cameras[0].height), (240, 135));
-    package.verify(|_| {}).expect("every cloud and frame is readable");
+    package.verify(|_, _| {}).expect("every cloud and frame is readable");
     assert!(package.read_cloud(1).expect("cloud").len() > 100, "points at the last time step");
 }

@@ -301,6 +301,7 @@ fn write_package(
         cameras,
         clouds: CloudsEntry { file: "clouds.bin".into(), byte_length: 0 },
         frame_format: FrameFormat::Jpeg,
+        frames_index: None,
         start_view: StartView {
             time_step: 0,
             pose: start.camera_from_world.into(),

@@ -9,7 +9,9 @@ use dynview_core::render::{InputView, TimeStepInputs};
 use dynview_core::scene::cloud::{self, CloudIndex};
 use dynview_core::scene::limits::{MAX_FRAME_FILE_BYTES, MAX_MANIFEST_BYTES};
 use dynview_core::scene::manifest::MANIFEST_FILE;
-use dynview_core::scene::{Manifest, decode_frame};
+use dynview_core::scene::video::{FrameIndex, index_byte_length};
+use dynview_core::scene::yuv::{PlaneLayout, Yuv420};
+use dynview_core::scene::{Manifest, PointCloud, decode_frame};
 
 use crate::source::{ReadError, Source};
 
@@ -74,6 +76,19 @@ pub struct RemoteScene {
     cloud_index: CloudIndex,
     cache: RefCell<StepCache>,
     stats: Cell<LoadStats>,
+    /// The frame index of a video package.
+    video: Option<FrameIndex>,
+}
+
+/// The compressed frames a decoder needs to show one frame of one camera's video.
+#[derive(Debug)]
+pub struct VideoChunks {
+    /// Time step of the first chunk (a keyframe, unless it continues the decoder's group).
+    pub first: u32,
+    /// One VP9 frame per time step `first..=t`.
+    pub chunks: Vec<Vec<u8>>,
+    /// Whether each chunk is a keyframe.
+    pub keys: Vec<bool>,
 }
 
 fn invalid(e: impl std::fmt::Display) -> ReadError {
@@ -114,8 +129,24 @@ impl RemoteScene {
         let index_bytes = source.start(&clouds_file, Some((0, index_length)), index_length)?.bytes().await?;
         count(index_bytes.len());
         let cloud_index = CloudIndex::parse(&index_bytes, file_length, &clouds_name).map_err(invalid)?;
+        let video = match &manifest.frames_index {
+            Some(entry) => {
+                let expected = index_byte_length(manifest.cameras.len(), manifest.time_step_count);
+                let name = source.display_name(&entry.file);
+                if entry.byte_length != expected {
+                    return Err(ReadError(format!(
+                        "{name}: {} bytes in scene.json, but the cameras and steps need {expected}",
+                        entry.byte_length
+                    )));
+                }
+                let bytes = source.start(&entry.file, None, expected)?.bytes().await?;
+                count(bytes.len());
+                Some(FrameIndex::parse(&bytes, manifest.cameras.len(), manifest.time_step_count, &name).map_err(invalid)?)
+            }
+            None => None,
+        };
         let cache = RefCell::new(StepCache { steps: Vec::new(), budget_bytes: DEFAULT_CACHE_BUDGET_BYTES });
-        Ok(Self { source, manifest, cloud_index, cache, stats })
+        Ok(Self { source, manifest, cloud_index, cache, stats, video })
     }
 
     /// The validated manifest.
@@ -148,7 +179,95 @@ impl RemoteScene {
         self.cache.borrow_mut().get(t)
     }
 
-    /// The inputs of step `t`, read and decoded unless cached. `levels` is the pyramid depth
+    fn count(&self, n: usize, frames: u64) {
+        let mut s = self.stats.get();
+        s.bytes_read += n as u64;
+        s.frames_read += frames;
+        self.stats.set(s);
+    }
+
+    fn check_step(&self, t: u32) -> Result<(), ReadError> {
+        if t >= self.manifest.time_step_count {
+            return Err(ReadError(format!("time step {t} out of range: the scene has {}", self.manifest.time_step_count)));
+        }
+        Ok(())
+    }
+
+    /// Reads and decodes the cloud of step `t`.
+    async fn load_cloud(&self, t: u32) -> Result<PointCloud, ReadError> {
+        let entry = self.cloud_index.steps[t as usize];
+        let clouds_file = &self.manifest.clouds.file;
+        let block =
+            self.source.start(clouds_file, Some((entry.offset, entry.offset + entry.byte_length())), entry.byte_length())?.bytes().await?;
+        self.count(block.len(), 0);
+        self.cloud_index.decode_step(t as usize, &block, &self.source.display_name(clouds_file)).map_err(invalid)
+    }
+
+    /// Whether the frames are video (decoded by the page with WebCodecs and handed over with
+    /// [`RemoteScene::load_step_from_frames`]) rather than image files.
+    pub fn is_video(&self) -> bool {
+        self.video.is_some()
+    }
+
+    /// The VP9 frames that show frame `t` of `camera`: from its keyframe, or from `after + 1`
+    /// when the caller's decoder has just shown frame `after` of the same group. One range read.
+    pub async fn video_chunks(&self, camera: usize, t: u32, after: Option<u32>) -> Result<VideoChunks, ReadError> {
+        self.check_step(t)?;
+        let (Some(index), Some(_)) = (&self.video, self.manifest.cameras.get(camera)) else {
+            return Err(ReadError(format!("camera {camera} has no video in this scene")));
+        };
+        let frames = &index.cameras[camera];
+        let span = frames.span_to(t, after);
+        let file = self.manifest.video_relative_path(camera);
+        let bytes = self.source.start(&file, Some(span.bytes), span.bytes.1 - span.bytes.0)?.bytes().await?;
+        self.count(bytes.len(), 0);
+        let payloads = frames.payloads(&span, &bytes, &self.source.display_name(&file)).map_err(invalid)?;
+        Ok(VideoChunks {
+            first: span.first,
+            chunks: payloads.into_iter().map(<[u8]>::to_vec).collect(),
+            keys: (span.first..=t).map(|i| frames.frames[i as usize].key).collect(),
+        })
+    }
+
+    /// Step `t` of a video package from its decoded frames, one per camera (`I420` or `NV12`
+    /// planes, tight), and its cloud (read here), unless cached.
+    pub async fn load_step_from_frames(
+        &self,
+        t: u32,
+        levels: usize,
+        frames: Vec<(PlaneLayout, Vec<u8>)>,
+    ) -> Result<Rc<TimeStepInputs>, ReadError> {
+        self.check_step(t)?;
+        if let Some(inputs) = self.cached(t) {
+            return Ok(inputs);
+        }
+        if frames.len() != self.manifest.cameras.len() {
+            return Err(ReadError(format!("{} frames for {} cameras", frames.len(), self.manifest.cameras.len())));
+        }
+        let cloud = self.load_cloud(t).await?;
+        let mut views = Vec::with_capacity(frames.len());
+        for (c, (layout, bytes)) in frames.into_iter().enumerate() {
+            let entry = &self.manifest.cameras[c];
+            let yuv = Yuv420::from_bytes(entry.width, entry.height, layout, &bytes).ok_or_else(|| {
+                ReadError(format!(
+                    "{}: frame {t}: {} bytes decoded, a {}x{} frame has {}",
+                    self.manifest.video_relative_path(c),
+                    bytes.len(),
+                    entry.width,
+                    entry.height,
+                    dynview_core::scene::yuv::frame_bytes(entry.width, entry.height)
+                ))
+            })?;
+            self.count(0, 1);
+            let image = dynview_core::raster::RgbRaster::from_rgb8(&yuv.to_rgb8());
+            views.push(InputView::new(self.manifest.camera_at(c, t), image, levels));
+        }
+        let inputs = Rc::new(TimeStepInputs { cloud, views });
+        self.cache.borrow_mut().insert(t, inputs.clone());
+        Ok(inputs)
+    }
+
+    /// The inputs of step `t` of an image package, read and decoded unless cached. `levels` is the pyramid depth
     /// to build; `progress(stats, frames_done, frames_total)` follows the reads.
     pub async fn load_step(
         &self,
@@ -156,35 +275,26 @@ impl RemoteScene {
         levels: usize,
         mut progress: impl FnMut(LoadStats, u32, u32),
     ) -> Result<Rc<TimeStepInputs>, ReadError> {
-        if t >= self.manifest.time_step_count {
-            return Err(ReadError(format!("time step {t} out of range: the scene has {}", self.manifest.time_step_count)));
-        }
+        self.check_step(t)?;
         if let Some(inputs) = self.cached(t) {
             return Ok(inputs);
         }
-        let count = |n: usize, frames: u64| {
-            let mut s = self.stats.get();
-            s.bytes_read += n as u64;
-            s.frames_read += frames;
-            self.stats.set(s);
-        };
-        let entry = self.cloud_index.steps[t as usize];
-        let clouds_file = &self.manifest.clouds.file;
-        // Start every read before awaiting any, so they are in flight together.
-        let cloud_read = self.source.start(clouds_file, Some((entry.offset, entry.offset + entry.byte_length())), entry.byte_length())?;
+        if self.is_video() {
+            return Err(ReadError("the frames of this scene are video: decode them and hand them over (loadStepFrames)".into()));
+        }
         let cameras = self.manifest.cameras.len();
+        // Start every read before awaiting any, so they are in flight together.
+        let cloud = self.load_cloud(t);
         let frame_reads = (0..cameras)
             .map(|c| self.source.start(&self.manifest.frame_relative_path(c, t), None, MAX_FRAME_FILE_BYTES))
             .collect::<Result<Vec<_>, _>>()?;
-        let block = cloud_read.bytes().await?;
-        count(block.len(), 0);
-        let cloud = self.cloud_index.decode_step(t as usize, &block, &self.source.display_name(clouds_file)).map_err(invalid)?;
+        let cloud = cloud.await?;
         let total = cameras as u32;
         progress(self.stats.get(), 0, total);
         let mut views = Vec::with_capacity(cameras);
         for (c, read) in frame_reads.into_iter().enumerate() {
             let bytes = read.bytes().await?;
-            count(bytes.len(), 1);
+            self.count(bytes.len(), 1);
             let entry = &self.manifest.cameras[c];
             let name = self.source.display_name(&self.manifest.frame_relative_path(c, t));
             let image = decode_frame(&bytes, self.manifest.frame_format, entry.width, entry.height, &name).map_err(invalid)?;

@@ -103,6 +103,8 @@ pub struct SceneInfo {
     pub start_view: View,
     /// The suggested first time step.
     pub start_time_step: u32,
+    /// The WebCodecs codec string of the frames' videos; `None` when the frames are images.
+    pub video_codec: Option<String>,
 }
 
 /// Distance from `eye` along the view to the scene centre, at least a tenth of the diagonal:
@@ -135,6 +137,7 @@ impl SceneInfo {
                 ..View::of_camera(&start_camera, pivot_distance(manifest, &start_camera))
             },
             start_time_step: start.time_step,
+            video_codec: manifest.frame_format.is_video().then(|| dynview_core::scene::video::WEBCODECS_CODEC.to_owned()),
         }
     }
 }

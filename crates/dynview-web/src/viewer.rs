@@ -8,6 +8,7 @@ use dynview_core::camera::Camera;
 use dynview_core::display::{self, DisplayMode};
 use dynview_core::raster::{RgbRaster, ScalarRaster};
 use dynview_core::render::{FrameJob, JobStep, PreviousFrame, RenderHooks, RenderParams, TimeStepInputs, Timings};
+use dynview_core::scene::yuv::PlaneLayout;
 use dynview_interchange::camera_path::{NerfstudioPath, parse_path};
 use js_sys::{Function, Promise};
 use serde::{Deserialize, Serialize};
@@ -220,6 +221,53 @@ impl Viewer {
                 }
             };
             scene.load_step(t, levels, progress).await.map_err(|e| JsValue::from(error(e)))?;
+            Ok(JsValue::UNDEFINED)
+        })
+    }
+
+    /// A video package's compressed frames that show frame `t` of `camera`: resolves with
+    /// `{first, chunks: [Uint8Array], keys: [bool]}`, one VP9 frame per step `first..=t`,
+    /// starting at the keyframe of `t`, or after `after` when the caller's decoder has just
+    /// shown that frame of the same group (`null`/`undefined`: none).
+    #[wasm_bindgen(js_name = videoChunks)]
+    pub fn video_chunks(&self, camera: usize, t: u32, after: Option<u32>) -> Promise {
+        let scene = self.scene.clone();
+        wasm_bindgen_futures::future_to_promise(async move {
+            let video = scene.video_chunks(camera, t, after).await.map_err(|e| JsValue::from(error(e)))?;
+            let out = js_sys::Object::new();
+            let chunks = js_sys::Array::new();
+            for chunk in &video.chunks {
+                chunks.push(&js_sys::Uint8Array::from(chunk.as_slice()));
+            }
+            let keys: js_sys::Array = video.keys.iter().map(|&k| JsValue::from(k)).collect();
+            js_sys::Reflect::set(&out, &"first".into(), &video.first.into())?;
+            js_sys::Reflect::set(&out, &"chunks".into(), &chunks)?;
+            js_sys::Reflect::set(&out, &"keys".into(), &keys)?;
+            Ok(out.into())
+        })
+    }
+
+    /// Loads step `t` of a video package from its decoded frames, one per camera in order:
+    /// `formats[i]` is `"I420"` or `"NV12"` and `planes[i]` that frame's tight planes. Reads
+    /// the step's cloud. Resolves when the step is cached.
+    #[wasm_bindgen(js_name = loadStepFrames)]
+    pub fn load_step_frames(&self, t: u32, formats: Vec<String>, planes: Vec<js_sys::Uint8Array>) -> Promise {
+        let scene = self.scene.clone();
+        let levels = self.params.levels;
+        wasm_bindgen_futures::future_to_promise(async move {
+            let mut frames = Vec::with_capacity(planes.len());
+            for (format, data) in formats.iter().zip(&planes) {
+                let layout = match format.as_str() {
+                    "I420" => PlaneLayout::I420,
+                    "NV12" => PlaneLayout::Nv12,
+                    other => return Err(error(format!("decoded frames in format {other:?}: only I420 and NV12 are read")).into()),
+                };
+                frames.push((layout, data.to_vec()));
+            }
+            if formats.len() != planes.len() {
+                return Err(error(format!("{} formats for {} frames", formats.len(), planes.len())).into());
+            }
+            scene.load_step_from_frames(t, levels, frames).await.map_err(|e| JsValue::from(error(e)))?;
             Ok(JsValue::UNDEFINED)
         })
     }

@@ -16,6 +16,8 @@ pub struct BrowserFixture {
     pub event: PathBuf,
     /// A copy of the package whose `clouds.bin` is corrupted.
     pub corrupt_scene: PathBuf,
+    /// The package repacked with its frames as video (format v2).
+    pub video_scene: PathBuf,
 }
 
 /// Makes (or reuses) the fixture under `root` with the `dynview` binary `dynview`:
@@ -24,8 +26,9 @@ pub fn browser_fixture(dynview: &Path, root: &Path, frames: u32, width: u32, hei
     let event = root.join("event");
     let native_render = root.join("native");
     let corrupt_scene = root.join("corrupt");
+    let video_scene = root.join("video");
     let stamp = root.join("fixture.json");
-    let config = format!("{{\"frames\":{frames},\"width\":{width},\"height\":{height},\"v\":1}}");
+    let config = format!("{{\"frames\":{frames},\"width\":{width},\"height\":{height},\"v\":2}}");
     let binary_time = std::fs::metadata(dynview).and_then(|m| m.modified()).ok();
     let stamp_time = std::fs::metadata(&stamp).and_then(|m| m.modified()).ok();
     let current = std::fs::read_to_string(&stamp).is_ok_and(|s| s == config) && stamp_time >= binary_time;
@@ -46,9 +49,12 @@ pub fn browser_fixture(dynview: &Path, root: &Path, frames: u32, width: u32, hei
         let mut bytes = std::fs::read(&clouds).context("fixture clouds.bin")?;
         bytes[0..8].copy_from_slice(b"NOTCLOUD");
         std::fs::write(&clouds, bytes)?;
+        let mut repack = Command::new(dynview);
+        repack.arg("repack").arg(event.join("scene")).arg("--out").arg(&video_scene).args(["--keyframe-every", "3"]);
+        run_step("repack the browser-test package with video frames", repack)?;
         std::fs::write(&stamp, config)?;
     }
-    Ok(BrowserFixture { event, corrupt_scene })
+    Ok(BrowserFixture { event, corrupt_scene, video_scene })
 }
 
 fn copy_dir(from: &Path, to: &Path) -> anyhow::Result<()> {

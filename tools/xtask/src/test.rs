@@ -106,7 +106,11 @@ fn end_to_end(fixture: &BrowserFixture) -> anyhow::Result<f64> {
     web::build_package()?;
     let site = Site {
         web_dir: web::web_dir(),
-        scenes: vec![("e2e".into(), fixture.event.join("scene")), ("corrupt".into(), fixture.corrupt_scene.clone())],
+        scenes: vec![
+            ("e2e".into(), fixture.event.join("scene")),
+            ("corrupt".into(), fixture.corrupt_scene.clone()),
+            ("video".into(), fixture.video_scene.clone()),
+        ],
     };
     let server = serve::start(&site, 0)?;
     let out = root.join("target/e2e");
@@ -118,6 +122,7 @@ fn end_to_end(fixture: &BrowserFixture) -> anyhow::Result<f64> {
         .env("DYNVIEW_BIN", root.join("target/debug/dynview"))
         .env("DYNVIEW_E2E_OUT", &out)
         .env("DYNVIEW_E2E_SCENE", fixture.event.join("scene"))
+        .env("DYNVIEW_E2E_VIDEO_SCENE", &fixture.video_scene)
         .env("CHROMIUM", which("chromium").unwrap_or_else(|| "/usr/bin/chromium".into()));
     let secs = run_step("end-to-end tests of the page in headless Chromium", e2e)?;
     drop(server);

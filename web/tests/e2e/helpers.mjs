@@ -3,6 +3,7 @@
 //   DYNVIEW_BASE_URL   the server (web/ at /, scenes at /scenes/e2e/ and /scenes/corrupt/)
 //   DYNVIEW_BIN        the dynview CLI, for native reference renders
 //   DYNVIEW_E2E_SCENE  the e2e scene package folder (for the native render)
+//   DYNVIEW_E2E_VIDEO_SCENE  the same package with video frames (served at /scenes/video/)
 //   DYNVIEW_E2E_OUT    where screenshots go (target/e2e/)
 
 import assert from "node:assert/strict";
@@ -78,13 +79,13 @@ export function stddev(image) {
   return Math.sqrt(values.reduce((s, v) => s + (v - mean) ** 2, 0) / values.length);
 }
 
-/** The native CPU render (`dynview render`) of the page's current view as exported by it. */
-export async function nativeRenderOfPage(page) {
+/** The native CPU render (`dynview render`) of the page's current view as exported by it,
+ * through the package folder `scene` (the e2e scene by default). */
+export async function nativeRenderOfPage(page, scene = process.env.DYNVIEW_E2E_SCENE) {
   const json = await page.evaluate(() => window.dynview.cameraPathJson());
   const dir = fs.mkdtempSync(path.join(OUT, "native-"));
   try {
     fs.writeFileSync(path.join(dir, "camera_path.json"), json);
-    const scene = process.env.DYNVIEW_E2E_SCENE;
     execFileSync(process.env.DYNVIEW_BIN, ["render", "--scene", scene, "--path", path.join(dir, "camera_path.json"), "--out", path.join(dir, "out")]);
     const png = PNG.sync.read(fs.readFileSync(path.join(dir, "out", "00000.png")));
     return { width: png.width, height: png.height, rgba: Array.from(png.data) };

@@ -22,9 +22,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let package = ScenePackage::open(&args.scene).with_context(|| format!("opening scene package {}", args.scene.display()))?;
     if !args.quick {
         let bars = StageBars::new();
-        let total = u64::from(package.time_step_count());
         package
-            .verify(|t| bars.update("verify", u64::from(t) + 1, total))
+            .verify(|done, total| bars.update("verify", done, total))
             .with_context(|| format!("checking scene package {}", args.scene.display()))?;
         bars.finish();
     }

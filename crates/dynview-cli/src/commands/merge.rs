@@ -23,14 +23,19 @@ pub struct MergeArgs {
     /// Each time step keeps only its own points (no static points accumulated across time).
     #[arg(long)]
     no_static: bool,
+    #[command(flatten)]
+    frames_as: crate::commands::frames::FrameArgs,
 }
 
 /// Runs `dynview merge`.
 pub fn run_merge(args: MergeArgs) -> anyhow::Result<()> {
     let name = args.name.clone().unwrap_or_else(|| args.out.file_name().map_or("event".into(), |n| n.to_string_lossy().into_owned()));
     let bars = StageBars::new();
-    let statics = (!args.no_static).then(dynview_sfm::static_cloud::StaticOptions::default);
-    let result = dynview_sfm::export::export_package(&args.outputs, &args.out, &name, statics.as_ref(), &|stage, done, total| {
+    let options = dynview_sfm::export::PackageOptions {
+        static_cloud: (!args.no_static).then(dynview_sfm::static_cloud::StaticOptions::default),
+        video: args.frames_as.video(),
+    };
+    let result = dynview_sfm::export::export_package(&args.outputs, &args.out, &name, &options, &|stage, done, total| {
         bars.update(stage, done, total)
     });
     bars.finish();

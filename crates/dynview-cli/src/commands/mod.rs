@@ -1,6 +1,7 @@
 //! One module per subcommand: argument parsing and wiring only, no math.
 
 pub mod colmap;
+pub mod frames;
 pub mod info;
 #[cfg(feature = "prep")]
 pub mod merge;

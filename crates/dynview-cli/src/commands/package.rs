@@ -36,3 +36,40 @@ pub fn run_ply(args: PlyArgs) -> anyhow::Result<()> {
     println!("wrote {} ({} points)", out.display(), cloud.len());
     Ok(())
 }
+
+/// Arguments of `dynview repack`.
+#[derive(clap::Args, Debug)]
+pub struct RepackArgs {
+    /// The scene package folder to read (format v1 or v2).
+    scene: PathBuf,
+    /// The package folder to write (replaced only when the new package is complete; not the
+    /// one read).
+    #[arg(long)]
+    out: PathBuf,
+    #[command(flatten)]
+    frames_as: crate::commands::frames::FrameArgs,
+}
+
+/// Runs `dynview repack`.
+pub fn run_repack(args: RepackArgs) -> anyhow::Result<()> {
+    let package = ScenePackage::open(&args.scene).with_context(|| format!("opening scene package {}", args.scene.display()))?;
+    if args.out.canonicalize().ok().is_some_and(|out| args.scene.canonicalize().ok() == Some(out)) {
+        bail!("--out {}: that is the package being read; write somewhere else, then move it", args.out.display());
+    }
+    let bars = crate::progress::StageBars::new();
+    let result =
+        dynview_core::scene::repack::repack(&package, &args.out, args.frames_as.video(), |done, total| bars.update("repack", done, total));
+    bars.finish();
+    let manifest = result.with_context(|| format!("repacking {} into {}", args.scene.display(), args.out.display()))?;
+    let before = package.size_on_disk()?;
+    let after = ScenePackage::open(&args.out)?.size_on_disk()?;
+    println!(
+        "wrote {} (format v{}, {:?} frames): {:.2} MB, was {:.2} MB",
+        args.out.display(),
+        manifest.version,
+        manifest.frame_format,
+        after as f64 / 1e6,
+        before as f64 / 1e6
+    );
+    Ok(())
+}

@@ -92,6 +92,8 @@ pub struct Args {
     /// Each time step keeps only its own points (no static points accumulated across time).
     #[arg(long)]
     no_static: bool,
+    #[command(flatten)]
+    frames_as: crate::commands::frames::FrameArgs,
     /// Only time steps A..B (B excluded, from 0) after the pose stage, and no package: a range
     /// job of a scheduler array; `dynview merge` joins the ranges into the package.
     #[arg(long, value_name = "A..B", value_parser = parse_range)]
@@ -138,8 +140,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     options.steps.working_width = args.working_width;
     if args.no_static {
-        options.static_cloud = None;
+        options.package.static_cloud = None;
     }
+    options.package.video = args.frames_as.video();
     options.steps.densify = (!args.no_densify).then(|| DensifyOptions {
         target_points: args.target_points,
         max_side_px: args.densify_max_side as usize,

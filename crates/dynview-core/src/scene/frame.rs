@@ -11,11 +11,7 @@ pub const JPEG_QUALITY: u8 = 92;
 /// Decodes frame bytes of the given format, refusing images whose header claims a size other
 /// than `width x height` before decoding the pixels.
 pub fn decode_frame(bytes: &[u8], format: FrameFormat, width: u32, height: u32, file: &str) -> SceneResult<RgbRaster> {
-    let image_format = match format {
-        FrameFormat::Jpeg => image::ImageFormat::Jpeg,
-        FrameFormat::Png => image::ImageFormat::Png,
-        FrameFormat::Webp => image::ImageFormat::WebP,
-    };
+    let image_format = image_format(format, file)?;
     let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), image_format);
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_IMAGE_SIDE_PX);
@@ -36,11 +32,21 @@ pub fn decode_frame(bytes: &[u8], format: FrameFormat, width: u32, height: u32, 
 /// Encodes a frame in the package's frame format.
 pub fn encode_frame(image: &image::RgbImage, format: FrameFormat, file: &str) -> SceneResult<Vec<u8>> {
     let mut out = Vec::new();
-    let result = match format {
-        FrameFormat::Jpeg => image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, JPEG_QUALITY).encode_image(image),
-        FrameFormat::Png => image.write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png),
-        FrameFormat::Webp => image.write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::WebP),
+    let result = match image_format(format, file)? {
+        image::ImageFormat::Jpeg => image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, JPEG_QUALITY).encode_image(image),
+        other => image.write_to(&mut std::io::Cursor::new(&mut out), other),
     };
     result.map_err(|source| SceneError::Image { file: file.to_owned(), source })?;
     Ok(out)
+}
+
+/// The image codec of an image frame format; video formats have none (their frames are not
+/// files of their own).
+pub fn image_format(format: FrameFormat, file: &str) -> SceneResult<image::ImageFormat> {
+    match format {
+        FrameFormat::Jpeg => Ok(image::ImageFormat::Jpeg),
+        FrameFormat::Png => Ok(image::ImageFormat::Png),
+        FrameFormat::Webp => Ok(image::ImageFormat::WebP),
+        FrameFormat::Vp9 => Err(SceneError::invalid(file, "frame_format", "vp9 frames are a video per camera, not image files")),
+    }
 }

@@ -20,3 +20,6 @@ pub const ROTATION_TOLERANCE: f64 = 1e-4;
 /// Largest absolute coordinate (m) of a camera centre or bound; anything larger is a unit or
 /// parsing mistake.
 pub const MAX_ABS_COORDINATE_M: f64 = 1e7;
+/// Most frames from a keyframe to the next in a camera's video: a reader decodes at most this
+/// many frames to show any one.
+pub const MAX_KEYFRAME_INTERVAL: u32 = 300;

@@ -10,9 +10,12 @@ use crate::camera::{Camera, Intrinsics, Rigid3};
 pub const MANIFEST_FILE: &str = "scene.json";
 /// The value of the `format` field.
 pub const FORMAT_NAME: &str = "dynview-scene";
-/// The format version this code reads and writes.
-pub const FORMAT_VERSION: u32 = 1;
-/// The folder holding the input frames: `frames/<camera>/<t:05>.<ext>`.
+/// The format version this code writes; it reads this one and [`FORMAT_VERSION_V1`].
+pub const FORMAT_VERSION: u32 = 2;
+/// The first format version: image frames only, no `frames_index`.
+pub const FORMAT_VERSION_V1: u32 = 1;
+/// The folder holding the input frames: `frames/<camera>/<t:05>.<ext>` (images) or
+/// `frames/<camera>.ivf` (video).
 pub const FRAMES_DIR: &str = "frames";
 
 /// A world-to-camera pose as stored: row-major rotation and translation (OpenCV convention).
@@ -92,6 +95,8 @@ pub enum FrameFormat {
     Png,
     /// `.webp` files.
     Webp,
+    /// One VP9 video per camera, `frames/<camera>.ivf`, indexed by `frames_index` (v2).
+    Vp9,
 }
 
 impl FrameFormat {
@@ -101,8 +106,25 @@ impl FrameFormat {
             Self::Jpeg => "jpg",
             Self::Png => "png",
             Self::Webp => "webp",
+            Self::Vp9 => "ivf",
         }
     }
+
+    /// Whether frames are stored as one video per camera rather than one image per frame.
+    pub fn is_video(self) -> bool {
+        self == Self::Vp9
+    }
+}
+
+/// Where the frame index of a video package lives (format v2).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FramesIndexEntry {
+    /// File name inside the package (`frames.idx`).
+    pub file: String,
+    /// Exact size of that file in bytes.
+    pub byte_length: u64,
+    /// The keyframe interval the videos were written with (a hint; the index is the truth).
+    pub keyframe_interval: u32,
 }
 
 /// A suggested first view for viewers.
@@ -137,6 +159,9 @@ pub struct Manifest {
     pub clouds: CloudsEntry,
     /// Encoding of the frames under `frames/`.
     pub frame_format: FrameFormat,
+    /// The frame index, present exactly when the frames are video (v2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frames_index: Option<FramesIndexEntry>,
     /// A suggested first view.
     pub start_view: StartView,
 }
@@ -164,8 +189,28 @@ impl Manifest {
         if self.format != FORMAT_NAME {
             return bad("format", format!("expected \"{FORMAT_NAME}\", found {:?}", self.format));
         }
-        if self.version != FORMAT_VERSION {
-            return bad("version", format!("unsupported version {} (this reader knows {FORMAT_VERSION})", self.version));
+        if self.version != FORMAT_VERSION && self.version != FORMAT_VERSION_V1 {
+            return bad(
+                "version",
+                format!("unsupported version {} (this reader knows {FORMAT_VERSION_V1} and {FORMAT_VERSION})", self.version),
+            );
+        }
+        match (&self.frames_index, self.frame_format.is_video()) {
+            (Some(_), _) | (None, true) if self.version == FORMAT_VERSION_V1 => {
+                return bad("frame_format", "video frames and `frames_index` need format version 2".into());
+            }
+            (None, true) => return bad("frames_index", "missing: video frames need their index".into()),
+            (Some(_), false) => return bad("frames_index", "present, but the frames are images".into()),
+            (Some(index), true) if !is_safe_file_name(&index.file) => {
+                return bad("frames_index.file", format!("{:?} is not a plain file name", index.file));
+            }
+            (Some(index), true) if index.keyframe_interval == 0 || index.keyframe_interval > MAX_KEYFRAME_INTERVAL => {
+                return bad(
+                    "frames_index.keyframe_interval",
+                    format!("must be in 1..={MAX_KEYFRAME_INTERVAL}, found {}", index.keyframe_interval),
+                );
+            }
+            _ => {}
         }
         if self.name.chars().count() > 256 {
             return bad("name", "longer than 256 characters".into());
@@ -247,7 +292,12 @@ impl Manifest {
         }
     }
 
-    /// Relative path of a frame inside the package: `frames/<camera>/<t:05>.<ext>`.
+    /// Relative path of a camera's video inside a video package: `frames/<camera>.ivf`.
+    pub fn video_relative_path(&self, camera: usize) -> String {
+        format!("{FRAMES_DIR}/{}.{}", self.cameras[camera].name, self.frame_format.extension())
+    }
+
+    /// Relative path of a frame file inside an image package: `frames/<camera>/<t:05>.<ext>`.
     pub fn frame_relative_path(&self, camera: usize, t: u32) -> String {
         format!("{FRAMES_DIR}/{}/{t:05}.{}", self.cameras[camera].name, self.frame_format.extension())
     }
@@ -326,8 +376,24 @@ mod tests {
     fn each_bad_field_is_named() {
         let base = small_manifest(2, 3);
         let mut m = base.clone();
-        m.version = 2;
+        m.version = 3;
         expect_field(&m, "version");
+        let mut m = base.clone();
+        m.frame_format = FrameFormat::Vp9;
+        expect_field(&m, "frames_index");
+        let index = FramesIndexEntry { file: "frames.idx".into(), byte_length: 0, keyframe_interval: 30 };
+        m.frames_index = Some(index.clone());
+        m.version = FORMAT_VERSION_V1;
+        expect_field(&m, "frame_format");
+        m.version = FORMAT_VERSION;
+        m.validate("scene.json").unwrap();
+        m.frames_index = Some(FramesIndexEntry { file: "../x".into(), ..index.clone() });
+        expect_field(&m, "frames_index.file");
+        m.frames_index = Some(FramesIndexEntry { keyframe_interval: 0, ..index.clone() });
+        expect_field(&m, "frames_index.keyframe_interval");
+        let mut m = base.clone();
+        m.frames_index = Some(index);
+        expect_field(&m, "frames_index");
         let mut m = base.clone();
         m.format = "other".into();
         expect_field(&m, "format");

@@ -1,14 +1,23 @@
-//! The scene package (format v1, specified in `docs/FORMAT.md`): `scene.json`, `clouds.bin`
-//! and one frame file per camera per time step.
+//! The scene package (formats v1 and v2, specified in `docs/FORMAT.md`): `scene.json`,
+//! `clouds.bin`, and the frames: one image file per camera per time step (v1, v2), or one video
+//! per camera with a frame index (v2).
 
 pub mod cloud;
 pub mod error;
+#[cfg(not(target_family = "wasm"))]
+pub mod ffmpeg;
 pub mod frame;
 pub mod limits;
 pub mod manifest;
 #[cfg(not(target_family = "wasm"))]
 pub mod package;
+#[cfg(not(target_family = "wasm"))]
+pub mod repack;
 pub mod summary;
+pub mod video;
+#[cfg(not(target_family = "wasm"))]
+pub mod video_files;
+pub mod yuv;
 
 pub use cloud::{CloudIndex, PointCloud};
 pub use error::{SceneError, SceneResult};
@@ -22,3 +31,5 @@ pub use summary::SceneSummary;
 pub mod testing;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod video_tests;

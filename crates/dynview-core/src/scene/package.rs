@@ -10,8 +10,11 @@ use std::path::{Path, PathBuf};
 
 use super::cloud::{self, CloudIndex, PointCloud};
 use super::error::{SceneError, SceneResult};
+use super::ffmpeg::{DEFAULT_KEYFRAME_INTERVAL, VideoSettings};
 use super::limits::{MAX_FRAME_FILE_BYTES, MAX_MANIFEST_BYTES};
 use super::manifest::{FRAMES_DIR, MANIFEST_FILE, Manifest};
+use super::video::FrameIndex;
+use super::video_files::{VideoFrames, VideoWriter};
 use crate::camera::Camera;
 use crate::fsutil::StagedDir;
 use crate::raster::RgbRaster;
@@ -25,6 +28,8 @@ pub struct ScenePackage {
     root: PathBuf,
     manifest: Manifest,
     cloud_index: CloudIndex,
+    /// The videos' index and decoded frames (video packages only).
+    video: Option<VideoFrames>,
 }
 
 fn read_limited(path: &Path, limit: u64) -> SceneResult<Vec<u8>> {
@@ -78,7 +83,8 @@ impl ScenePackage {
         index_bytes.resize(index_len as usize, 0);
         file.read_exact(&mut index_bytes[cloud::HEADER_BYTES..]).map_err(|e| SceneError::io(&clouds_path, e))?;
         let cloud_index = CloudIndex::parse(&index_bytes, file_length, &clouds_name)?;
-        Ok(Self { root, manifest, cloud_index })
+        let video = if manifest.frame_format.is_video() { Some(VideoFrames::open(&root, &manifest)?) } else { None };
+        Ok(Self { root, manifest, cloud_index, video })
     }
 
     /// The package folder.
@@ -137,22 +143,40 @@ impl ScenePackage {
         self.cloud_index.decode_step(t as usize, &block, &name)
     }
 
-    /// Path of the frame of `camera` at time step `t`.
+    /// Path of the file holding the frame of `camera` at time step `t` (its video in a video
+    /// package).
     pub fn frame_path(&self, camera: usize, t: u32) -> SceneResult<PathBuf> {
         self.check_indices(camera, t)?;
+        if self.video.is_some() {
+            return Ok(self.root.join(self.manifest.video_relative_path(camera)));
+        }
         Ok(self.root.join(self.manifest.frame_relative_path(camera, t)))
+    }
+
+    /// The frame index of a video package.
+    pub fn frame_index(&self) -> Option<&FrameIndex> {
+        self.video.as_ref().map(VideoFrames::index)
     }
 
     /// Reads and decodes the input frame of `camera` at time step `t`, checking its size.
     pub fn read_frame(&self, camera: usize, t: u32) -> SceneResult<RgbRaster> {
+        self.check_indices(camera, t)?;
+        if let Some(video) = &self.video {
+            let frame = video.read(&self.root, &self.manifest, camera, t)?;
+            return Ok(RgbRaster::from_rgb8(&frame.to_rgb8()));
+        }
         let path = self.frame_path(camera, t)?;
         let bytes = read_limited(&path, MAX_FRAME_FILE_BYTES)?;
         let entry = &self.manifest.cameras[camera];
         decode_frame(&bytes, self.manifest.frame_format, entry.width, entry.height, &path.display().to_string())
     }
 
-    /// Reads only the header of a frame file and checks its dimensions (cheap validation).
+    /// Reads only the header of a frame file and checks its dimensions (cheap validation; a
+    /// video package's frames are checked by [`ScenePackage::verify`], which decodes them).
     pub fn check_frame(&self, camera: usize, t: u32) -> SceneResult<()> {
+        if self.video.is_some() {
+            return self.check_indices(camera, t);
+        }
         let path = self.frame_path(camera, t)?;
         let name = path.display().to_string();
         let reader = image::ImageReader::open(&path)
@@ -197,22 +221,44 @@ pub struct SceneWriter {
     clouds_file: File,
     clouds_bounds: ([f32; 3], [f32; 3]),
     written_steps: Vec<(u32, u32)>,
+    /// The cameras' video encoders (video packages only).
+    video: Option<VideoWriter>,
 }
 
 impl SceneWriter {
     /// Starts a package at `out_dir` (which must not exist, be empty, or be a scene package,
     /// which is replaced only when the new one is complete). `manifest.clouds.byte_length` is
-    /// filled in by `finish`; clouds are quantised in `manifest.bounds`.
+    /// filled in by `finish`; clouds are quantised in `manifest.bounds`. A video package
+    /// (`frame_format` vp9) is encoded with the default [`VideoSettings`] at its manifest's
+    /// keyframe interval.
     pub fn create(out_dir: impl AsRef<Path>, manifest: Manifest) -> SceneResult<Self> {
+        let interval = manifest.frames_index.as_ref().map_or(DEFAULT_KEYFRAME_INTERVAL, |i| i.keyframe_interval);
+        Self::create_with(out_dir, manifest, VideoSettings { keyframe_interval: interval, ..VideoSettings::default() })
+    }
+
+    /// [`SceneWriter::create`] with the given video settings (used by video packages only;
+    /// their keyframe interval is written to the manifest).
+    pub fn create_with(out_dir: impl AsRef<Path>, mut manifest: Manifest, video: VideoSettings) -> SceneResult<Self> {
+        if let Some(index) = manifest.frames_index.as_mut() {
+            index.keyframe_interval = video.keyframe_interval;
+            index.byte_length = 0;
+        }
         let mut check = manifest.clone();
         check.clouds.byte_length = 0;
         check.validate(MANIFEST_FILE)?;
         let staged = StagedDir::new(out_dir.as_ref(), MANIFEST_FILE, "a dynview scene package")?;
         let staging_dir = staged.path().to_path_buf();
-        for camera in &manifest.cameras {
-            let dir = staging_dir.join(FRAMES_DIR).join(&camera.name);
-            fs::create_dir_all(&dir).map_err(|e| SceneError::io(&dir, e))?;
-        }
+        let frames_dir = staging_dir.join(FRAMES_DIR);
+        fs::create_dir_all(&frames_dir).map_err(|e| SceneError::io(&frames_dir, e))?;
+        let video = if manifest.frame_format.is_video() {
+            Some(VideoWriter::start(&staging_dir, &manifest, video)?)
+        } else {
+            for camera in &manifest.cameras {
+                let dir = frames_dir.join(&camera.name);
+                fs::create_dir_all(&dir).map_err(|e| SceneError::io(&dir, e))?;
+            }
+            None
+        };
         let clouds_path = staging_dir.join(&manifest.clouds.file);
         let mut clouds_file = File::create(&clouds_path).map_err(|e| SceneError::io(&clouds_path, e))?;
         // Reserve the index; it is written once all blocks are known.
@@ -220,7 +266,7 @@ impl SceneWriter {
         clouds_file.write_all(&vec![0u8; index_len as usize]).map_err(|e| SceneError::io(&clouds_path, e))?;
         let b = manifest.bounds;
         let clouds_bounds = (b.min.map(|v| v as f32), b.max.map(|v| v as f32));
-        Ok(Self { staged, staging_dir, manifest, clouds_file, clouds_bounds, written_steps: Vec::new() })
+        Ok(Self { staged, staging_dir, manifest, clouds_file, clouds_bounds, written_steps: Vec::new(), video })
     }
 
     /// The manifest being written.
@@ -228,7 +274,8 @@ impl SceneWriter {
         &self.manifest
     }
 
-    /// Encodes and writes the frame of `camera` at time step `t`.
+    /// Encodes and writes the frame of `camera` at time step `t` (in a video package, each
+    /// camera's frames in time order).
     pub fn write_frame(&self, camera: usize, t: u32, image: &image::RgbImage) -> SceneResult<()> {
         let rel = self.checked_frame_path(camera, t)?;
         let entry = &self.manifest.cameras[camera];
@@ -239,21 +286,28 @@ impl SceneWriter {
                 format!("{:?}, expected {}x{}", image.dimensions(), entry.width, entry.height),
             ));
         }
+        if let Some(video) = &self.video {
+            return video.push(camera, t, image, &rel);
+        }
         let bytes = encode_frame(image, self.manifest.frame_format, &rel)?;
         let path = self.staging_dir.join(&rel);
         fs::write(&path, bytes).map_err(|e| SceneError::io(&path, e))
     }
 
     /// Writes an already encoded frame of `camera` at time step `t` as is, after checking
-    /// from its header that it is an image of the package's format and size.
+    /// from its header that it is an image of the package's format and size. A video package
+    /// takes an image of any format and encodes it into the camera's video.
     pub fn write_encoded_frame(&self, camera: usize, t: u32, bytes: &[u8]) -> SceneResult<()> {
         let rel = self.checked_frame_path(camera, t)?;
         let entry = &self.manifest.cameras[camera];
-        let format = match self.manifest.frame_format {
-            super::manifest::FrameFormat::Jpeg => image::ImageFormat::Jpeg,
-            super::manifest::FrameFormat::Png => image::ImageFormat::Png,
-            super::manifest::FrameFormat::Webp => image::ImageFormat::WebP,
-        };
+        if self.video.is_some() {
+            let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+                .with_guessed_format()
+                .map_err(|e| SceneError::invalid(&rel, "(image)", e.to_string()))?;
+            let image = reader.decode().map_err(|source| SceneError::Image { file: rel.clone(), source })?.to_rgb8();
+            return self.write_frame(camera, t, &image);
+        }
+        let format = super::frame::image_format(self.manifest.frame_format, &rel)?;
         let reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
         let size = reader.into_dimensions().map_err(|source| SceneError::Image { file: rel.clone(), source })?;
         if size != (entry.width, entry.height) {
@@ -266,6 +320,9 @@ impl SceneWriter {
     fn checked_frame_path(&self, camera: usize, t: u32) -> SceneResult<String> {
         if camera >= self.manifest.cameras.len() || t >= self.manifest.time_step_count {
             return Err(SceneError::invalid(MANIFEST_FILE, "cameras", format!("frame ({camera}, {t}) out of range")));
+        }
+        if self.video.is_some() {
+            return Ok(self.manifest.video_relative_path(camera));
         }
         Ok(self.manifest.frame_relative_path(camera, t))
     }
@@ -295,11 +352,31 @@ impl SceneWriter {
                 format!("{} clouds written for {} time steps", self.written_steps.len(), self.manifest.time_step_count),
             ));
         }
-        for camera in 0..self.manifest.cameras.len() {
-            for t in 0..self.manifest.time_step_count {
-                let rel = self.manifest.frame_relative_path(camera, t);
-                if !self.staging_dir.join(&rel).is_file() {
-                    return Err(SceneError::invalid(rel, "(file)", "frame was never written"));
+        if let Some(video) = self.video.take() {
+            let index = video.finish()?;
+            for (c, camera) in index.cameras.iter().enumerate() {
+                if camera.frames.len() != self.manifest.time_step_count as usize {
+                    let rel = self.manifest.video_relative_path(c);
+                    return Err(SceneError::invalid(
+                        rel,
+                        "(video)",
+                        format!("{} frames written for {} time steps", camera.frames.len(), self.manifest.time_step_count),
+                    ));
+                }
+            }
+            let bytes = index.encode();
+            if let Some(entry) = self.manifest.frames_index.as_mut() {
+                let path = self.staging_dir.join(&entry.file);
+                fs::write(&path, &bytes).map_err(|e| SceneError::io(&path, e))?;
+                entry.byte_length = bytes.len() as u64;
+            }
+        } else {
+            for camera in 0..self.manifest.cameras.len() {
+                for t in 0..self.manifest.time_step_count {
+                    let rel = self.manifest.frame_relative_path(camera, t);
+                    if !self.staging_dir.join(&rel).is_file() {
+                        return Err(SceneError::invalid(rel, "(file)", "frame was never written"));
+                    }
                 }
             }
         }
@@ -321,14 +398,21 @@ impl SceneWriter {
 
 impl ScenePackage {
     /// Full check of the package: decodes every cloud (checksums) and reads the header of every
-    /// frame (existence and size). `progress` is called after each time step.
-    pub fn verify(&self, mut progress: impl FnMut(u32)) -> SceneResult<()> {
+    /// frame file (existence and size), or decodes every frame of every video.
+    /// `progress(done, total)` follows the work.
+    pub fn verify(&self, mut progress: impl FnMut(u64, u64)) -> SceneResult<()> {
+        let steps = u64::from(self.time_step_count());
+        let video_frames = if self.video.is_some() { steps * self.camera_count() as u64 } else { 0 };
+        let total = steps + video_frames;
         for t in 0..self.time_step_count() {
             self.read_cloud(t)?;
             for camera in 0..self.camera_count() {
                 self.check_frame(camera, t)?;
             }
-            progress(t);
+            progress(u64::from(t) + 1, total);
+        }
+        if let Some(video) = &self.video {
+            video.verify(&self.root, &self.manifest, |done, _| progress(steps + done, total))?;
         }
         Ok(())
     }

@@ -31,6 +31,7 @@ pub fn small_manifest(cameras: usize, steps: u32) -> Manifest {
         cameras,
         clouds: CloudsEntry { file: "clouds.bin".into(), byte_length: 0 },
         frame_format: FrameFormat::Png,
+        frames_index: None,
         start_view: StartView { time_step: 0, pose: start, vertical_fov_deg: 50.0 },
     }
 }

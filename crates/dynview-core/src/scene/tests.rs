@@ -49,7 +49,7 @@ fn package_round_trip() {
             assert_eq!(frame.to_rgb8(), frame_for(c, t)); // PNG is lossless
         }
     }
-    package.verify(|_| {}).unwrap();
+    package.verify(|_, _| {}).unwrap();
     let summary = package.summary().unwrap();
     assert_eq!(summary.points_per_step, vec![5, 8, 11, 14]);
     assert!(summary.to_string().contains("38 in all"));
@@ -124,14 +124,14 @@ fn open_names_the_broken_part() {
     fs::write(&clouds, &good).unwrap();
     let manifest_path = dir.join("scene.json");
     let text = fs::read_to_string(&manifest_path).unwrap();
-    fs::write(&manifest_path, text.replacen("\"version\": 1", "\"version\": 7", 1)).unwrap();
+    fs::write(&manifest_path, text.replacen("\"version\": 2", "\"version\": 7", 1)).unwrap();
     let err = ScenePackage::open(&dir).unwrap_err().to_string();
     assert!(err.contains("`version`") && err.contains("scene.json"), "{err}");
 
     fs::write(&manifest_path, &text).unwrap();
     fs::remove_file(dir.join("frames/cam1/00001.png")).unwrap();
     let package = ScenePackage::open(&dir).unwrap();
-    let err = package.verify(|_| {}).unwrap_err().to_string();
+    let err = package.verify(|_, _| {}).unwrap_err().to_string();
     assert!(err.contains("cam1/00001.png"), "{err}");
 }
 
