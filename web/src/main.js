@@ -326,6 +326,11 @@ function showError(message) {
 
 // ---- opening -----------------------------------------------------------------------------
 
+/** Views at most this wide are a phone's: they get the phone's memory budget. */
+const PHONE_MAX_WIDTH_PX = 600;
+/** Decoded time steps a phone keeps (about one step of six 960x540 cameras; 256 MiB elsewhere). */
+const PHONE_CACHE_BUDGET_BYTES = 64 << 20;
+
 async function open(opening, label) {
   stopPlayback();
   hide("landing");
@@ -338,6 +343,8 @@ async function open(opening, label) {
     const { info, backends, gpu, choice } = await opening;
     state.info = info;
     state.gpu = gpu;
+    // A phone keeps fewer decoded steps (the newest is always kept).
+    if (window.innerWidth <= PHONE_MAX_WIDTH_PX) client.call("setCacheBudget", PHONE_CACHE_BUDGET_BYTES);
     state.choice = choice;
     setupScene(info, backends);
   } catch (e) {
@@ -459,6 +466,8 @@ else $("landing").hidden = false;
 /** Hooks for end-to-end tests and for curious users in the console. */
 window.dynview = {
   state,
+  /** The worker's memory: `{cache_bytes, wasm_bytes, bytes_read, frames_read}`. */
+  memory: () => client.call("memory"),
   firstFrameShown,
   cameraPathJson,
   /** The last finished frame's pixels as `{width, height, rgba: number[]}` (GPU frames are

@@ -145,6 +145,7 @@ const calls = {
   exportCameraPath: (keyframes, width, height, fps) => viewer.exportCameraPath(keyframes, width, height, fps),
   importCameraPath: (json, file) => viewer.importCameraPath(json, file),
   loadStats: () => viewer.loadStats(),
+  memory: async () => ({ ...viewer.loadStats(), wasm_bytes: (await ready).memory.buffer.byteLength }),
   jump: () => viewer.jump(),
   setCacheBudget: (bytes) => viewer.setCacheBudget(bytes),
   gpuPicture: (mode) => viewer.gpuPicture(mode),

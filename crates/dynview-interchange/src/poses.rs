@@ -294,11 +294,8 @@ impl EventPoses {
                 height: camera.height,
                 intrinsics: camera.intrinsics,
                 distortion: [0.0; 4],
-                frames: camera
-                    .poses
-                    .iter()
-                    .enumerate()
-                    .map(|(t, pose)| FramePose { file: format!("{t:05}.{extension}"), camera_from_world: Some(*pose) })
+                frames: (0..manifest.time_step_count)
+                    .map(|t| FramePose { file: format!("{t:05}.{extension}"), camera_from_world: Some(camera.pose(t)) })
                     .collect(),
             })
             .collect();

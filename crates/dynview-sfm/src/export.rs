@@ -24,6 +24,12 @@ pub const BOUNDS_MARGIN_FRACTION: f64 = 0.02;
 /// Most coordinates sampled per axis to choose the box.
 const BOUNDS_SAMPLES: usize = 4_000_000;
 
+/// A format v2 package's clouds are quantised to this share of the static cloud's voxel edge.
+pub const POSITION_STEP_OF_VOXEL: f64 = 0.25;
+/// Bits per color channel of a format v2 package's points (at most 4 code values off, below
+/// the noise of the frames they were sampled from).
+pub const COLOR_BITS: u32 = 6;
+
 /// What a package holds beside the prepared steps, and how.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PackageOptions {
@@ -31,11 +37,15 @@ pub struct PackageOptions {
     pub static_cloud: Option<StaticOptions>,
     /// The frames as one VP9 video per camera (format v2), or as JPEG files when `None`.
     pub video: Option<VideoSettings>,
+    /// Write format v1 (JPEG frames, every step's points in full, static points lent to each),
+    /// which viewers of that format read; `video` must then be `None`.
+    #[serde(default)]
+    pub format_v1: bool,
 }
 
 impl Default for PackageOptions {
     fn default() -> Self {
-        Self { static_cloud: Some(StaticOptions::default()), video: Some(VideoSettings::default()) }
+        Self { static_cloud: Some(StaticOptions::default()), video: Some(VideoSettings::default()), format_v1: false }
     }
 }
 
@@ -165,6 +175,18 @@ pub fn export_package(
 
     let bounds = choose_bounds(&source_of, &event)?;
     let mut manifest = manifest(&event, settings, bounds, name);
+    if options.format_v1 {
+        if options.video.is_some() {
+            return Err(SfmError::Input {
+                path: scene_dir.to_path_buf(),
+                problem: "format v1 stores frames as JPEG files, not video".into(),
+            });
+        }
+        manifest.version = dynview_core::scene::manifest::FORMAT_VERSION_V1;
+    }
+    if manifest.version != dynview_core::scene::manifest::FORMAT_VERSION_V1 {
+        manifest.cameras.iter_mut().for_each(CameraEntry::compact_poses);
+    }
     if let Some(video) = &options.video {
         manifest.frame_format = FrameFormat::Vp9;
         manifest.frames_index =
@@ -183,6 +205,32 @@ pub fn export_package(
         ..ExportReport::default()
     };
     let (lo, hi) = (bounds.min.map(|v| v as f32), bounds.max.map(|v| v as f32));
+    let inside = |p: &[f32; 3]| (0..3).all(|i| p[i] >= lo[i] && p[i] <= hi[i]);
+    // A format v2 package stores the static points inside the box once (`store` maps a static
+    // index to its stored one); a format v1 package lends them to every step in full.
+    let stored_statics = static_cloud.as_ref().filter(|_| writer.has_static_cloud()).map(|statics| {
+        let kept: Vec<usize> = (0..statics.points.len()).filter(|&i| inside(&statics.points.positions_world[i])).collect();
+        let mut store = vec![None; statics.points.len()];
+        for (k, &i) in kept.iter().enumerate() {
+            store[i] = Some(k as u32);
+        }
+        let cloud = PointCloud {
+            positions_world: kept.iter().map(|&i| statics.points.positions_world[i]).collect(),
+            colors: kept.iter().map(|&i| statics.points.colors[i]).collect(),
+        };
+        (cloud, store)
+    });
+    if let Some((cloud, _)) = &stored_statics {
+        // A quarter of a static voxel (half a pixel of the first camera at the median depth)
+        // is finer than the points are accurate.
+        if let Some(statics) = &static_cloud
+            && statics.voxel_edge > 0.0
+        {
+            writer.set_position_step(POSITION_STEP_OF_VOXEL * statics.voxel_edge)?;
+        }
+        writer.set_color_bits(COLOR_BITS)?;
+        writer.set_static_cloud(cloud)?;
+    }
     for (t, s) in source_of.iter().enumerate() {
         for (c, camera) in event.cameras.iter().enumerate() {
             let path = frame_path(&s.work, &camera.name, t);
@@ -190,20 +238,30 @@ pub fn export_package(
             writer.write_encoded_frame(c, t as u32, &bytes)?;
         }
         let mut cloud = read_cloud(&cloud_path(&s.work, t))?;
-        if let Some(statics) = &static_cloud {
-            let borrowed = statics.borrowed(t);
-            report.borrowed_points += borrowed.len();
-            cloud.positions_world.extend(borrowed.positions_world);
-            cloud.colors.extend(borrowed.colors);
+        let mut borrowed_indices = Vec::new();
+        match (&static_cloud, &stored_statics) {
+            (Some(statics), Some((_, store))) => {
+                borrowed_indices = statics.active.get(t).into_iter().flatten().filter_map(|&i| store[i as usize]).collect();
+                cloud = statics.own_not_covered(t, &cloud);
+                borrowed_indices.sort_unstable();
+                report.borrowed_points += borrowed_indices.len();
+            }
+            (Some(statics), None) => {
+                let borrowed = statics.borrowed(t);
+                report.borrowed_points += borrowed.len();
+                cloud.positions_world.extend(borrowed.positions_world);
+                cloud.colors.extend(borrowed.colors);
+            }
+            _ => {}
         }
-        let inside = |p: &[f32; 3]| (0..3).all(|i| p[i] >= lo[i] && p[i] <= hi[i]);
         let kept: Vec<usize> = (0..cloud.len()).filter(|&i| inside(&cloud.positions_world[i])).collect();
-        report.points += kept.len();
+        report.points += kept.len() + borrowed_indices.len();
         report.points_outside_bounds += cloud.len() - kept.len();
-        writer.push_cloud(&PointCloud {
+        let own = PointCloud {
             positions_world: kept.iter().map(|&i| cloud.positions_world[i]).collect(),
             colors: kept.iter().map(|&i| cloud.colors[i]).collect(),
-        })?;
+        };
+        writer.push_cloud_borrowing(&own, &borrowed_indices)?;
         progress("package", t as u64 + 1, steps as u64);
     }
     writer.finish()?;
@@ -214,22 +272,8 @@ pub fn export_package(
 /// The static cloud of the prepared steps, judged on the package's frames and cameras (read
 /// one step at a time).
 fn static_cloud(source_of: &[&Source], manifest: &Manifest, options: &StaticOptions, progress: StageProgress) -> SfmResult<StaticCloud> {
-    let cameras: Vec<Vec<dynview_core::Camera>> = manifest
-        .cameras
-        .iter()
-        .map(|entry| {
-            entry
-                .poses
-                .iter()
-                .map(|pose| dynview_core::Camera {
-                    intrinsics: entry.intrinsics,
-                    camera_from_world: pose.camera_from_world(),
-                    width_px: entry.width,
-                    height_px: entry.height,
-                })
-                .collect()
-        })
-        .collect();
+    let cameras: Vec<Vec<dynview_core::Camera>> =
+        (0..manifest.cameras.len()).map(|c| (0..manifest.time_step_count).map(|t| manifest.camera_at(c, t)).collect()).collect();
     let frames_at = |t: usize| -> SfmResult<Vec<image::RgbImage>> {
         manifest
             .cameras

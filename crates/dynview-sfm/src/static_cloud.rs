@@ -62,6 +62,8 @@ pub struct StaticCloud {
     pub active: Vec<Vec<u32>>,
     /// Candidates examined.
     pub candidates: usize,
+    /// Edge of the voxels the static points stand for (world units; 0 without static points).
+    pub voxel_edge: f64,
 }
 
 impl StaticCloud {
@@ -75,6 +77,26 @@ impl StaticCloud {
             out.colors.push(self.points.colors[i as usize]);
         }
         out
+    }
+
+    /// The points of `own` (step `t`'s) neither in nor next to (the 26 neighbours) a voxel whose
+    /// static point is active at `t`: the step needs only these beside the static points it
+    /// borrows, which sample the surface there every voxel (2 px) already. A format v2 package
+    /// stores only these per step.
+    pub fn own_not_covered(&self, t: usize, own: &PointCloud) -> PointCloud {
+        if self.voxel_edge <= 0.0 {
+            return own.clone();
+        }
+        let voxel = |p: [f32; 3]| (to_dvec3(p) / self.voxel_edge).floor().as_ivec3();
+        let covered: HashSet<glam::IVec3> =
+            self.active.get(t).into_iter().flatten().map(|&i| voxel(self.points.positions_world[i as usize])).collect();
+        let near =
+            |v: glam::IVec3| (-1..=1).any(|x| (-1..=1).any(|y| (-1..=1).any(|z| covered.contains(&(v + glam::IVec3::new(x, y, z))))));
+        let keep: Vec<usize> = (0..own.len()).filter(|&i| !near(voxel(own.positions_world[i]))).collect();
+        PointCloud {
+            positions_world: keep.iter().map(|&i| own.positions_world[i]).collect(),
+            colors: keep.iter().map(|&i| own.colors[i]).collect(),
+        }
     }
 }
 
@@ -200,7 +222,9 @@ pub fn build_static_cloud<E: Send>(
     // and cameras.
     let mut out = StaticCloud { candidates: n, active: vec![Vec::new(); steps], ..StaticCloud::default() };
     let mut representative = Vec::new();
-    for voxel in voxels(cameras, &all, &statics, options.voxel_px) {
+    let (groups, edge) = voxels(cameras, &all, &statics, options.voxel_px);
+    out.voxel_edge = edge;
+    for voxel in groups {
         let support: HashSet<usize> = voxel.iter().map(|&k| origin[statics[k].index]).collect();
         if support.len() < options.min_support_steps {
             continue;
@@ -256,11 +280,11 @@ fn point(cloud: &PointCloud, i: usize) -> DVec3 {
 }
 
 /// The static candidates grouped by voxel (indices into `statics`, groups in the order of
-/// their first candidate), the voxel edge being `voxel_px` pixels of the first camera's first
+/// their first candidate) and the voxel edge: `voxel_px` pixels of the first camera's first
 /// view at the candidates' median depth.
-fn voxels(cameras: &[Vec<Camera>], all: &PointCloud, statics: &[Static], voxel_px: f64) -> Vec<Vec<usize>> {
+fn voxels(cameras: &[Vec<Camera>], all: &PointCloud, statics: &[Static], voxel_px: f64) -> (Vec<Vec<usize>>, f64) {
     let Some(camera) = cameras.first().and_then(|c| c.first()) else {
-        return Vec::new();
+        return (Vec::new(), 0.0);
     };
     let mut depths: Vec<f64> = statics.iter().map(|s| camera.camera_from_world.transform_point(point(all, s.index)).z.abs()).collect();
     depths.sort_by(f64::total_cmp);
@@ -272,7 +296,7 @@ fn voxels(cameras: &[Vec<Camera>], all: &PointCloud, statics: &[Static], voxel_p
     }
     let mut out: Vec<Vec<usize>> = groups.into_values().collect();
     out.sort_by_key(|g| g[0]);
-    out
+    (out, edge)
 }
 
 #[cfg(test)]
@@ -399,5 +423,23 @@ mod tests {
         assert_eq!(candidate_steps(3, 12), vec![0, 1, 2]);
         assert!(candidate_steps(0, 12).is_empty());
         assert!(candidate_steps(5, 0).is_empty());
+    }
+
+    #[test]
+    fn own_points_next_to_an_active_static_point_are_left_to_it() {
+        let statics = StaticCloud {
+            points: cloud(&[[0.05, 0.05, 0.05], [5.05, 0.05, 0.05]], &[[1; 3], [2; 3]]),
+            active: vec![vec![0, 1], vec![1]],
+            candidates: 2,
+            voxel_edge: 0.1,
+        };
+        // Same voxel, the neighbouring voxel, two voxels away, and far away.
+        let own = cloud(&[[0.01, 0.02, 0.03], [0.15, 0.05, 0.05], [0.25, 0.05, 0.05], [2.0, 2.0, 2.0]], &[[9; 3]; 4]);
+        let kept = statics.own_not_covered(0, &own);
+        assert_eq!(kept.positions_world, vec![[0.25, 0.05, 0.05], [2.0, 2.0, 2.0]]);
+        // At step 1 the first static point is not active (something passed in front of it):
+        // the step keeps its own points there.
+        assert_eq!(statics.own_not_covered(1, &own).len(), 4);
+        assert_eq!(StaticCloud::default().own_not_covered(0, &own).len(), 4, "no static cloud, nothing covered");
     }
 }

@@ -289,6 +289,10 @@ fn write_package(
             intrinsics: rig.input(c, 0.0).intrinsics,
             poses: (0..config.frames).map(|t| PoseEntry::from(rig.input(c, config.time_s(t)).camera_from_world)).collect(),
         })
+        .map(|mut camera: CameraEntry| {
+            camera.compact_poses(); // a tripod: one pose
+            camera
+        })
         .collect();
     let start = rig.heldout(0.0);
     let manifest = Manifest {

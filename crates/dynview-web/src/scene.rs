@@ -78,6 +78,8 @@ pub struct RemoteScene {
     stats: Cell<LoadStats>,
     /// The frame index of a video package.
     video: Option<FrameIndex>,
+    /// The static cloud the steps borrow from (empty in a version 1 clouds file).
+    statics: Rc<PointCloud>,
 }
 
 /// The compressed frames a decoder needs to show one frame of one camera's video.
@@ -115,20 +117,30 @@ impl RemoteScene {
         }
         let header = source.start(&clouds_file, Some((0, cloud::HEADER_BYTES as u64)), cloud::HEADER_BYTES as u64)?.bytes().await?;
         count(header.len());
-        let step_count = CloudIndex::peek_step_count(&header, &clouds_name).map_err(invalid)?;
+        let (version, step_count) = CloudIndex::peek(&header, &clouds_name).map_err(invalid)?;
         if step_count != manifest.time_step_count {
             return Err(ReadError(format!(
                 "{clouds_name}: field `step_count`: {step_count} steps but scene.json has time_step_count {}",
                 manifest.time_step_count
             )));
         }
-        let index_length = cloud::index_byte_length(step_count);
+        let index_length = cloud::index_byte_length(version, step_count);
         if index_length > file_length {
             return Err(ReadError(format!("{clouds_name}: field `steps`: file too short for the offset table")));
         }
         let index_bytes = source.start(&clouds_file, Some((0, index_length)), index_length)?.bytes().await?;
         count(index_bytes.len());
         let cloud_index = CloudIndex::parse(&index_bytes, file_length, &clouds_name).map_err(invalid)?;
+        // A version 2 file's static cloud: read once, here.
+        let statics = match cloud_index.static_block {
+            Some(entry) => {
+                let range = (entry.offset, entry.offset + entry.byte_length());
+                let block = source.start(&clouds_file, Some(range), entry.byte_length())?.bytes().await?;
+                count(block.len());
+                Rc::new(cloud_index.decode_static(&block, &clouds_name).map_err(invalid)?)
+            }
+            None => Rc::default(),
+        };
         let video = match &manifest.frames_index {
             Some(entry) => {
                 let expected = index_byte_length(manifest.cameras.len(), manifest.time_step_count);
@@ -146,7 +158,7 @@ impl RemoteScene {
             None => None,
         };
         let cache = RefCell::new(StepCache { steps: Vec::new(), budget_bytes: DEFAULT_CACHE_BUDGET_BYTES });
-        Ok(Self { source, manifest, cloud_index, cache, stats, video })
+        Ok(Self { source, manifest, cloud_index, cache, stats, video, statics })
     }
 
     /// The validated manifest.
@@ -200,7 +212,7 @@ impl RemoteScene {
         let block =
             self.source.start(clouds_file, Some((entry.offset, entry.offset + entry.byte_length())), entry.byte_length())?.bytes().await?;
         self.count(block.len(), 0);
-        self.cloud_index.decode_step(t as usize, &block, &self.source.display_name(clouds_file)).map_err(invalid)
+        self.cloud_index.decode_step(t as usize, &block, Some(&self.statics), &self.source.display_name(clouds_file)).map_err(invalid)
     }
 
     /// Whether the frames are video (decoded by the page with WebCodecs and handed over with

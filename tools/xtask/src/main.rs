@@ -61,8 +61,13 @@ enum Task {
         args: Vec<OsString>,
     },
     /// The viewer in headless Chromium on the demo event: time to first frame, ms per frame,
-    /// wasm package size.
-    BenchWeb,
+    /// wasm package size; `--long-event`: a 2-minute video package instead (first frame, random
+    /// scrubs and playback, with the bytes fetched).
+    BenchWeb {
+        /// Measure a synthetic 2-minute event (made once under target/bench/long-event).
+        #[arg(long)]
+        long_event: bool,
+    },
 }
 
 fn main() -> std::process::ExitCode {
@@ -83,7 +88,13 @@ fn main() -> std::process::ExitCode {
             Some("prep") => setup::ensure_packages(setup::DEMO_PACKAGES).and_then(|()| run_eval("bench-prep", &args[1..], true)),
             _ => run_eval("bench", &args, false),
         },
-        Task::BenchWeb => bench_web::run(),
+        Task::BenchWeb { long_event } => {
+            if long_event {
+                bench_web::run_long_event()
+            } else {
+                bench_web::run()
+            }
+        }
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -13,7 +13,7 @@ pub type Packages = &'static [(&'static str, &'static str)];
 
 /// Packages of `cargo xtask demo`.
 pub const DEMO_PACKAGES: Packages = &[
-    ("ffmpeg", "videos of the sample event"),
+    ("ffmpeg", "videos of the sample event; the package's frames as video (VP9)"),
     ("libopencv-dev", "dynview prep: features, matching and geometry (OpenCV 4)"),
     ("clang", "the opencv crate generates its bindings with clang"),
     ("libclang-dev", "the opencv crate generates its bindings with libclang"),
@@ -24,7 +24,7 @@ pub const BENCH_SFM_PACKAGES: Packages = &[("colmap", "the reference structure f
 
 /// Packages of `cargo xtask test`.
 pub const TEST_PACKAGES: Packages = &[
-    ("ffmpeg", "synthetic event videos"),
+    ("ffmpeg", "synthetic event videos; video packages (VP9) written and read in the tests"),
     ("chromium", "headless browser tests of the wasm API and the page"),
     ("chromium-driver", "wasm-bindgen-test-runner drives Chromium through it"),
     ("mesa-vulkan-drivers", "lavapipe: the GPU renderer's tests run on the CPU through Vulkan"),

@@ -1,4 +1,4 @@
-//! The frame-storage options shared by `prep` and `merge`.
+//! The package-format options shared by `prep`, `merge` and `repack`.
 
 use dynview_core::scene::ffmpeg::{DEFAULT_CRF, DEFAULT_KEYFRAME_INTERVAL, VideoSettings};
 use dynview_core::scene::limits::MAX_KEYFRAME_INTERVAL;
@@ -25,11 +25,21 @@ pub struct FrameArgs {
     /// Video only: VP9 constant-quality level, 0 (best, largest) to 63.
     #[arg(long, default_value_t = DEFAULT_CRF, value_parser = clap::value_parser!(u32).range(0..=63))]
     video_crf: u32,
+    /// Write format v1 (JPEG frames, every time step's points in full) for viewers of that
+    /// format; implies `--frames-as jpeg`.
+    #[arg(long)]
+    format_v1: bool,
 }
 
 impl FrameArgs {
     /// The video settings, or `None` for JPEG frames.
     pub fn video(&self) -> Option<VideoSettings> {
-        (self.frames_as == FrameStorage::Vp9).then_some(VideoSettings { crf: self.video_crf, keyframe_interval: self.keyframe_every })
+        (self.frames_as == FrameStorage::Vp9 && !self.format_v1)
+            .then_some(VideoSettings { crf: self.video_crf, keyframe_interval: self.keyframe_every })
+    }
+
+    /// Whether format v1 is asked for.
+    pub fn format_v1(&self) -> bool {
+        self.format_v1
     }
 }

@@ -34,6 +34,7 @@ pub fn run_merge(args: MergeArgs) -> anyhow::Result<()> {
     let options = dynview_sfm::export::PackageOptions {
         static_cloud: (!args.no_static).then(dynview_sfm::static_cloud::StaticOptions::default),
         video: args.frames_as.video(),
+        format_v1: args.frames_as.format_v1(),
     };
     let result = dynview_sfm::export::export_package(&args.outputs, &args.out, &name, &options, &|stage, done, total| {
         bars.update(stage, done, total)

@@ -58,7 +58,9 @@ pub fn run_repack(args: RepackArgs) -> anyhow::Result<()> {
     }
     let bars = crate::progress::StageBars::new();
     let result =
-        dynview_core::scene::repack::repack(&package, &args.out, args.frames_as.video(), |done, total| bars.update("repack", done, total));
+        dynview_core::scene::repack::repack(&package, &args.out, args.frames_as.video(), args.frames_as.format_v1(), |done, total| {
+            bars.update("repack", done, total)
+        });
     bars.finish();
     let manifest = result.with_context(|| format!("repacking {} into {}", args.scene.display(), args.out.display()))?;
     let before = package.size_on_disk()?;

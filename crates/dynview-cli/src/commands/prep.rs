@@ -143,6 +143,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         options.package.static_cloud = None;
     }
     options.package.video = args.frames_as.video();
+    options.package.format_v1 = args.frames_as.format_v1();
     options.steps.densify = (!args.no_densify).then(|| DensifyOptions {
         target_points: args.target_points,
         max_side_px: args.densify_max_side as usize,

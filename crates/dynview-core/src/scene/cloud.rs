@@ -9,27 +9,39 @@
 //! | 12 | 4 | `step_count` (u32) |
 //! | 16 | 12 | `bounds_min` (3 x f32) |
 //! | 28 | 12 | `bounds_max` (3 x f32) |
-//! | 40 | 4 | `reserved` (u32, 0) |
+//! | 40 | 4 | `reserved` (u32, 0; version 2: `position_bits` (u16, 1 to 16), then `color_bits` (u16, 4 to 8)) |
 //! | 44 | 4 | `header_crc32`: CRC-32 of bytes 0..44 followed by the offset table |
 //! | 48 | 16 x step_count | offset table: per step `offset` (u64), `point_count` (u32), `crc32` (u32) of its block |
 //! | ... | 9 x point_count | per step, contiguous and in order: per point `x, y, z` (u16, quantised in the bounds) then `r, g, b` (u8) |
 //!
 //! A reader fetches the header and table once, then any step's block alone.
+//!
+//! Version 2 (format v2 packages) stores the event's static cloud once, as the first block, and
+//! per step a coded block of the step's own points and the indices of the static points it
+//! borrows ([`super::cloud_coding`]); its table entries are 24 bytes: `offset` (u64),
+//! `byte_length`, `point_count` (own + borrowed), `borrowed_count`, `crc32` (u32 each), the
+//! static block's first.
 
+use super::cloud_coding::decode_block;
 use super::error::{SceneError, SceneResult};
 use super::limits::{MAX_POINTS_PER_STEP, MAX_TIME_STEPS};
 
 /// The magic bytes opening a clouds file.
 pub const CLOUDS_MAGIC: &[u8; 8] = b"DVCLOUDS";
-/// The clouds file version.
+/// The clouds file version of plain blocks (format v1 packages).
 pub const CLOUDS_VERSION: u32 = 1;
+/// The clouds file version of coded blocks and a static cloud (format v2 packages).
+pub const CLOUDS_VERSION_CODED: u32 = 2;
 /// Size of the fixed header in bytes.
 pub const HEADER_BYTES: usize = 48;
-/// Size of one offset-table entry in bytes.
+/// Size of one offset-table entry in bytes (version 1).
 pub const TABLE_ENTRY_BYTES: usize = 16;
+/// Size of one offset-table entry in bytes (version 2).
+pub const CODED_TABLE_ENTRY_BYTES: usize = 24;
+/// Largest coded block accepted (version 2).
+pub const MAX_CODED_BLOCK_BYTES: u64 = 64 << 20;
 /// Size of one stored point in bytes.
 pub const POINT_BYTES: usize = 9;
-const QUANT_MAX: f32 = 65535.0;
 
 /// A colored point cloud of one time step.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -57,8 +69,12 @@ impl PointCloud {
 pub struct StepEntry {
     /// Byte offset of the step's block from the start of the file.
     pub offset: u64,
-    /// Points in the block.
+    /// Length of the block in bytes.
+    pub length_bytes: u64,
+    /// Points the block decodes to (its own and, version 2, the borrowed static points).
     pub point_count: u32,
+    /// Static points borrowed (version 2; 0 otherwise).
+    pub borrowed_count: u32,
     /// CRC-32 of the block.
     pub crc32: u32,
 }
@@ -66,24 +82,108 @@ pub struct StepEntry {
 impl StepEntry {
     /// Length of the block in bytes.
     pub fn byte_length(&self) -> u64 {
-        u64::from(self.point_count) * POINT_BYTES as u64
+        self.length_bytes
+    }
+
+    /// A version 1 entry: `point_count` plain points.
+    pub fn plain(offset: u64, point_count: u32, crc32: u32) -> Self {
+        Self { offset, length_bytes: u64::from(point_count) * POINT_BYTES as u64, point_count, borrowed_count: 0, crc32 }
     }
 }
 
 /// The parsed header and offset table: everything needed to fetch and decode one step.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CloudIndex {
+    /// The clouds file version (1 or 2).
+    pub version: u32,
+    /// The static cloud's block (version 2).
+    pub static_block: Option<StepEntry>,
     /// Quantisation box, smallest corner.
     pub bounds_min: [f32; 3],
     /// Quantisation box, largest corner.
     pub bounds_max: [f32; 3],
+    /// Bits per coordinate of the quantisation grid (16 in version 1).
+    pub position_bits: u32,
+    /// Bits per color channel (8 in version 1).
+    pub color_bits: u32,
     /// One entry per time step.
     pub steps: Vec<StepEntry>,
 }
 
-/// Bytes needed from the start of the file to parse the index of `step_count` steps.
-pub fn index_byte_length(step_count: u32) -> u64 {
-    HEADER_BYTES as u64 + u64::from(step_count) * TABLE_ENTRY_BYTES as u64
+/// Bytes needed from the start of a clouds file of `version` to parse the index of
+/// `step_count` steps.
+pub fn index_byte_length(version: u32, step_count: u32) -> u64 {
+    if version == CLOUDS_VERSION_CODED {
+        HEADER_BYTES as u64 + (u64::from(step_count) + 1) * CODED_TABLE_ENTRY_BYTES as u64
+    } else {
+        HEADER_BYTES as u64 + u64::from(step_count) * TABLE_ENTRY_BYTES as u64
+    }
+}
+
+/// The quantisation of a clouds file: positions on a grid of `2^position_bits` levels per axis
+/// across the box, colors to `color_bits` per channel (16 and 8 in version 1; version 2 stores
+/// its choice in the header).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Grid {
+    /// Smallest corner of the box.
+    pub bounds_min: [f32; 3],
+    /// Largest corner of the box.
+    pub bounds_max: [f32; 3],
+    /// Bits per coordinate, 1 to 16.
+    pub position_bits: u32,
+    /// Bits per color channel, 4 to 8.
+    pub color_bits: u32,
+}
+
+impl Grid {
+    /// The 16-bit grid of `bounds`, 8-bit colors.
+    pub fn full(bounds_min: [f32; 3], bounds_max: [f32; 3]) -> Self {
+        Self { bounds_min, bounds_max, position_bits: 16, color_bits: 8 }
+    }
+
+    /// The coarsest grid of `bounds` whose step is at most `step` on every axis (16 bits at
+    /// most), 8-bit colors.
+    pub fn with_step(bounds_min: [f32; 3], bounds_max: [f32; 3], step: f64) -> Self {
+        let extent = (0..3).map(|i| f64::from(bounds_max[i] - bounds_min[i])).fold(0.0, f64::max);
+        let levels = if step > 0.0 && step.is_finite() { (extent / step).ceil() + 1.0 } else { f64::INFINITY };
+        let position_bits = (1..=16).find(|&b| f64::from((1u32 << b) - 1) >= levels - 1.0).unwrap_or(16);
+        Self { bounds_min, bounds_max, position_bits, color_bits: 8 }
+    }
+
+    /// A color channel on `color_bits` bits.
+    pub fn quantise_color(&self, v: u8) -> u8 {
+        v >> (8 - self.color_bits)
+    }
+
+    /// A color channel back on 8 bits, its bits repeated into the low ones (so the darkest and
+    /// brightest levels stay 0 and 255).
+    pub fn dequantise_color(&self, q: u8) -> u8 {
+        let b = self.color_bits;
+        if b >= 8 { q } else { (q << (8 - b)) | (q >> (2 * b - 8)) }
+    }
+
+    fn top(&self) -> f32 {
+        ((1u32 << self.position_bits) - 1) as f32
+    }
+
+    /// The grid cell of `p` (clamped onto the box); `None` when not finite.
+    pub fn quantise(&self, p: [f32; 3]) -> Option<[u16; 3]> {
+        if p.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let top = self.top();
+        Some(std::array::from_fn(|i| {
+            let extent = self.bounds_max[i] - self.bounds_min[i];
+            let inv = if extent > 0.0 { top / extent } else { 0.0 };
+            ((p[i] - self.bounds_min[i]) * inv).round().clamp(0.0, top) as u16
+        }))
+    }
+
+    /// The position of grid cell `q`.
+    pub fn dequantise(&self, q: [u16; 3]) -> [f32; 3] {
+        let top = self.top();
+        std::array::from_fn(|i| self.bounds_min[i] + f32::from(q[i]) * ((self.bounds_max[i] - self.bounds_min[i]) / top))
+    }
 }
 
 fn read_u32(b: &[u8], at: usize) -> u32 {
@@ -99,9 +199,10 @@ fn read_u64(b: &[u8], at: usize) -> u64 {
 }
 
 impl CloudIndex {
-    /// Reads the step count from the first bytes of a file (at least `HEADER_BYTES`), so a
-    /// reader knows how many bytes the whole index takes.
-    pub fn peek_step_count(header: &[u8], file: &str) -> SceneResult<u32> {
+    /// Reads the version and step count from the first bytes of a file (at least
+    /// `HEADER_BYTES`), so a reader knows how many bytes the whole index takes
+    /// ([`index_byte_length`]).
+    pub fn peek(header: &[u8], file: &str) -> SceneResult<(u32, u32)> {
         if header.len() < HEADER_BYTES {
             return Err(SceneError::invalid(file, "(header)", format!("file shorter than the {HEADER_BYTES}-byte header")));
         }
@@ -109,25 +210,25 @@ impl CloudIndex {
             return Err(SceneError::invalid(file, "magic", "not a dynview clouds file"));
         }
         let version = read_u32(header, 8);
-        if version != CLOUDS_VERSION {
+        if version != CLOUDS_VERSION && version != CLOUDS_VERSION_CODED {
             return Err(SceneError::invalid(
                 file,
                 "version",
-                format!("unsupported version {version} (this reader knows {CLOUDS_VERSION})"),
+                format!("unsupported version {version} (this reader knows {CLOUDS_VERSION} and {CLOUDS_VERSION_CODED})"),
             ));
         }
         let step_count = read_u32(header, 12);
         if step_count == 0 || step_count > MAX_TIME_STEPS {
             return Err(SceneError::invalid(file, "step_count", format!("must be in 1..={MAX_TIME_STEPS}, found {step_count}")));
         }
-        Ok(step_count)
+        Ok((version, step_count))
     }
 
     /// Parses and checks the header and offset table. `bytes` holds at least the index (more
     /// is ignored); `file_length` is the size of the whole file, which every block must fit.
     pub fn parse(bytes: &[u8], file_length: u64, file: &str) -> SceneResult<Self> {
-        let step_count = Self::peek_step_count(bytes, file)?;
-        let index_len = index_byte_length(step_count);
+        let (version, step_count) = Self::peek(bytes, file)?;
+        let index_len = index_byte_length(version, step_count);
         if (bytes.len() as u64) < index_len || file_length < index_len {
             return Err(SceneError::invalid(file, "steps", format!("file too short for the offset table of {step_count} steps")));
         }
@@ -152,25 +253,63 @@ impl CloudIndex {
                 ));
             }
         }
-        if read_u32(bytes, 40) != 0 {
+        if version == CLOUDS_VERSION && read_u32(bytes, 40) != 0 {
             return Err(SceneError::invalid(file, "reserved", "must be 0"));
         }
-        let mut steps = Vec::with_capacity(step_count as usize);
+        let (position_bits, color_bits) = if version == CLOUDS_VERSION {
+            (16, 8)
+        } else {
+            (u32::from(u16::from_le_bytes([bytes[40], bytes[41]])), u32::from(u16::from_le_bytes([bytes[42], bytes[43]])))
+        };
+        if !(1..=16).contains(&position_bits) {
+            return Err(SceneError::invalid(file, "position_bits", format!("must be in 1..=16, found {position_bits}")));
+        }
+        if !(4..=8).contains(&color_bits) {
+            return Err(SceneError::invalid(file, "color_bits", format!("must be in 4..=8, found {color_bits}")));
+        }
+        let coded = version == CLOUDS_VERSION_CODED;
+        let entry_bytes = if coded { CODED_TABLE_ENTRY_BYTES } else { TABLE_ENTRY_BYTES };
+        let blocks = step_count as usize + usize::from(coded);
+        let mut entries = Vec::with_capacity(blocks);
         let mut expected_offset = index_len as u64;
-        for t in 0..step_count as usize {
-            let at = HEADER_BYTES + t * TABLE_ENTRY_BYTES;
-            let entry = StepEntry { offset: read_u64(bytes, at), point_count: read_u32(bytes, at + 8), crc32: read_u32(bytes, at + 12) };
-            if entry.point_count > MAX_POINTS_PER_STEP {
+        for k in 0..blocks {
+            let at = HEADER_BYTES + k * entry_bytes;
+            let name = if coded && k == 0 { "static".to_string() } else { format!("steps[{}]", k - usize::from(coded)) };
+            let entry = if coded {
+                StepEntry {
+                    offset: read_u64(bytes, at),
+                    length_bytes: u64::from(read_u32(bytes, at + 8)),
+                    point_count: read_u32(bytes, at + 12),
+                    borrowed_count: read_u32(bytes, at + 16),
+                    crc32: read_u32(bytes, at + 20),
+                }
+            } else {
+                StepEntry::plain(read_u64(bytes, at), read_u32(bytes, at + 8), read_u32(bytes, at + 12))
+            };
+            if entry.point_count > MAX_POINTS_PER_STEP
+                || entry.borrowed_count > entry.point_count
+                || (k == 0 && coded && entry.borrowed_count != 0)
+            {
                 return Err(SceneError::invalid(
                     file,
-                    format!("steps[{t}].point_count"),
-                    format!("{} exceeds the limit of {MAX_POINTS_PER_STEP}", entry.point_count),
+                    format!("{name}.point_count"),
+                    format!(
+                        "{} points ({} borrowed): the limit is {MAX_POINTS_PER_STEP}, borrowed at most all of them, none in the static block",
+                        entry.point_count, entry.borrowed_count
+                    ),
+                ));
+            }
+            if coded && entry.length_bytes > MAX_CODED_BLOCK_BYTES {
+                return Err(SceneError::invalid(
+                    file,
+                    format!("{name}.byte_length"),
+                    format!("{} exceeds {MAX_CODED_BLOCK_BYTES}", entry.length_bytes),
                 ));
             }
             if entry.offset != expected_offset {
                 return Err(SceneError::invalid(
                     file,
-                    format!("steps[{t}].offset"),
+                    format!("{name}.offset"),
                     format!("is {}, blocks must be contiguous so it must be {expected_offset}", entry.offset),
                 ));
             }
@@ -178,11 +317,11 @@ impl CloudIndex {
             if expected_offset > file_length {
                 return Err(SceneError::invalid(
                     file,
-                    format!("steps[{t}].point_count"),
+                    format!("{name}.point_count"),
                     format!("block ends at byte {expected_offset}, past the end of the file ({file_length} bytes)"),
                 ));
             }
-            steps.push(entry);
+            entries.push(entry);
         }
         if expected_offset != file_length {
             return Err(SceneError::invalid(
@@ -191,7 +330,23 @@ impl CloudIndex {
                 format!("blocks end at byte {expected_offset} but the file has {file_length} bytes"),
             ));
         }
-        Ok(Self { bounds_min, bounds_max, steps })
+        let static_block = if coded { Some(entries.remove(0)) } else { None };
+        let steps = entries;
+        if let Some(statics) = static_block
+            && let Some(t) = steps.iter().position(|s| s.borrowed_count > statics.point_count)
+        {
+            return Err(SceneError::invalid(
+                file,
+                format!("steps[{t}].borrowed_count"),
+                format!("more than the {} static points", statics.point_count),
+            ));
+        }
+        Ok(Self { version, static_block, bounds_min, bounds_max, position_bits, color_bits, steps })
+    }
+
+    /// The quantisation grid.
+    pub fn grid(&self) -> Grid {
+        Grid { bounds_min: self.bounds_min, bounds_max: self.bounds_max, position_bits: self.position_bits, color_bits: self.color_bits }
     }
 
     /// Total points over all steps.
@@ -199,31 +354,64 @@ impl CloudIndex {
         self.steps.iter().map(|s| u64::from(s.point_count)).sum()
     }
 
-    /// Decodes the block of step `t` (exactly its bytes), checking length and checksum.
-    pub fn decode_step(&self, t: usize, block: &[u8], file: &str) -> SceneResult<PointCloud> {
-        let Some(entry) = self.steps.get(t) else {
-            return Err(SceneError::invalid(file, "steps", format!("time step {t} out of range (0..{})", self.steps.len())));
-        };
+    /// Checks a block's length and checksum against its entry.
+    fn check_block(entry: &StepEntry, block: &[u8], file: &str, name: &str) -> SceneResult<()> {
         if block.len() as u64 != entry.byte_length() {
-            return Err(SceneError::invalid(
-                file,
-                format!("steps[{t}]"),
-                format!("block has {} bytes, expected {}", block.len(), entry.byte_length()),
-            ));
+            return Err(SceneError::invalid(file, name, format!("block has {} bytes, expected {}", block.len(), entry.byte_length())));
         }
         let computed = crc32fast::hash(block);
         if computed != entry.crc32 {
-            return Err(SceneError::Checksum { file: file.to_owned(), field: format!("steps[{t}].crc32"), stored: entry.crc32, computed });
+            return Err(SceneError::Checksum { file: file.to_owned(), field: format!("{name}.crc32"), stored: entry.crc32, computed });
         }
-        let scale: [f32; 3] = std::array::from_fn(|i| (self.bounds_max[i] - self.bounds_min[i]) / QUANT_MAX);
+        Ok(())
+    }
+
+    /// Decodes the static cloud's block (version 2; exactly its bytes).
+    pub fn decode_static(&self, block: &[u8], file: &str) -> SceneResult<PointCloud> {
+        let Some(entry) = self.static_block else {
+            return Err(SceneError::invalid(file, "static", "a version 1 clouds file has no static cloud"));
+        };
+        Self::check_block(&entry, block, file, "static")?;
+        let (cloud, _) = decode_block(block, entry.point_count, 0, 0, &self.grid(), file, "static")?;
+        Ok(cloud)
+    }
+
+    /// Decodes the block of step `t` (exactly its bytes), checking length and checksum. A
+    /// version 2 step needs the static cloud ([`CloudIndex::decode_static`]) it borrows from;
+    /// its points are its own, then the borrowed ones.
+    pub fn decode_step(&self, t: usize, block: &[u8], statics: Option<&PointCloud>, file: &str) -> SceneResult<PointCloud> {
+        let static_count = statics.map_or(0, |s| s.len() as u32);
+        let (mut cloud, borrowed) = self.decode_step_parts(t, block, static_count, file)?;
+        if !borrowed.is_empty() {
+            let Some(statics) = statics else {
+                return Err(SceneError::invalid(file, "static", "the static cloud is needed to decode a step"));
+            };
+            cloud.positions_world.extend(borrowed.iter().map(|&i| statics.positions_world[i as usize]));
+            cloud.colors.extend(borrowed.iter().map(|&i| statics.colors[i as usize]));
+        }
+        Ok(cloud)
+    }
+
+    /// Decodes the block of step `t` into its own points and the indices of the static points
+    /// it borrows (each below `static_count`; none in a version 1 file).
+    pub fn decode_step_parts(&self, t: usize, block: &[u8], static_count: u32, file: &str) -> SceneResult<(PointCloud, Vec<u32>)> {
+        let Some(entry) = self.steps.get(t) else {
+            return Err(SceneError::invalid(file, "steps", format!("time step {t} out of range (0..{})", self.steps.len())));
+        };
+        let name = format!("steps[{t}]");
+        Self::check_block(entry, block, file, &name)?;
+        if self.version == CLOUDS_VERSION_CODED {
+            let own = entry.point_count - entry.borrowed_count;
+            return decode_block(block, own, entry.borrowed_count, static_count, &self.grid(), file, &name);
+        }
         let n = entry.point_count as usize;
         let mut cloud = PointCloud { positions_world: Vec::with_capacity(n), colors: Vec::with_capacity(n) };
         for p in block.chunks_exact(POINT_BYTES) {
             let q = [u16::from_le_bytes([p[0], p[1]]), u16::from_le_bytes([p[2], p[3]]), u16::from_le_bytes([p[4], p[5]])];
-            cloud.positions_world.push(std::array::from_fn(|i| self.bounds_min[i] + f32::from(q[i]) * scale[i]));
+            cloud.positions_world.push(Grid::full(self.bounds_min, self.bounds_max).dequantise(q));
             cloud.colors.push([p[6], p[7], p[8]]);
         }
-        Ok(cloud)
+        Ok((cloud, Vec::new()))
     }
 }
 
@@ -237,42 +425,71 @@ pub fn encode_step(cloud: &PointCloud, bounds_min: [f32; 3], bounds_max: [f32; 3
     if cloud.len() > MAX_POINTS_PER_STEP as usize {
         return Err(SceneError::invalid(FILE, format!("steps[{t}].point_count"), format!("{} exceeds {MAX_POINTS_PER_STEP}", cloud.len())));
     }
-    let inv: [f32; 3] = std::array::from_fn(|i| {
-        let extent = bounds_max[i] - bounds_min[i];
-        if extent > 0.0 { QUANT_MAX / extent } else { 0.0 }
-    });
     let mut out = Vec::with_capacity(cloud.len() * POINT_BYTES);
     for (k, (p, c)) in cloud.positions_world.iter().zip(&cloud.colors).enumerate() {
-        if p.iter().any(|v| !v.is_finite()) {
-            return Err(SceneError::invalid(FILE, format!("steps[{t}].points[{k}]"), "non-finite position"));
-        }
-        for i in 0..3 {
-            let q = ((p[i] - bounds_min[i]) * inv[i]).round().clamp(0.0, QUANT_MAX) as u16;
-            out.extend_from_slice(&q.to_le_bytes());
+        let q = Grid::full(bounds_min, bounds_max)
+            .quantise(*p)
+            .ok_or_else(|| SceneError::invalid(FILE, format!("steps[{t}].points[{k}]"), "non-finite position"))?;
+        for v in q {
+            out.extend_from_slice(&v.to_le_bytes());
         }
         out.extend_from_slice(c);
     }
     Ok(out)
 }
 
-/// Builds the header and offset table for blocks of the given lengths (in points) and CRCs.
+/// Builds the header and offset table of a version 1 file for blocks of the given lengths (in
+/// points) and CRCs.
 pub fn encode_index(bounds_min: [f32; 3], bounds_max: [f32; 3], steps: &[(u32, u32)]) -> Vec<u8> {
-    let index_len = index_byte_length(steps.len() as u32) as usize;
-    let mut out = Vec::with_capacity(index_len);
+    let index_len = index_byte_length(CLOUDS_VERSION, steps.len() as u32);
+    let mut offset = index_len;
+    let entries: Vec<StepEntry> = steps
+        .iter()
+        .map(|&(point_count, crc32)| {
+            let e = StepEntry::plain(offset, point_count, crc32);
+            offset += e.byte_length();
+            e
+        })
+        .collect();
+    encode_table(CLOUDS_VERSION, &Grid::full(bounds_min, bounds_max), None, &entries)
+}
+
+/// Builds the header and offset table of a version 2 file on `grid`: the static block, then
+/// one block per step, as `(byte_length, point_count, borrowed_count, crc32)`.
+pub fn encode_coded_index(grid: &Grid, statics: (u32, u32, u32), steps: &[(u32, u32, u32, u32)]) -> Vec<u8> {
+    let mut offset = index_byte_length(CLOUDS_VERSION_CODED, steps.len() as u32);
+    let mut entry = |(length, point_count, borrowed_count, crc32): (u32, u32, u32, u32)| {
+        let e = StepEntry { offset, length_bytes: u64::from(length), point_count, borrowed_count, crc32 };
+        offset += e.byte_length();
+        e
+    };
+    let static_entry = entry((statics.0, statics.1, 0, statics.2));
+    let entries: Vec<StepEntry> = steps.iter().map(|&s| entry(s)).collect();
+    encode_table(CLOUDS_VERSION_CODED, grid, Some(static_entry), &entries)
+}
+
+fn encode_table(version: u32, grid: &Grid, static_entry: Option<StepEntry>, steps: &[StepEntry]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(index_byte_length(version, steps.len() as u32) as usize);
     out.extend_from_slice(CLOUDS_MAGIC);
-    out.extend_from_slice(&CLOUDS_VERSION.to_le_bytes());
+    out.extend_from_slice(&version.to_le_bytes());
     out.extend_from_slice(&(steps.len() as u32).to_le_bytes());
-    for v in bounds_min.iter().chain(&bounds_max) {
+    for v in grid.bounds_min.iter().chain(&grid.bounds_max) {
         out.extend_from_slice(&v.to_le_bytes());
     }
-    out.extend_from_slice(&0u32.to_le_bytes());
+    let (position_bits, color_bits) = if version == CLOUDS_VERSION_CODED { (grid.position_bits, grid.color_bits) } else { (0, 0) };
+    out.extend_from_slice(&(position_bits as u16).to_le_bytes());
+    out.extend_from_slice(&(color_bits as u16).to_le_bytes());
     out.extend_from_slice(&0u32.to_le_bytes()); // header_crc32, filled below
-    let mut offset = index_len as u64;
-    for &(point_count, crc32) in steps {
-        out.extend_from_slice(&offset.to_le_bytes());
-        out.extend_from_slice(&point_count.to_le_bytes());
-        out.extend_from_slice(&crc32.to_le_bytes());
-        offset += u64::from(point_count) * POINT_BYTES as u64;
+    for e in static_entry.iter().chain(steps) {
+        out.extend_from_slice(&e.offset.to_le_bytes());
+        if version == CLOUDS_VERSION_CODED {
+            out.extend_from_slice(&(e.length_bytes as u32).to_le_bytes());
+            out.extend_from_slice(&e.point_count.to_le_bytes());
+            out.extend_from_slice(&e.borrowed_count.to_le_bytes());
+        } else {
+            out.extend_from_slice(&e.point_count.to_le_bytes());
+        }
+        out.extend_from_slice(&e.crc32.to_le_bytes());
     }
     let mut hasher = crc32fast::Hasher::new();
     hasher.update(&out[..44]);
@@ -292,6 +509,29 @@ pub fn encode_clouds(bounds_min: [f32; 3], bounds_max: [f32; 3], clouds: &[Point
     let entries: Vec<(u32, u32)> = blocks.iter().map(|b| ((b.len() / POINT_BYTES) as u32, crc32fast::hash(b))).collect();
     let mut out = encode_index(bounds_min, bounds_max, &entries);
     for b in blocks {
+        out.extend_from_slice(&b);
+    }
+    Ok(out)
+}
+
+/// Encodes a whole version 2 clouds file in memory on `grid`: the static cloud, then per step
+/// its own points and the static indices it borrows (for tests and small packages).
+pub fn encode_coded_clouds(grid: &Grid, statics: &PointCloud, steps: &[(PointCloud, Vec<u32>)]) -> SceneResult<Vec<u8>> {
+    let static_block = super::cloud_coding::encode_block(statics, &[], grid, "static")?;
+    let mut blocks = Vec::with_capacity(steps.len());
+    for (t, (own, borrowed)) in steps.iter().enumerate() {
+        blocks.push((
+            super::cloud_coding::encode_block(own, borrowed, grid, &format!("steps[{t}]"))?,
+            own.len() + borrowed.len(),
+            borrowed.len(),
+        ));
+    }
+    let entries: Vec<(u32, u32, u32, u32)> =
+        blocks.iter().map(|(b, points, borrowed)| (b.len() as u32, *points as u32, *borrowed as u32, crc32fast::hash(b))).collect();
+    let statics_entry = (static_block.len() as u32, statics.len() as u32, crc32fast::hash(&static_block));
+    let mut out = encode_coded_index(grid, statics_entry, &entries);
+    out.extend_from_slice(&static_block);
+    for (b, _, _) in blocks {
         out.extend_from_slice(&b);
     }
     Ok(out)
@@ -325,7 +565,7 @@ mod tests {
         for (t, cloud) in clouds.iter().enumerate() {
             let e = index.steps[t];
             let block = &bytes[e.offset as usize..(e.offset + e.byte_length()) as usize];
-            let back = index.decode_step(t, block, "clouds.bin").unwrap();
+            let back = index.decode_step(t, block, None, "clouds.bin").unwrap();
             assert_eq!(back.colors, cloud.colors);
             for (a, b) in back.positions_world.iter().zip(&cloud.positions_world) {
                 for i in 0..3 {
@@ -334,6 +574,38 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_coarser_grid_keeps_its_step_and_round_trips_within_half_of_it() {
+        let grid = Grid::with_step(MIN, MAX, 0.001);
+        // 4 m across at 1 mm: 4001 levels, 12 bits.
+        assert_eq!(grid.position_bits, 12);
+        let steps: Vec<(PointCloud, Vec<u32>)> = sample_clouds().into_iter().map(|c| (c, vec![])).collect();
+        let bytes = encode_coded_clouds(&grid, &PointCloud::default(), &steps).unwrap();
+        let index = CloudIndex::parse(&bytes, bytes.len() as u64, "clouds.bin").unwrap();
+        assert_eq!(index.grid(), grid);
+        for (t, (cloud, _)) in steps.iter().enumerate() {
+            let e = index.steps[t];
+            let back = index
+                .decode_step(t, &bytes[e.offset as usize..(e.offset + e.byte_length()) as usize], Some(&PointCloud::default()), "c")
+                .unwrap();
+            let mut got: Vec<[u32; 3]> = back.positions_world.iter().map(|p| p.map(f32::to_bits)).collect();
+            let mut want: Vec<[u32; 3]> =
+                cloud.positions_world.iter().map(|p| grid.dequantise(grid.quantise(*p).unwrap()).map(f32::to_bits)).collect();
+            got.sort_unstable();
+            want.sort_unstable();
+            assert_eq!(got, want);
+            for p in &cloud.positions_world {
+                let q = grid.dequantise(grid.quantise(*p).unwrap());
+                for i in 0..3 {
+                    let step = (MAX[i] - MIN[i]) / 4095.0;
+                    assert!((q[i] - p[i]).abs() <= 0.5 * step + 1e-6, "{p:?} -> {q:?}");
+                }
+            }
+        }
+        assert_eq!(Grid::with_step(MIN, MAX, 0.0).position_bits, 16);
+        assert_eq!(Grid::with_step(MIN, MAX, 10.0).position_bits, 1);
     }
 
     #[test]
@@ -356,7 +628,7 @@ mod tests {
                     Ok(index) => (0..index.steps.len()).any(|t| {
                         let e = index.steps[t];
                         let block = &bad[e.offset as usize..(e.offset + e.byte_length()) as usize];
-                        index.decode_step(t, block, "clouds.bin").is_err()
+                        index.decode_step(t, block, None, "clouds.bin").is_err()
                     }),
                 };
                 assert!(detected, "flip of bit {bit} in byte {i} went unnoticed");
@@ -368,13 +640,13 @@ mod tests {
     fn errors_name_fields() {
         let bytes = encode_clouds(MIN, MAX, &sample_clouds()).unwrap();
         let mut bad = bytes.clone();
-        bad[8] = 2;
+        bad[8] = 3;
         let err = CloudIndex::parse(&bad, bad.len() as u64, "clouds.bin").unwrap_err().to_string();
         assert!(err.contains("`version`"), "{err}");
         let err = CloudIndex::parse(&bytes, bytes.len() as u64 + 9, "clouds.bin").unwrap_err().to_string();
         assert!(err.contains("file length"), "{err}");
         let index = CloudIndex::parse(&bytes, bytes.len() as u64, "clouds.bin").unwrap();
-        let err = index.decode_step(7, &[], "clouds.bin").unwrap_err().to_string();
+        let err = index.decode_step(7, &[], None, "clouds.bin").unwrap_err().to_string();
         assert!(err.contains("out of range"), "{err}");
     }
 

@@ -20,9 +20,9 @@ pub struct VideoSettings {
     pub keyframe_interval: u32,
 }
 
-/// The default quality level: 45 dB PSNR against the input frames on the real Panoptic arc,
-/// at a tenth of the size of JPEG frames at quality 92.
-pub const DEFAULT_CRF: u32 = 32;
+/// The default quality level: 43 dB PSNR against the input frames on the real Panoptic arc
+/// (640x360), 1.9 KB a frame against 29 KB as JPEG at quality 92.
+pub const DEFAULT_CRF: u32 = 36;
 /// The default keyframe interval: showing any frame after a scrub decodes at most this many.
 pub const DEFAULT_KEYFRAME_INTERVAL: u32 = 30;
 

@@ -51,8 +51,24 @@ pub struct CameraEntry {
     pub height: u32,
     /// Pinhole intrinsics at `width x height` (frames are undistorted).
     pub intrinsics: Intrinsics,
-    /// `camera_from_world` for every time step.
+    /// `camera_from_world` for every time step, or (format v2) one pose for all of them: a
+    /// camera that stands still. Read them with [`CameraEntry::pose`].
     pub poses: Vec<PoseEntry>,
+}
+
+impl CameraEntry {
+    /// The pose at time step `t` (the one pose of a camera that stands still).
+    pub fn pose(&self, t: u32) -> PoseEntry {
+        let last = self.poses.len().saturating_sub(1);
+        self.poses.get((t as usize).min(last)).copied().unwrap_or(PoseEntry::from(Rigid3::IDENTITY))
+    }
+
+    /// Stores one pose when every time step has the same one (format v2 only).
+    pub fn compact_poses(&mut self) {
+        if self.poses.windows(2).all(|w| w[0] == w[1]) {
+            self.poses.truncate(1);
+        }
+    }
 }
 
 /// Axis-aligned bounds of the scene content.
@@ -268,11 +284,16 @@ impl Manifest {
         if k.fx <= 0.0 || k.fy <= 0.0 {
             return Err(SceneError::invalid(file, field("intrinsics"), "focal lengths must be positive"));
         }
-        if camera.poses.len() != self.time_step_count as usize {
+        let one_for_all = camera.poses.len() == 1 && self.version != FORMAT_VERSION_V1;
+        if camera.poses.len() != self.time_step_count as usize && !one_for_all {
             return Err(SceneError::invalid(
                 file,
                 field("poses"),
-                format!("has {} poses, time_step_count is {}", camera.poses.len(), self.time_step_count),
+                format!(
+                    "has {} poses, time_step_count is {} (format v2 also allows one pose for a camera that stands still)",
+                    camera.poses.len(),
+                    self.time_step_count
+                ),
             ));
         }
         for (t, pose) in camera.poses.iter().enumerate() {
@@ -286,7 +307,7 @@ impl Manifest {
         let entry = &self.cameras[camera];
         Camera {
             intrinsics: entry.intrinsics,
-            camera_from_world: entry.poses[t as usize].camera_from_world(),
+            camera_from_world: entry.pose(t).camera_from_world(),
             width_px: entry.width,
             height_px: entry.height,
         }
@@ -414,6 +435,12 @@ mod tests {
         expect_field(&m, "cameras[0].poses[0].translation");
         let mut m = base.clone();
         m.cameras[0].poses.pop();
+        expect_field(&m, "cameras[0].poses");
+        let mut m = base.clone();
+        m.cameras[0].poses.truncate(1);
+        m.validate("scene.json").unwrap();
+        assert_eq!(m.camera_at(0, 2).camera_from_world, base.camera_at(0, 2).camera_from_world);
+        m.version = FORMAT_VERSION_V1;
         expect_field(&m, "cameras[0].poses");
         let mut m = base.clone();
         m.cameras[1].name = "../evil".into();

@@ -3,6 +3,7 @@
 //! per camera with a frame index (v2).
 
 pub mod cloud;
+pub mod cloud_coding;
 pub mod error;
 #[cfg(not(target_family = "wasm"))]
 pub mod ffmpeg;

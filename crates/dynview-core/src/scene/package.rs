@@ -7,12 +7,14 @@
 use std::fs::{self, File};
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
-use super::cloud::{self, CloudIndex, PointCloud};
+use super::cloud::{self, CloudIndex, Grid, PointCloud};
+use super::cloud_coding::encode_block;
 use super::error::{SceneError, SceneResult};
 use super::ffmpeg::{DEFAULT_KEYFRAME_INTERVAL, VideoSettings};
-use super::limits::{MAX_FRAME_FILE_BYTES, MAX_MANIFEST_BYTES};
-use super::manifest::{FRAMES_DIR, MANIFEST_FILE, Manifest};
+use super::limits::{MAX_FRAME_FILE_BYTES, MAX_MANIFEST_BYTES, MAX_POINTS_PER_STEP};
+use super::manifest::{FORMAT_VERSION_V1, FRAMES_DIR, MANIFEST_FILE, Manifest};
 use super::video::FrameIndex;
 use super::video_files::{VideoFrames, VideoWriter};
 use crate::camera::Camera;
@@ -30,6 +32,8 @@ pub struct ScenePackage {
     cloud_index: CloudIndex,
     /// The videos' index and decoded frames (video packages only).
     video: Option<VideoFrames>,
+    /// The static cloud, read at the first step that needs it (version 2 clouds).
+    statics: Mutex<Option<Arc<PointCloud>>>,
 }
 
 fn read_limited(path: &Path, limit: u64) -> SceneResult<Vec<u8>> {
@@ -67,7 +71,7 @@ impl ScenePackage {
         file.read_exact(&mut header).map_err(|_| {
             SceneError::invalid(&clouds_name, "(header)", format!("file shorter than the {}-byte header", cloud::HEADER_BYTES))
         })?;
-        let step_count = CloudIndex::peek_step_count(&header, &clouds_name)?;
+        let (version, step_count) = CloudIndex::peek(&header, &clouds_name)?;
         if step_count != manifest.time_step_count {
             return Err(SceneError::invalid(
                 &clouds_name,
@@ -75,7 +79,7 @@ impl ScenePackage {
                 format!("{step_count} steps but scene.json has time_step_count {}", manifest.time_step_count),
             ));
         }
-        let index_len = cloud::index_byte_length(step_count);
+        let index_len = cloud::index_byte_length(version, step_count);
         if index_len > file_length {
             return Err(SceneError::invalid(&clouds_name, "steps", "file too short for the offset table"));
         }
@@ -84,7 +88,7 @@ impl ScenePackage {
         file.read_exact(&mut index_bytes[cloud::HEADER_BYTES..]).map_err(|e| SceneError::io(&clouds_path, e))?;
         let cloud_index = CloudIndex::parse(&index_bytes, file_length, &clouds_name)?;
         let video = if manifest.frame_format.is_video() { Some(VideoFrames::open(&root, &manifest)?) } else { None };
-        Ok(Self { root, manifest, cloud_index, video })
+        Ok(Self { root, manifest, cloud_index, video, statics: Mutex::new(None) })
     }
 
     /// The package folder.
@@ -128,19 +132,52 @@ impl ScenePackage {
         Ok(())
     }
 
-    /// Reads and decodes the cloud of time step `t`, touching no other step's bytes.
-    pub fn read_cloud(&self, t: u32) -> SceneResult<PointCloud> {
+    fn read_block(&self, entry: &cloud::StepEntry, name: &str) -> SceneResult<Vec<u8>> {
         let path = self.root.join(&self.manifest.clouds.file);
-        let name = path.display().to_string();
-        let Some(entry) = self.cloud_index.steps.get(t as usize).copied() else {
-            return Err(SceneError::invalid(&name, "steps", format!("time step {t} out of range")));
-        };
         let mut file = File::open(&path).map_err(|e| SceneError::io(&path, e))?;
         file.seek(SeekFrom::Start(entry.offset)).map_err(|e| SceneError::io(&path, e))?;
         let mut block = vec![0u8; entry.byte_length() as usize];
         file.read_exact(&mut block)
-            .map_err(|_| SceneError::invalid(&name, format!("steps[{t}]"), "block truncated (file changed since it was opened?)"))?;
-        self.cloud_index.decode_step(t as usize, &block, &name)
+            .map_err(|_| SceneError::invalid(path.display().to_string(), name, "block truncated (file changed since it was opened?)"))?;
+        Ok(block)
+    }
+
+    /// The static cloud of a version 2 clouds file (empty for version 1), read once.
+    pub fn static_cloud(&self) -> SceneResult<Arc<PointCloud>> {
+        let Some(entry) = self.cloud_index.static_block else {
+            return Ok(Arc::default());
+        };
+        let mut cached =
+            self.statics.lock().map_err(|_| SceneError::invalid(&self.manifest.clouds.file, "static", "an earlier read failed"))?;
+        if let Some(statics) = cached.as_ref() {
+            return Ok(statics.clone());
+        }
+        let name = self.root.join(&self.manifest.clouds.file).display().to_string();
+        let statics = Arc::new(self.cloud_index.decode_static(&self.read_block(&entry, "static")?, &name)?);
+        *cached = Some(statics.clone());
+        Ok(statics)
+    }
+
+    /// Reads and decodes the cloud of time step `t`, touching no other step's bytes (but the
+    /// static cloud's, once, in a version 2 file).
+    pub fn read_cloud(&self, t: u32) -> SceneResult<PointCloud> {
+        let (mut cloud, borrowed) = self.read_cloud_parts(t)?;
+        let statics = self.static_cloud()?;
+        cloud.positions_world.extend(borrowed.iter().map(|&i| statics.positions_world[i as usize]));
+        cloud.colors.extend(borrowed.iter().map(|&i| statics.colors[i as usize]));
+        Ok(cloud)
+    }
+
+    /// The cloud of time step `t` as stored: its own points and the indices of the static
+    /// points ([`ScenePackage::static_cloud`]) it borrows.
+    pub fn read_cloud_parts(&self, t: u32) -> SceneResult<(PointCloud, Vec<u32>)> {
+        let name = self.root.join(&self.manifest.clouds.file).display().to_string();
+        let Some(entry) = self.cloud_index.steps.get(t as usize).copied() else {
+            return Err(SceneError::invalid(&name, "steps", format!("time step {t} out of range")));
+        };
+        let block = self.read_block(&entry, &format!("steps[{t}]"))?;
+        let static_count = self.static_cloud()?.len() as u32;
+        self.cloud_index.decode_step_parts(t as usize, &block, static_count, &name)
     }
 
     /// Path of the file holding the frame of `camera` at time step `t` (its video in a video
@@ -219,8 +256,14 @@ pub struct SceneWriter {
     staging_dir: PathBuf,
     manifest: Manifest,
     clouds_file: File,
-    clouds_bounds: ([f32; 3], [f32; 3]),
-    written_steps: Vec<(u32, u32)>,
+    /// The clouds' quantisation grid (16 bits unless [`SceneWriter::set_position_step`]).
+    grid: Grid,
+    /// `clouds.bin` version: 2 (coded, with a static cloud) in a format v2 package, else 1.
+    clouds_version: u32,
+    /// The static block once written (version 2): `(byte_length, point_count, crc32)`.
+    static_block: Option<(u32, u32, u32)>,
+    /// Per written step: `(byte_length, point_count, borrowed_count, crc32)`.
+    written_steps: Vec<(u32, u32, u32, u32)>,
     /// The cameras' video encoders (video packages only).
     video: Option<VideoWriter>,
 }
@@ -262,11 +305,12 @@ impl SceneWriter {
         let clouds_path = staging_dir.join(&manifest.clouds.file);
         let mut clouds_file = File::create(&clouds_path).map_err(|e| SceneError::io(&clouds_path, e))?;
         // Reserve the index; it is written once all blocks are known.
-        let index_len = cloud::index_byte_length(manifest.time_step_count);
+        let clouds_version = if manifest.version == FORMAT_VERSION_V1 { cloud::CLOUDS_VERSION } else { cloud::CLOUDS_VERSION_CODED };
+        let index_len = cloud::index_byte_length(clouds_version, manifest.time_step_count);
         clouds_file.write_all(&vec![0u8; index_len as usize]).map_err(|e| SceneError::io(&clouds_path, e))?;
         let b = manifest.bounds;
-        let clouds_bounds = (b.min.map(|v| v as f32), b.max.map(|v| v as f32));
-        Ok(Self { staged, staging_dir, manifest, clouds_file, clouds_bounds, written_steps: Vec::new(), video })
+        let grid = Grid::full(b.min.map(|v| v as f32), b.max.map(|v| v as f32));
+        Ok(Self { staged, staging_dir, manifest, clouds_file, grid, clouds_version, static_block: None, written_steps: Vec::new(), video })
     }
 
     /// The manifest being written.
@@ -327,17 +371,107 @@ impl SceneWriter {
         Ok(self.manifest.frame_relative_path(camera, t))
     }
 
+    fn write_block(&mut self, block: &[u8]) -> SceneResult<u32> {
+        let path = self.staging_dir.join(&self.manifest.clouds.file);
+        self.clouds_file.write_all(block).map_err(|e| SceneError::io(&path, e))?;
+        u32::try_from(block.len()).map_err(|_| SceneError::invalid("clouds.bin", "steps", "a block of 4 GiB or more"))
+    }
+
+    /// Whether the package stores a static cloud once and lets steps borrow from it (format
+    /// v2); a format v1 package stores every step's points in full.
+    pub fn has_static_cloud(&self) -> bool {
+        self.clouds_version == cloud::CLOUDS_VERSION_CODED
+    }
+
+    /// Quantises the clouds of a format v2 package on the coarsest grid whose step is at most
+    /// `step` (world units) instead of the 16-bit one: a smaller package where the points are
+    /// no more precise than that anyway. Before any cloud is written.
+    pub fn set_position_step(&mut self, step: f64) -> SceneResult<()> {
+        if !self.has_static_cloud() || self.static_block.is_some() {
+            return Err(SceneError::invalid("clouds.bin", "position_bits", "the grid is chosen before any cloud, in a format v2 package"));
+        }
+        self.grid = Grid { color_bits: self.grid.color_bits, ..Grid::with_step(self.grid.bounds_min, self.grid.bounds_max, step) };
+        Ok(())
+    }
+
+    /// Stores the clouds' colors on `bits` (4 to 8) per channel instead of 8, in a format v2
+    /// package. Before any cloud is written.
+    pub fn set_color_bits(&mut self, bits: u32) -> SceneResult<()> {
+        if !self.has_static_cloud() || self.static_block.is_some() || !(4..=8).contains(&bits) {
+            return Err(SceneError::invalid("clouds.bin", "color_bits", "4 to 8 bits, chosen before any cloud, in a format v2 package"));
+        }
+        self.grid.color_bits = bits;
+        Ok(())
+    }
+
+    /// Stores the event's static cloud (format v2, before any step's cloud); steps then borrow
+    /// its points by index ([`SceneWriter::push_cloud_borrowing`]).
+    pub fn set_static_cloud(&mut self, statics: &PointCloud) -> SceneResult<()> {
+        if !self.has_static_cloud() || self.static_block.is_some() || !self.written_steps.is_empty() {
+            return Err(SceneError::invalid(
+                "clouds.bin",
+                "static",
+                "a static cloud is stored once, before the steps, in a format v2 package",
+            ));
+        }
+        if statics.len() > MAX_POINTS_PER_STEP as usize {
+            return Err(SceneError::invalid(
+                "clouds.bin",
+                "static.point_count",
+                format!("{} exceeds {MAX_POINTS_PER_STEP}", statics.len()),
+            ));
+        }
+        let block = encode_block(statics, &[], &self.grid, "static")?;
+        let length = self.write_block(&block)?;
+        self.static_block = Some((length, statics.len() as u32, crc32fast::hash(&block)));
+        Ok(())
+    }
+
     /// Appends the cloud of the next time step (steps are written in order 0, 1, ...).
     pub fn push_cloud(&mut self, cloud: &PointCloud) -> SceneResult<()> {
+        self.push_cloud_borrowing(cloud, &[])
+    }
+
+    /// Appends the next time step's cloud: its `own` points and the static points it borrows
+    /// (ascending indices into the static cloud; format v2 only).
+    pub fn push_cloud_borrowing(&mut self, own: &PointCloud, borrowed: &[u32]) -> SceneResult<()> {
         let t = self.written_steps.len();
         if t >= self.manifest.time_step_count as usize {
             return Err(SceneError::invalid("clouds.bin", "step_count", "more clouds than time steps"));
         }
-        let (lo, hi) = self.clouds_bounds;
-        let block = cloud::encode_step(cloud, lo, hi, t)?;
-        let path = self.staging_dir.join(&self.manifest.clouds.file);
-        self.clouds_file.write_all(&block).map_err(|e| SceneError::io(&path, e))?;
-        self.written_steps.push((cloud.len() as u32, crc32fast::hash(&block)));
+        let field = format!("steps[{t}]");
+        let (lo, hi) = (self.grid.bounds_min, self.grid.bounds_max);
+        if !self.has_static_cloud() {
+            if !borrowed.is_empty() {
+                return Err(SceneError::invalid("clouds.bin", field, "a format v1 package has no static cloud to borrow from"));
+            }
+            let block = cloud::encode_step(own, lo, hi, t)?;
+            self.write_block(&block)?;
+            self.written_steps.push((block.len() as u32, own.len() as u32, 0, crc32fast::hash(&block)));
+            return Ok(());
+        }
+        if self.static_block.is_none() {
+            self.set_static_cloud(&PointCloud::default())?;
+        }
+        let static_count = self.static_block.map_or(0, |s| s.1);
+        if borrowed.last().is_some_and(|&i| i >= static_count) {
+            return Err(SceneError::invalid(
+                "clouds.bin",
+                format!("{field}.borrowed"),
+                format!("an index past the {static_count} static points"),
+            ));
+        }
+        let total = own.len() + borrowed.len();
+        if total > MAX_POINTS_PER_STEP as usize {
+            return Err(SceneError::invalid(
+                "clouds.bin",
+                format!("{field}.point_count"),
+                format!("{total} exceeds {MAX_POINTS_PER_STEP}"),
+            ));
+        }
+        let block = encode_block(own, borrowed, &self.grid, &field)?;
+        let length = self.write_block(&block)?;
+        self.written_steps.push((length, total as u32, borrowed.len() as u32, crc32fast::hash(&block)));
         Ok(())
     }
 
@@ -380,8 +514,14 @@ impl SceneWriter {
                 }
             }
         }
-        let (lo, hi) = self.clouds_bounds;
-        let index = cloud::encode_index(lo, hi, &self.written_steps);
+        let (lo, hi) = (self.grid.bounds_min, self.grid.bounds_max);
+        let index = if self.has_static_cloud() {
+            let statics = self.static_block.unwrap_or((0, 0, 0));
+            cloud::encode_coded_index(&self.grid, statics, &self.written_steps)
+        } else {
+            let plain: Vec<(u32, u32)> = self.written_steps.iter().map(|&(_, points, _, crc)| (points, crc)).collect();
+            cloud::encode_index(lo, hi, &plain)
+        };
         let io = |e| SceneError::io(&clouds_path, e);
         self.clouds_file.seek(SeekFrom::Start(0)).map_err(io)?;
         self.clouds_file.write_all(&index).map_err(io)?;

@@ -1,27 +1,39 @@
-//! Rewriting a package with its frames stored another way (images to video, or back), for
-//! example to turn a format v1 package into a v2 one. Clouds and cameras are copied as they are.
+//! Rewriting a package in another format: frames as video or images, format v2 or v1 (for
+//! example a v1 package into a v2 one). Cameras and points are copied as they are.
 
 use std::path::Path;
 
 use super::error::SceneResult;
 use super::ffmpeg::VideoSettings;
-use super::manifest::{FORMAT_VERSION, FrameFormat, FramesIndexEntry, Manifest};
+use super::manifest::{FORMAT_VERSION, FORMAT_VERSION_V1, FrameFormat, FramesIndexEntry, Manifest};
 use super::package::{ScenePackage, SceneWriter};
 
 /// The name of the frame index a repacked video package gets.
 pub const FRAMES_INDEX_FILE: &str = "frames.idx";
 
 /// Writes `package` to `out` (replaced only when complete) with its frames as one video per
-/// camera (`Some` settings) or as JPEG files (`None`). `progress(done, total)` counts time
-/// steps. Returns the new manifest.
+/// camera (`Some` settings) or as JPEG files (`None`), in format v2, or v1 with `format_v1`
+/// (JPEG frames, every step's points in full). A v2 package's static cloud stays stored once
+/// (in v2) or is lent to each step (in v1). `progress(done, total)` counts time steps. Returns
+/// the new manifest.
 pub fn repack(
     package: &ScenePackage,
     out: &Path,
     video: Option<VideoSettings>,
+    format_v1: bool,
     mut progress: impl FnMut(u64, u64),
 ) -> SceneResult<Manifest> {
+    let video = video.filter(|_| !format_v1);
     let mut manifest = package.manifest().clone();
-    manifest.version = FORMAT_VERSION;
+    manifest.version = if format_v1 { FORMAT_VERSION_V1 } else { FORMAT_VERSION };
+    let steps = package.time_step_count();
+    for camera in &mut manifest.cameras {
+        // Every pose written out (v1), or one for a camera that stands still (v2).
+        camera.poses = (0..steps).map(|t| camera.pose(t)).collect();
+        if !format_v1 {
+            camera.compact_poses();
+        }
+    }
     match video {
         Some(settings) => {
             manifest.frame_format = FrameFormat::Vp9;
@@ -33,13 +45,24 @@ pub fn repack(
             manifest.frames_index = None;
         }
     }
-    let steps = package.time_step_count();
     let mut writer = SceneWriter::create_with(out, manifest, video.unwrap_or_default())?;
+    let statics = package.static_cloud()?;
+    if writer.has_static_cloud() && !statics.is_empty() {
+        writer.set_static_cloud(&statics)?;
+    }
     for t in 0..steps {
         for c in 0..package.camera_count() {
             writer.write_frame(c, t, &package.read_frame(c, t)?.to_rgb8())?;
         }
-        writer.push_cloud(&package.read_cloud(t)?)?;
+        let (own, borrowed) = package.read_cloud_parts(t)?;
+        if writer.has_static_cloud() {
+            writer.push_cloud_borrowing(&own, &borrowed)?;
+        } else {
+            let mut cloud = own;
+            cloud.positions_world.extend(borrowed.iter().map(|&i| statics.positions_world[i as usize]));
+            cloud.colors.extend(borrowed.iter().map(|&i| statics.colors[i as usize]));
+            writer.push_cloud(&cloud)?;
+        }
         progress(u64::from(t) + 1, u64::from(steps));
     }
     writer.finish()

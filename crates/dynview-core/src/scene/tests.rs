@@ -148,30 +148,74 @@ fn small_clouds_file() -> Vec<u8> {
     cloud::encode_clouds([-2.0, -1.0, -2.0], [2.0, 2.0, 2.0], &clouds).unwrap()
 }
 
+/// A version 2 file: a static cloud of 7 points, three steps borrowing some of them.
+fn small_coded_clouds_file() -> Vec<u8> {
+    let steps: Vec<(PointCloud, Vec<u32>)> = (0..3).map(|t| (cloud_for_step(t), (0..7).filter(|i| i % (t + 2) == 0).collect())).collect();
+    cloud::encode_coded_clouds(&cloud::Grid::full([-2.0, -1.0, -2.0], [2.0, 2.0, 2.0]), &cloud_for_step(1), &steps).unwrap()
+}
+
+fn block<'a>(bytes: &'a [u8], e: &cloud::StepEntry) -> &'a [u8] {
+    let end = (e.offset + e.byte_length()).min(bytes.len() as u64) as usize;
+    &bytes[(e.offset as usize).min(end)..end]
+}
+
 /// Parses and decodes every step; any error is fine, a panic is not.
 fn parse_all(bytes: &[u8], claimed_len: u64) -> Result<usize, SceneError> {
     let index = CloudIndex::parse(bytes, claimed_len, "clouds.bin")?;
+    let statics = match &index.static_block {
+        Some(e) => Some(index.decode_static(block(bytes, e), "clouds.bin")?),
+        None => None,
+    };
     let mut points = 0;
     for (t, e) in index.steps.iter().enumerate() {
-        let end = (e.offset + e.byte_length()).min(bytes.len() as u64) as usize;
-        let start = (e.offset as usize).min(end);
-        points += index.decode_step(t, &bytes[start..end], "clouds.bin")?.len();
+        points += index.decode_step(t, block(bytes, e), statics.as_ref(), "clouds.bin")?.len();
     }
     Ok(points)
+}
+
+#[test]
+fn coded_clouds_decode_to_the_plain_ones() {
+    let plain = small_clouds_file();
+    let coded = small_coded_clouds_file();
+    let (p, c) = (CloudIndex::parse(&plain, plain.len() as u64, "a").unwrap(), CloudIndex::parse(&coded, coded.len() as u64, "b").unwrap());
+    let statics = c.decode_static(block(&coded, &c.static_block.unwrap()), "b").unwrap();
+    assert_eq!(statics.len(), cloud_for_step(1).len());
+    for t in 0..3 {
+        let from_plain = p.decode_step(t, block(&plain, &p.steps[t]), None, "a").unwrap();
+        let from_coded = c.decode_step(t, block(&coded, &c.steps[t]), Some(&statics), "b").unwrap();
+        let borrowed: Vec<usize> = (0..7).filter(|i| i % (t + 2) == 0).collect();
+        assert_eq!(from_coded.len(), from_plain.len() + borrowed.len());
+        let key = |cloud: &PointCloud, i: usize| (cloud.positions_world[i].map(f32::to_bits), cloud.colors[i]);
+        let mut own: Vec<_> = (0..from_plain.len()).map(|i| key(&from_coded, i)).collect();
+        let mut expected: Vec<_> = (0..from_plain.len()).map(|i| key(&from_plain, i)).collect();
+        own.sort_unstable();
+        expected.sort_unstable();
+        assert_eq!(own, expected, "step {t}: the same points, in Morton order");
+        for (k, &i) in borrowed.iter().enumerate() {
+            assert_eq!(key(&from_coded, from_plain.len() + k), key(&statics, i), "step {t}: borrowed point {k}");
+        }
+    }
+    assert!(c.decode_step(0, block(&coded, &c.steps[0]), None, "b").unwrap_err().to_string().contains("static"));
 }
 
 proptest! {
     #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
 
     #[test]
-    fn random_bytes_never_panic_the_clouds_parser(bytes in proptest::collection::vec(any::<u8>(), 0..400), extra in 0u64..1_000_000) {
+    fn random_bytes_never_panic_the_clouds_parser(bytes in proptest::collection::vec(any::<u8>(), 0..400), extra in 0u64..1_000_000, coded in any::<bool>()) {
+        let mut bytes = bytes;
+        if coded && bytes.len() >= 12 {
+            // A version 2 header, so the random rest reaches the coded parser.
+            bytes[..8].copy_from_slice(cloud::CLOUDS_MAGIC);
+            bytes[8..12].copy_from_slice(&2u32.to_le_bytes());
+        }
         let _ = parse_all(&bytes, bytes.len() as u64);
         let _ = parse_all(&bytes, bytes.len() as u64 + extra);
     }
 
     #[test]
-    fn mutated_clouds_files_are_rejected(edits in proptest::collection::vec((any::<prop::sample::Index>(), 1u8..=255), 1..6)) {
-        let good = small_clouds_file();
+    fn mutated_clouds_files_are_rejected(edits in proptest::collection::vec((any::<prop::sample::Index>(), 1u8..=255), 1..6), coded in any::<bool>()) {
+        let good = if coded { small_coded_clouds_file() } else { small_clouds_file() };
         let mut bad = good.clone();
         for (at, xor) in edits {
             let i = at.index(bad.len());
@@ -180,6 +224,16 @@ proptest! {
         if bad != good {
             prop_assert!(parse_all(&bad, bad.len() as u64).is_err());
         }
+    }
+
+    #[test]
+    fn absurd_coded_counts_are_rejected_before_allocating(point_count in 1u32.., borrowed in 0u32.., length in 1u32..100_000) {
+        // Checksums right, counts absurd: the index or the block says so, nothing allocates.
+        let bytes = cloud::encode_coded_index(&cloud::Grid::full([0.0; 3], [1.0; 3]), (0, 0, 0), &[(length, point_count, borrowed, 0)]);
+        let claimed = bytes.len() as u64 + u64::from(length);
+        let mut file = bytes.clone();
+        file.resize(claimed as usize, 0);
+        prop_assert!(parse_all(&file, claimed).is_err());
     }
 
     #[test]
