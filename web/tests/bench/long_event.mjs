@@ -8,6 +8,7 @@
 //   FRAMES            frames of playback timed (default 20)
 
 import { chromium } from "playwright-core";
+import { scrubTo, stepForward } from "../e2e/helpers.mjs";
 
 const BASE = process.env.DYNVIEW_BASE_URL || "http://127.0.0.1:8080/";
 const SCRUBS = Number(process.env.SCRUBS || 8);
@@ -29,7 +30,6 @@ page.on("response", async (response) => {
   fetched.requests += 1;
 });
 const reset = () => (fetched = { total: 0, video: 0, clouds: 0, other: 0, requests: 0 });
-const state = () => page.evaluate(() => ({ done: window.dynview.state.framesDone, t: window.dynview.state.timeStep }));
 const idle = () => page.waitForFunction(() => !window.dynview.state.rendering, null, { timeout: 120_000 });
 
 const t0 = Date.now();
@@ -50,22 +50,8 @@ for (let i = 0; i < SCRUBS; i++) {
   await idle();
   await new Promise((r) => setTimeout(r, 300)); // let prefetches settle
   reset();
-  const before = (await state()).done;
   const start = Date.now();
-  await page.$eval(
-    "#time",
-    (el, value) => {
-      el.value = String(value);
-      el.dispatchEvent(new Event("input"));
-      el.dispatchEvent(new Event("change"));
-    },
-    t,
-  );
-  await page.waitForFunction(
-    ([n, want]) => window.dynview.state.framesDone > n && !window.dynview.state.rendering && window.dynview.state.timeStep === want,
-    [before, t],
-    { timeout: 120_000 },
-  );
+  await scrubTo(page, t, { image: false });
   scrubs.push({ t, ms: Date.now() - start, bytes: fetched.total, video: fetched.video, requests: fetched.requests });
 }
 
@@ -73,21 +59,7 @@ for (let i = 0; i < SCRUBS; i++) {
 // (the worker prefetches the next one while the page shows this one), the solver's time is the
 // render alone.
 await idle();
-const play = await page.evaluate(async (frames) => {
-  const d = window.dynview;
-  const walls = [];
-  const solver = [];
-  for (let i = 0; i < frames; i++) {
-    const before = d.state.framesDone;
-    const start = performance.now();
-    document.getElementById("step-forward").click();
-    while (d.state.framesDone === before || d.state.rendering) await new Promise((r) => setTimeout(r, 5));
-    walls.push(performance.now() - start);
-    solver.push(d.state.lastDone.elapsed_ms);
-  }
-  const median = (a) => [...a].sort((x, y) => x - y)[Math.floor(a.length / 2)];
-  return { wall: median(walls), solver: median(solver), size: `${d.state.lastDone.width}x${d.state.lastDone.height}` };
-}, FRAMES);
+const play = await stepForward(page, FRAMES);
 const desktopMemory = await page.evaluate(() => window.dynview.memory());
 
 // A phone: a 390 px wide view gets the phone's budget of decoded steps; the same scrubs and
@@ -97,28 +69,10 @@ await phone.goto(`${BASE}?scene=scenes/long/`);
 await phone.waitForFunction(() => window.dynview && window.dynview.state.framesDone > 0, null, { timeout: 120_000 });
 seed = 7;
 for (let i = 0; i < SCRUBS; i++) {
-  const t = Math.floor(random() * steps);
   await phone.waitForFunction(() => !window.dynview.state.rendering, null, { timeout: 120_000 });
-  const before = await phone.evaluate(() => window.dynview.state.framesDone);
-  await phone.$eval(
-    "#time",
-    (el, value) => {
-      el.value = String(value);
-      el.dispatchEvent(new Event("input"));
-      el.dispatchEvent(new Event("change"));
-    },
-    t,
-  );
-  await phone.waitForFunction(([n, want]) => window.dynview.state.framesDone > n && !window.dynview.state.rendering && window.dynview.state.timeStep === want, [before, t], { timeout: 120_000 });
+  await scrubTo(phone, Math.floor(random() * steps), { image: false });
 }
-await phone.evaluate(async (frames) => {
-  const d = window.dynview;
-  for (let i = 0; i < frames; i++) {
-    const before = d.state.framesDone;
-    document.getElementById("step-forward").click();
-    while (d.state.framesDone === before || d.state.rendering) await new Promise((r) => setTimeout(r, 5));
-  }
-}, FRAMES);
+await stepForward(phone, FRAMES);
 const phoneMemory = await phone.evaluate(() => window.dynview.memory());
 const phoneSize = await phone.evaluate(() => `${window.dynview.state.lastDone.width}x${window.dynview.state.lastDone.height}`);
 await browser.close();

@@ -6,6 +6,7 @@
 //   FRAMES            frames of playback timed per scale (default 10)
 
 import { chromium } from "playwright-core";
+import { stepForward } from "../e2e/helpers.mjs";
 
 const BASE = process.env.DYNVIEW_BASE_URL || "http://127.0.0.1:8080/";
 const FRAMES = Number(process.env.FRAMES || 10);
@@ -27,23 +28,8 @@ for (const scale of ["0.5", "1"]) {
   await page.waitForFunction(() => !window.dynview.state.rendering, null, { timeout: 120_000 });
   // Warm the step cache so that decoding is not counted in the solver's time, then play.
   await page.evaluate(() => window.dynview.state.timeStep = 0);
-  const result = await page.evaluate(async (frames) => {
-    const d = window.dynview;
-    const times = [];
-    const walls = [];
-    let size = "";
-    for (let i = 0; i < frames; i++) {
-      const before = d.state.framesDone;
-      const start = performance.now();
-      document.getElementById("step-forward").click();
-      while (d.state.framesDone === before || d.state.rendering) await new Promise((r) => setTimeout(r, 5));
-      walls.push(performance.now() - start);
-      times.push(d.state.lastDone.elapsed_ms);
-      size = `${d.state.lastDone.width}x${d.state.lastDone.height}`;
-    }
-    const median = (a) => [...a].sort((x, y) => x - y)[Math.floor(a.length / 2)];
-    return { size, solverMs: median(times), wallMs: median(walls), last: d.state.lastDone.last };
-  }, FRAMES);
+  const play = await stepForward(page, FRAMES);
+  const result = { size: play.size, solverMs: play.solver, wallMs: play.wall, last: await page.evaluate(() => window.dynview.state.lastDone.last) };
   rows.push(result);
 }
 await browser.close();

@@ -52,6 +52,47 @@ export async function nextDoneFrame(page, count) {
 
 export const framesDone = (page) => page.evaluate(() => window.dynview.state.framesDone);
 
+/** Moves the time slider to `t` (as a user's drag ends) and waits for that step's finished
+ * frame; returns its pixels unless `image` is false. */
+export async function scrubTo(page, t, { image = true } = {}) {
+  const n = await framesDone(page);
+  await page.$eval(
+    "#time",
+    (el, value) => {
+      el.value = String(value);
+      el.dispatchEvent(new Event("input"));
+      el.dispatchEvent(new Event("change"));
+    },
+    t,
+  );
+  await page.waitForFunction(
+    ([count, want]) => window.dynview.state.framesDone > count && !window.dynview.state.rendering && window.dynview.state.timeStep === want,
+    [n, t],
+    { timeout: 120_000 },
+  );
+  return image ? page.evaluate(() => window.dynview.lastImage()) : null;
+}
+
+/** Steps playback forward `frames` times, each to a finished frame; returns the median wall and
+ * solver time per frame (ms) and the frame size. */
+export function stepForward(page, frames) {
+  return page.evaluate(async (count) => {
+    const d = window.dynview;
+    const walls = [];
+    const solver = [];
+    for (let i = 0; i < count; i++) {
+      const before = d.state.framesDone;
+      const start = performance.now();
+      document.getElementById("step-forward").click();
+      while (d.state.framesDone === before || d.state.rendering) await new Promise((r) => setTimeout(r, 5));
+      walls.push(performance.now() - start);
+      solver.push(d.state.lastDone.elapsed_ms);
+    }
+    const median = (a) => [...a].sort((x, y) => x - y)[Math.floor(a.length / 2)];
+    return { wall: median(walls), solver: median(solver), size: `${d.state.lastDone.width}x${d.state.lastDone.height}` };
+  }, frames);
+}
+
 export function meanAbsDiff(a, b) {
   assert.equal(a.rgba.length, b.rgba.length);
   let sum = 0;

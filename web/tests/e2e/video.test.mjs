@@ -5,28 +5,13 @@
 import { test, before, after } from "node:test";
 import assert from "node:assert/strict";
 import path from "node:path";
-import { BASE, OUT, MIN_PSNR_VS_NATIVE_DB, launch, openPage, firstFrame, nextDoneFrame, framesDone, psnr, nativeRenderOfPage } from "./helpers.mjs";
+import { BASE, OUT, MIN_PSNR_VS_NATIVE_DB, launch, openPage, firstFrame, scrubTo, psnr, nativeRenderOfPage } from "./helpers.mjs";
 
 const VIDEO_URL = `${BASE}?scene=scenes/video/`;
 
 let browser;
 before(async () => (browser = await launch()));
 after(async () => browser?.close());
-
-async function scrubTo(page, t) {
-  const n = await framesDone(page);
-  await page.$eval(
-    "#time",
-    (el, value) => {
-      el.value = String(value);
-      el.dispatchEvent(new Event("input"));
-      el.dispatchEvent(new Event("change"));
-    },
-    t,
-  );
-  await page.waitForFunction((want) => window.dynview.state.timeStep === want, t);
-  return nextDoneFrame(page, n);
-}
 
 test("scrubbing a video package shows exactly the frame the native render shows", async () => {
   const { page, errors } = await openPage(browser, VIDEO_URL);

@@ -18,6 +18,8 @@ pub mod summary;
 pub mod video;
 #[cfg(not(target_family = "wasm"))]
 pub mod video_files;
+#[cfg(not(target_family = "wasm"))]
+pub mod writer;
 pub mod yuv;
 
 pub use cloud::{CloudIndex, PointCloud};
