@@ -34,7 +34,8 @@ impl Default for VideoSettings {
 
 fn spawn_failed(file: &Path, e: std::io::Error) -> SceneError {
     let problem = if e.kind() == std::io::ErrorKind::NotFound {
-        "the `ffmpeg` program is not installed (video frames need it; `cargo xtask demo` installs it, or write image frames)".to_string()
+        "the `ffmpeg` program is not installed: video frames need it (`apt-get install ffmpeg`), or write image frames (`--frames-as jpeg`)"
+            .to_string()
     } else {
         format!("could not start ffmpeg: {e}")
     };
