@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use dynview_core::StageProgress;
 use dynview_core::scene::ffmpeg::VideoSettings;
-use dynview_core::scene::manifest::{FORMAT_NAME, FORMAT_VERSION, FramesIndexEntry};
+use dynview_core::scene::manifest::{FORMAT_NAME, FORMAT_VERSION};
 use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, PointCloud, SceneWriter, StartView};
 use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
@@ -188,9 +188,7 @@ pub fn export_package(
         manifest.cameras.iter_mut().for_each(CameraEntry::compact_poses);
     }
     if let Some(video) = &options.video {
-        manifest.frame_format = FrameFormat::Vp9;
-        manifest.frames_index =
-            Some(FramesIndexEntry { file: "frames.idx".into(), byte_length: 0, keyframe_interval: video.keyframe_interval });
+        manifest.set_video_frames(video.keyframe_interval);
     }
     let static_cloud = match statics {
         Some(options) => Some(static_cloud(&source_of, &manifest, options, progress)?),

@@ -14,6 +14,8 @@ pub const FORMAT_NAME: &str = "dynview-scene";
 pub const FORMAT_VERSION: u32 = 2;
 /// The first format version: image frames only, no `frames_index`.
 pub const FORMAT_VERSION_V1: u32 = 1;
+/// The frame index of a video package.
+pub const FRAMES_INDEX_FILE: &str = "frames.idx";
 /// The folder holding the input frames: `frames/<camera>/<t:05>.<ext>` (images) or
 /// `frames/<camera>.ivf` (video).
 pub const FRAMES_DIR: &str = "frames";
@@ -311,6 +313,19 @@ impl Manifest {
             width_px: entry.width,
             height_px: entry.height,
         }
+    }
+
+    /// Stores the frames as one VP9 video per camera with a keyframe at least every
+    /// `keyframe_interval` frames (format v2; the index's size is filled in by the writer).
+    pub fn set_video_frames(&mut self, keyframe_interval: u32) {
+        self.frame_format = FrameFormat::Vp9;
+        self.frames_index = Some(FramesIndexEntry { file: FRAMES_INDEX_FILE.into(), byte_length: 0, keyframe_interval });
+    }
+
+    /// Stores the frames as JPEG files, one per camera per time step.
+    pub fn set_jpeg_frames(&mut self) {
+        self.frame_format = FrameFormat::Jpeg;
+        self.frames_index = None;
     }
 
     /// Relative path of a camera's video inside a video package: `frames/<camera>.ivf`.

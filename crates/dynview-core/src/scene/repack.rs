@@ -5,11 +5,8 @@ use std::path::Path;
 
 use super::error::SceneResult;
 use super::ffmpeg::VideoSettings;
-use super::manifest::{FORMAT_VERSION, FORMAT_VERSION_V1, FrameFormat, FramesIndexEntry, Manifest};
+use super::manifest::{FORMAT_VERSION, FORMAT_VERSION_V1, Manifest};
 use super::package::{ScenePackage, SceneWriter};
-
-/// The name of the frame index a repacked video package gets.
-pub const FRAMES_INDEX_FILE: &str = "frames.idx";
 
 /// Writes `package` to `out` (replaced only when complete) with its frames as one video per
 /// camera (`Some` settings) or as JPEG files (`None`), in format v2, or v1 with `format_v1`
@@ -35,15 +32,8 @@ pub fn repack(
         }
     }
     match video {
-        Some(settings) => {
-            manifest.frame_format = FrameFormat::Vp9;
-            manifest.frames_index =
-                Some(FramesIndexEntry { file: FRAMES_INDEX_FILE.into(), byte_length: 0, keyframe_interval: settings.keyframe_interval });
-        }
-        None => {
-            manifest.frame_format = FrameFormat::Jpeg;
-            manifest.frames_index = None;
-        }
+        Some(settings) => manifest.set_video_frames(settings.keyframe_interval),
+        None => manifest.set_jpeg_frames(),
     }
     let mut writer = SceneWriter::create_with(out, manifest, video.unwrap_or_default())?;
     let statics = package.static_cloud()?;

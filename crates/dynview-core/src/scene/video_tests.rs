@@ -5,9 +5,8 @@
 use std::fs;
 use std::path::Path;
 
-use super::FrameFormat;
 use super::cloud::PointCloud;
-use super::manifest::{FORMAT_VERSION_V1, FramesIndexEntry, Manifest};
+use super::manifest::{FORMAT_VERSION_V1, Manifest};
 use super::package::{ScenePackage, SceneWriter};
 use super::testing::small_manifest;
 use crate::metrics::psnr;
@@ -39,8 +38,7 @@ fn sized(mut m: Manifest) -> Manifest {
 
 fn video_manifest(cameras: usize, steps: u32, keyframe_interval: u32) -> Manifest {
     let mut m = sized(small_manifest(cameras, steps));
-    m.frame_format = FrameFormat::Vp9;
-    m.frames_index = Some(FramesIndexEntry { file: "frames.idx".into(), byte_length: 0, keyframe_interval });
+    m.set_video_frames(keyframe_interval);
     m
 }
 
