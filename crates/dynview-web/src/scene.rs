@@ -231,7 +231,15 @@ impl RemoteScene {
         let frames = &index.cameras[camera];
         let span = frames.span_to(t, after);
         let file = self.manifest.video_relative_path(camera);
-        let bytes = self.source.start(&file, Some(span.bytes), span.bytes.1 - span.bytes.0)?.bytes().await?;
+        let length = span.bytes.1 - span.bytes.0;
+        if length > MAX_FRAME_FILE_BYTES {
+            return Err(ReadError(format!(
+                "{}: frames {}..={t} take {length} bytes, more than the limit of {MAX_FRAME_FILE_BYTES}",
+                self.source.display_name(&file),
+                span.first
+            )));
+        }
+        let bytes = self.source.start(&file, Some(span.bytes), length)?.bytes().await?;
         self.count(bytes.len(), 0);
         let payloads = frames.payloads(&span, &bytes, &self.source.display_name(&file)).map_err(invalid)?;
         Ok(VideoChunks {

@@ -173,6 +173,7 @@ impl FrameIndex {
             let mut frames = Vec::with_capacity(steps as usize);
             let mut offset = IVF_HEADER_BYTES;
             let mut since_key = 0u32;
+            let mut group_start = IVF_HEADER_BYTES;
             for t in 0..steps as usize {
                 let word = u32_at(bytes, at);
                 at += 4;
@@ -188,9 +189,16 @@ impl FrameIndex {
                 if since_key >= MAX_KEYFRAME_INTERVAL {
                     return Err(bad(&field, format!("more than {MAX_KEYFRAME_INTERVAL} frames since the last keyframe")));
                 }
+                if key {
+                    group_start = offset;
+                }
                 offset += IVF_FRAME_HEADER_BYTES;
                 frames.push(FrameEntry { offset, length, key });
                 offset += u64::from(length);
+                // A reader fetches a group's frames up to the one it shows in one range.
+                if offset - group_start > MAX_FRAME_FILE_BYTES {
+                    return Err(bad(&field, format!("more than {MAX_FRAME_FILE_BYTES} bytes since the last keyframe")));
+                }
             }
             if offset != ivf_byte_length {
                 return Err(bad(
@@ -404,6 +412,9 @@ mod tests {
         let mut absurd = good.clone();
         absurd[16..20].copy_from_slice(&u32::MAX.to_le_bytes());
         expect(&absurd, 2, u32::MAX, "step_count");
+        // Frames each within the limit, but a group a reader could not fetch in one range.
+        let big = FrameIndex { cameras: vec![frames(&[true, false, true], &[200 << 20, 100 << 20, 1])] };
+        expect(&big.encode(), 1, 3, "cameras[0].frames[1]");
     }
 
     #[test]

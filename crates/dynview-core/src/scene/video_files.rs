@@ -9,6 +9,7 @@ use std::sync::{Arc, Mutex};
 
 use super::error::{SceneError, SceneResult};
 use super::ffmpeg::{VideoEncoder, VideoSettings, decode_vp9};
+use super::limits::MAX_FRAME_FILE_BYTES;
 use super::manifest::{FRAMES_DIR, Manifest};
 use super::video::{CameraFrames, FrameIndex, index_byte_length};
 use super::yuv::{Yuv420, frame_bytes};
@@ -172,9 +173,17 @@ impl VideoFrames {
         let name = path.display().to_string();
         let frames = &self.index.cameras[camera];
         let span = frames.span_to(last, None);
+        let length = span.bytes.1 - span.bytes.0;
+        if length > MAX_FRAME_FILE_BYTES {
+            return Err(SceneError::invalid(
+                &name,
+                format!("frames {}..={last}", span.first),
+                format!("{length} bytes, more than the limit of {MAX_FRAME_FILE_BYTES}"),
+            ));
+        }
         let mut file = File::open(&path).map_err(|e| SceneError::io(&path, e))?;
         file.seek(SeekFrom::Start(span.bytes.0)).map_err(|e| SceneError::io(&path, e))?;
-        let mut bytes = vec![0u8; (span.bytes.1 - span.bytes.0) as usize];
+        let mut bytes = vec![0u8; length as usize];
         file.read_exact(&mut bytes).map_err(|e| SceneError::io(&path, e))?;
         let payloads = frames.payloads(&span, &bytes, &name)?;
         let entry = &manifest.cameras[camera];
