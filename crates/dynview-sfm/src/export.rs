@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use dynview_core::StageProgress;
 use dynview_core::scene::ffmpeg::VideoSettings;
 use dynview_core::scene::manifest::{FORMAT_NAME, FORMAT_VERSION};
-use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, PointCloud, SceneWriter, StartView};
+use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, SceneWriter, StartView};
 use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
 use crate::error::{SfmError, SfmResult};
@@ -212,11 +212,7 @@ pub fn export_package(
         for (k, &i) in kept.iter().enumerate() {
             store[i] = Some(k as u32);
         }
-        let cloud = PointCloud {
-            positions_world: kept.iter().map(|&i| statics.points.positions_world[i]).collect(),
-            colors: kept.iter().map(|&i| statics.points.colors[i]).collect(),
-        };
-        (cloud, store)
+        (statics.points.select(kept), store)
     });
     if let Some((cloud, _)) = &stored_statics {
         // A quarter of a static voxel (half a pixel of the first camera at the median depth)
@@ -255,11 +251,7 @@ pub fn export_package(
         let kept: Vec<usize> = (0..cloud.len()).filter(|&i| inside(&cloud.positions_world[i])).collect();
         report.points += kept.len() + borrowed_indices.len();
         report.points_outside_bounds += cloud.len() - kept.len();
-        let own = PointCloud {
-            positions_world: kept.iter().map(|&i| cloud.positions_world[i]).collect(),
-            colors: kept.iter().map(|&i| cloud.colors[i]).collect(),
-        };
-        writer.push_cloud_borrowing(&own, &borrowed_indices)?;
+        writer.push_cloud_borrowing(&cloud.select(kept), &borrowed_indices)?;
         progress("package", t as u64 + 1, steps as u64);
     }
     writer.finish()?;

@@ -71,12 +71,7 @@ impl StaticCloud {
     /// point of its own in a static point's voxel, both are kept (the static one is the mean
     /// of several steps' points, so a z-test between them changes nothing that matters).
     pub fn borrowed(&self, t: usize) -> PointCloud {
-        let mut out = PointCloud::default();
-        for &i in self.active.get(t).map(Vec::as_slice).unwrap_or_default() {
-            out.positions_world.push(self.points.positions_world[i as usize]);
-            out.colors.push(self.points.colors[i as usize]);
-        }
-        out
+        self.points.select(self.active.get(t).into_iter().flatten().map(|&i| i as usize))
     }
 
     /// The points of `own` (step `t`'s) neither in nor next to (the 26 neighbours) a voxel whose
@@ -92,11 +87,7 @@ impl StaticCloud {
             self.active.get(t).into_iter().flatten().map(|&i| voxel(self.points.positions_world[i as usize])).collect();
         let near =
             |v: glam::IVec3| (-1..=1).any(|x| (-1..=1).any(|y| (-1..=1).any(|z| covered.contains(&(v + glam::IVec3::new(x, y, z))))));
-        let keep: Vec<usize> = (0..own.len()).filter(|&i| !near(voxel(own.positions_world[i]))).collect();
-        PointCloud {
-            positions_world: keep.iter().map(|&i| own.positions_world[i]).collect(),
-            colors: keep.iter().map(|&i| own.colors[i]).collect(),
-        }
+        own.select((0..own.len()).filter(|&i| !near(voxel(own.positions_world[i]))))
     }
 }
 

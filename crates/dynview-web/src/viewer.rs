@@ -255,6 +255,9 @@ impl Viewer {
         let scene = self.scene.clone();
         let levels = self.params.levels;
         wasm_bindgen_futures::future_to_promise(async move {
+            if formats.len() != planes.len() {
+                return Err(error(format!("{} formats for {} frames", formats.len(), planes.len())).into());
+            }
             let mut frames = Vec::with_capacity(planes.len());
             for (format, data) in formats.iter().zip(&planes) {
                 let layout = match format.as_str() {
@@ -263,9 +266,6 @@ impl Viewer {
                     other => return Err(error(format!("decoded frames in format {other:?}: only I420 and NV12 are read")).into()),
                 };
                 frames.push((layout, data.to_vec()));
-            }
-            if formats.len() != planes.len() {
-                return Err(error(format!("{} formats for {} frames", formats.len(), planes.len())).into());
             }
             scene.load_step_from_frames(t, levels, frames).await.map_err(|e| JsValue::from(error(e)))?;
             Ok(JsValue::UNDEFINED)

@@ -62,6 +62,21 @@ impl PointCloud {
     pub fn is_empty(&self) -> bool {
         self.positions_world.is_empty()
     }
+
+    /// Appends the points of `source` at `indices` (each below `source.len()`).
+    pub fn extend_indexed(&mut self, source: &PointCloud, indices: impl IntoIterator<Item = usize>) {
+        for i in indices {
+            self.positions_world.push(source.positions_world[i]);
+            self.colors.push(source.colors[i]);
+        }
+    }
+
+    /// The points at `indices` (each below `len()`), in that order.
+    pub fn select(&self, indices: impl IntoIterator<Item = usize>) -> PointCloud {
+        let mut out = PointCloud::default();
+        out.extend_indexed(self, indices);
+        out
+    }
 }
 
 /// One entry of the offset table.
@@ -386,8 +401,7 @@ impl CloudIndex {
             let Some(statics) = statics else {
                 return Err(SceneError::invalid(file, "static", "the static cloud is needed to decode a step"));
             };
-            cloud.positions_world.extend(borrowed.iter().map(|&i| statics.positions_world[i as usize]));
-            cloud.colors.extend(borrowed.iter().map(|&i| statics.colors[i as usize]));
+            cloud.extend_indexed(statics, borrowed.iter().map(|&i| i as usize));
         }
         Ok(cloud)
     }

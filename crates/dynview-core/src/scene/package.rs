@@ -155,23 +155,27 @@ impl ScenePackage {
     /// Reads and decodes the cloud of time step `t`, touching no other step's bytes (but the
     /// static cloud's, once, in a version 2 file).
     pub fn read_cloud(&self, t: u32) -> SceneResult<PointCloud> {
-        let (mut cloud, borrowed) = self.read_cloud_parts(t)?;
-        let statics = self.static_cloud()?;
-        cloud.positions_world.extend(borrowed.iter().map(|&i| statics.positions_world[i as usize]));
-        cloud.colors.extend(borrowed.iter().map(|&i| statics.colors[i as usize]));
-        Ok(cloud)
+        let (name, entry) = self.step_entry(t)?;
+        let block = self.read_block(&entry, &format!("steps[{t}]"))?;
+        self.cloud_index.decode_step(t as usize, &block, Some(self.static_cloud()?.as_ref()), &name)
     }
 
     /// The cloud of time step `t` as stored: its own points and the indices of the static
     /// points ([`ScenePackage::static_cloud`]) it borrows.
     pub fn read_cloud_parts(&self, t: u32) -> SceneResult<(PointCloud, Vec<u32>)> {
-        let name = self.root.join(&self.manifest.clouds.file).display().to_string();
-        let Some(entry) = self.cloud_index.steps.get(t as usize).copied() else {
-            return Err(SceneError::invalid(&name, "steps", format!("time step {t} out of range")));
-        };
+        let (name, entry) = self.step_entry(t)?;
         let block = self.read_block(&entry, &format!("steps[{t}]"))?;
         let static_count = self.static_cloud()?.len() as u32;
         self.cloud_index.decode_step_parts(t as usize, &block, static_count, &name)
+    }
+
+    /// The clouds file's name (for errors) and step `t`'s table entry.
+    fn step_entry(&self, t: u32) -> SceneResult<(String, cloud::StepEntry)> {
+        let name = self.root.join(&self.manifest.clouds.file).display().to_string();
+        match self.cloud_index.steps.get(t as usize).copied() {
+            Some(entry) => Ok((name, entry)),
+            None => Err(SceneError::invalid(&name, "steps", format!("time step {t} out of range"))),
+        }
     }
 
     /// Path of the file holding the frame of `camera` at time step `t` (its video in a video

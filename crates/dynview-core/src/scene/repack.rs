@@ -44,14 +44,11 @@ pub fn repack(
         for c in 0..package.camera_count() {
             writer.write_frame(c, t, &package.read_frame(c, t)?.to_rgb8())?;
         }
-        let (own, borrowed) = package.read_cloud_parts(t)?;
         if writer.has_static_cloud() {
+            let (own, borrowed) = package.read_cloud_parts(t)?;
             writer.push_cloud_borrowing(&own, &borrowed)?;
         } else {
-            let mut cloud = own;
-            cloud.positions_world.extend(borrowed.iter().map(|&i| statics.positions_world[i as usize]));
-            cloud.colors.extend(borrowed.iter().map(|&i| statics.colors[i as usize]));
-            writer.push_cloud(&cloud)?;
+            writer.push_cloud(&package.read_cloud(t)?)?;
         }
         progress(u64::from(t) + 1, u64::from(steps));
     }

@@ -28,8 +28,6 @@ pub struct SceneWriter {
     clouds_file: File,
     /// The clouds' quantisation grid (16 bits unless [`SceneWriter::set_position_step`]).
     grid: Grid,
-    /// `clouds.bin` version: 2 (coded, with a static cloud) in a format v2 package, else 1.
-    clouds_version: u32,
     /// The static block once written (version 2): `(byte_length, point_count, crc32)`.
     static_block: Option<(u32, u32, u32)>,
     /// Per written step: `(byte_length, point_count, borrowed_count, crc32)`.
@@ -75,12 +73,13 @@ impl SceneWriter {
         let clouds_path = staging_dir.join(&manifest.clouds.file);
         let mut clouds_file = File::create(&clouds_path).map_err(|e| SceneError::io(&clouds_path, e))?;
         // Reserve the index; it is written once all blocks are known.
+        // `clouds.bin` version 2 (coded, with a static cloud) in a format v2 package, else 1.
         let clouds_version = if manifest.version == FORMAT_VERSION_V1 { cloud::CLOUDS_VERSION } else { cloud::CLOUDS_VERSION_CODED };
         let index_len = cloud::index_byte_length(clouds_version, manifest.time_step_count);
         clouds_file.write_all(&vec![0u8; index_len as usize]).map_err(|e| SceneError::io(&clouds_path, e))?;
         let b = manifest.bounds;
         let grid = Grid::full(b.min.map(|v| v as f32), b.max.map(|v| v as f32));
-        Ok(Self { staged, staging_dir, manifest, clouds_file, grid, clouds_version, static_block: None, written_steps: Vec::new(), video })
+        Ok(Self { staged, staging_dir, manifest, clouds_file, grid, static_block: None, written_steps: Vec::new(), video })
     }
 
     /// The manifest being written.
@@ -150,7 +149,7 @@ impl SceneWriter {
     /// Whether the package stores a static cloud once and lets steps borrow from it (format
     /// v2); a format v1 package stores every step's points in full.
     pub fn has_static_cloud(&self) -> bool {
-        self.clouds_version == cloud::CLOUDS_VERSION_CODED
+        self.manifest.version != FORMAT_VERSION_V1
     }
 
     /// Quantises the clouds of a format v2 package on the coarsest grid whose step is at most
