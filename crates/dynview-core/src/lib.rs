@@ -17,6 +17,7 @@
 //! for `wasm32`.
 
 pub mod camera;
+pub mod color_balance;
 pub mod depth_io;
 pub mod display;
 #[cfg(not(target_family = "wasm"))]

@@ -117,10 +117,11 @@ pub fn run(options: Options) -> anyhow::Result<()> {
     report.push_str(
         "For each camera left out, `dynview prep` runs on the others with their calibrated poses, and the left-out camera is \
          rendered at each time step from that package and compared with its real frame. Its intrinsics, pose and reference frames \
-         come from a package prepared the same way from all cameras (same undistortion and size). PSNR and SSIM are averaged over \
+         come from a package prepared the same way from all cameras (same undistortion and size), as filmed: the package's color \
+         balance reaches only the renderer's inputs. PSNR and SSIM are averaged over \
          the time steps, on the whole frame; flicker is the mean frame-to-frame change of the output where the real frame does not \
-         change, minus the real frame's own (x1000, lower is steadier). The floor is the nearest input camera's frame shown as is \
-         (ranked as the renderer ranks views): a rendering worse than it is worse than showing no synthesis at all. The plane view \
+         change, minus the real frame's own (x1000, lower is steadier). The floor is the nearest input camera's frame shown as is, \
+         as filmed (ranked as the renderer ranks views): a rendering worse than it is worse than showing no synthesis at all. The plane view \
          is an experiment: that same input warped with one plane fitted to the sparse depth and nothing else (the full method \
          pulls its depth toward such a plane only where points are scarce, `lambda_plane`). What the figures show, and what was \
          tried: [real_findings.md](real_findings.md).\n\n",
@@ -295,7 +296,8 @@ fn evaluate_camera(
             .copied()
             .context("the package has no camera")?;
         let nearest_view = &inputs.views[j];
-        let nearest_frame = nearest_view.levels[0].clone();
+        // As stored: the renderer's inputs carry the package's color balance.
+        let nearest_frame = package.read_frame(j, t)?;
         let plane = plane_view(&camera, &inputs.cloud, &nearest_view.camera, &nearest_frame);
         let floor = resized(nearest_frame, truth.width, truth.height);
         if t == steps / 2 {

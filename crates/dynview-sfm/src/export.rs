@@ -41,11 +41,19 @@ pub struct PackageOptions {
     /// which viewers of that format read; `video` must then be `None`.
     #[serde(default)]
     pub format_v1: bool,
+    /// Estimate each camera's color balance ([`dynview_core::color_balance`]) and store it in
+    /// the manifest for the renderer to apply.
+    #[serde(default = "yes")]
+    pub color_balance: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl Default for PackageOptions {
     fn default() -> Self {
-        Self { static_cloud: Some(StaticOptions::default()), video: Some(VideoSettings::default()), format_v1: false }
+        Self { static_cloud: Some(StaticOptions::default()), video: Some(VideoSettings::default()), format_v1: false, color_balance: true }
     }
 }
 
@@ -68,6 +76,14 @@ pub struct ExportReport {
     /// Static points lent to the steps, summed over steps (each step's own points excluded).
     #[serde(default)]
     pub borrowed_points: usize,
+    /// Points seen by two or more cameras that the color balance was estimated from (0
+    /// without it).
+    #[serde(default)]
+    pub color_samples: usize,
+    /// Per camera, the largest change its color balance makes to a color, in 8-bit code
+    /// values (empty without it).
+    #[serde(default)]
+    pub color_changes: Vec<(String, f32)>,
     /// Problems worked around (cameras dropped, poses filled in).
     pub warnings: Vec<String>,
 }
@@ -194,10 +210,16 @@ pub fn export_package(
         Some(options) => Some(static_cloud(&source_of, &manifest, options, progress)?),
         None => None,
     };
+    let mut warnings = warnings;
+    let color_samples = if options.color_balance { balance_colors(&source_of, &mut manifest, &mut warnings, progress)? } else { 0 };
+    let color_changes =
+        manifest.cameras.iter().filter_map(|c| c.color_balance.map(|b| (c.name.clone(), 255.0 * b.largest_change()))).collect();
     let mut writer = SceneWriter::create_with(scene_dir, manifest, options.video.unwrap_or_default())?;
     let mut report = ExportReport {
         time_steps: steps,
         cameras: event.cameras.len(),
+        color_samples,
+        color_changes,
         warnings,
         static_points: static_cloud.as_ref().map(|s| s.points.len()),
         ..ExportReport::default()
@@ -259,24 +281,62 @@ pub fn export_package(
     Ok(report)
 }
 
+/// Time steps whose points and frames the color balance is estimated from, spread over the
+/// event.
+const COLOR_BALANCE_STEPS: usize = 8;
+
+/// Estimates every camera's color balance from the points of up to [`COLOR_BALANCE_STEPS`]
+/// steps and stores it in `manifest` (none for a camera the estimate leaves as it is). Returns
+/// the number of points used; a camera that shares too few points is named in `warnings`.
+fn balance_colors(source_of: &[&Source], manifest: &mut Manifest, warnings: &mut Vec<String>, progress: StageProgress) -> SfmResult<usize> {
+    use dynview_core::color_balance::{self, CameraFrame, ColorTransform};
+    let steps = source_of.len();
+    let chosen: Vec<usize> = (0..COLOR_BALANCE_STEPS.min(steps)).map(|k| k * steps / COLOR_BALANCE_STEPS.min(steps)).collect();
+    let mut samples = Vec::new();
+    for (done, &t) in chosen.iter().enumerate() {
+        progress("color balance", done as u64, chosen.len() as u64);
+        let cloud = read_cloud(&cloud_path(&source_of[t].work, t))?;
+        let frames: Vec<_> = work_frames(source_of[t], manifest, t)?.iter().map(dynview_core::RgbRaster::from_rgb8).collect();
+        let cameras: Vec<CameraFrame> =
+            frames.iter().enumerate().map(|(c, frame)| CameraFrame { camera: manifest.camera_at(c, t as u32), frame }).collect();
+        samples.extend(color_balance::gather_samples(&[(&cloud, cameras)]));
+    }
+    progress("color balance", chosen.len() as u64, chosen.len() as u64);
+    let (maps, counts) = color_balance::estimate(&samples, manifest.cameras.len());
+    for ((entry, map), count) in manifest.cameras.iter_mut().zip(maps).zip(counts) {
+        if count < color_balance::MIN_SAMPLES {
+            warnings.push(format!(
+                "camera {}: {count} points shared with other cameras, too few to balance its colors ({} needed): left as it is",
+                entry.name,
+                color_balance::MIN_SAMPLES
+            ));
+        }
+        entry.color_balance = (map != ColorTransform::IDENTITY).then_some(map);
+    }
+    Ok(samples.len())
+}
+
+/// The working frames of step `t` from its prep output, one per camera of `manifest`.
+fn work_frames(source: &Source, manifest: &Manifest, t: usize) -> SfmResult<Vec<image::RgbImage>> {
+    manifest
+        .cameras
+        .iter()
+        .map(|entry| {
+            let path = frame_path(&source.work, &entry.name, t);
+            let bytes = std::fs::read(&path).map_err(SfmError::io(&path))?;
+            Ok(image::load_from_memory_with_format(&bytes, image::ImageFormat::Jpeg)
+                .map_err(|e| SfmError::WorkFile { path: path.clone(), problem: format!("cannot decode the frame: {e}") })?
+                .to_rgb8())
+        })
+        .collect()
+}
+
 /// The static cloud of the prepared steps, judged on the package's frames and cameras (read
 /// one step at a time).
 fn static_cloud(source_of: &[&Source], manifest: &Manifest, options: &StaticOptions, progress: StageProgress) -> SfmResult<StaticCloud> {
     let cameras: Vec<Vec<dynview_core::Camera>> =
         (0..manifest.cameras.len()).map(|c| (0..manifest.time_step_count).map(|t| manifest.camera_at(c, t)).collect()).collect();
-    let frames_at = |t: usize| -> SfmResult<Vec<image::RgbImage>> {
-        manifest
-            .cameras
-            .iter()
-            .map(|entry| {
-                let path = frame_path(&source_of[t].work, &entry.name, t);
-                let bytes = std::fs::read(&path).map_err(SfmError::io(&path))?;
-                Ok(image::load_from_memory_with_format(&bytes, image::ImageFormat::Jpeg)
-                    .map_err(|e| SfmError::WorkFile { path: path.clone(), problem: format!("cannot decode the frame: {e}") })?
-                    .to_rgb8())
-            })
-            .collect()
-    };
+    let frames_at = |t: usize| work_frames(source_of[t], manifest, t);
     let candidates = candidate_steps(source_of.len(), options.candidate_steps)
         .into_iter()
         .map(|t| Ok((t, read_cloud(&cloud_path(&source_of[t].work, t))?)))
@@ -342,6 +402,7 @@ fn manifest(event: &EventPoses, settings: &StepSettings, bounds: Bounds, name: &
                 height,
                 intrinsics: resized_intrinsics(&c.intrinsics, (c.width, c.height), (width, height)),
                 poses: c.frames.iter().map(|f| f.camera_from_world.unwrap_or(dynview_core::Rigid3::IDENTITY.into())).collect(),
+                color_balance: None,
             }
         })
         .collect();

@@ -5,7 +5,7 @@
 use std::cell::{Cell, RefCell};
 use std::rc::Rc;
 
-use dynview_core::render::{InputView, TimeStepInputs};
+use dynview_core::render::TimeStepInputs;
 use dynview_core::scene::cloud::{self, CloudIndex};
 use dynview_core::scene::limits::{MAX_FRAME_FILE_BYTES, MAX_MANIFEST_BYTES};
 use dynview_core::scene::manifest::MANIFEST_FILE;
@@ -280,7 +280,7 @@ impl RemoteScene {
             })?;
             self.count(0, 1);
             let image = dynview_core::raster::RgbRaster::from_rgb8(&yuv.to_rgb8());
-            views.push(InputView::new(self.manifest.camera_at(c, t), image, levels));
+            views.push(self.manifest.input_view(c, t, image, levels));
         }
         let inputs = Rc::new(TimeStepInputs { cloud, views });
         self.cache.borrow_mut().insert(t, inputs.clone());
@@ -318,7 +318,7 @@ impl RemoteScene {
             let entry = &self.manifest.cameras[c];
             let name = self.source.display_name(&self.manifest.frame_relative_path(c, t));
             let image = decode_frame(&bytes, self.manifest.frame_format, entry.width, entry.height, &name).map_err(invalid)?;
-            views.push(InputView::new(self.manifest.camera_at(c, t), image, levels));
+            views.push(self.manifest.input_view(c, t, image, levels));
             progress(self.stats.get(), c as u32 + 1, total);
         }
         let inputs = Rc::new(TimeStepInputs { cloud, views });

@@ -23,6 +23,11 @@ pub struct MergeArgs {
     /// Each time step keeps only its own points (no static points accumulated across time).
     #[arg(long)]
     no_static: bool,
+    /// Store every camera's frames as they are: no color balance between the cameras (by
+    /// default each camera's colors are mapped to the response the cameras share, estimated
+    /// from the points they see in common).
+    #[arg(long)]
+    no_color_balance: bool,
     #[command(flatten)]
     frames_as: crate::commands::frames::FrameArgs,
 }
@@ -35,6 +40,7 @@ pub fn run_merge(args: MergeArgs) -> anyhow::Result<()> {
         static_cloud: (!args.no_static).then(dynview_sfm::static_cloud::StaticOptions::default),
         video: args.frames_as.video(),
         format_v1: args.frames_as.format_v1(),
+        color_balance: !args.no_color_balance,
     };
     let result = dynview_sfm::export::export_package(&args.outputs, &args.out, &name, &options, &|stage, done, total| {
         bars.update(stage, done, total)

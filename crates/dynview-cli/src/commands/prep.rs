@@ -92,6 +92,11 @@ pub struct Args {
     /// Each time step keeps only its own points (no static points accumulated across time).
     #[arg(long)]
     no_static: bool,
+    /// Store every camera's frames as they are: no color balance between the cameras (by
+    /// default each camera's colors are mapped to the response the cameras share, estimated
+    /// from the points they see in common).
+    #[arg(long)]
+    no_color_balance: bool,
     #[command(flatten)]
     frames_as: crate::commands::frames::FrameArgs,
     /// Only time steps A..B (B excluded, from 0) after the pose stage, and no package: a range
@@ -144,6 +149,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     options.package.video = args.frames_as.video();
     options.package.format_v1 = args.frames_as.format_v1();
+    options.package.color_balance = !args.no_color_balance;
     options.steps.densify = (!args.no_densify).then(|| DensifyOptions {
         target_points: args.target_points,
         max_side_px: args.densify_max_side as usize,
@@ -231,6 +237,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             println!(
                 "static cloud: {statics} points, {:.0} lent to each time step on average",
                 package.borrowed_points as f64 / package.time_steps.max(1) as f64
+            );
+        }
+        if !package.color_changes.is_empty() {
+            let changes: Vec<String> = package.color_changes.iter().map(|(name, change)| format!("{name} {change:.0}")).collect();
+            println!(
+                "color balance from {} points seen by several cameras; largest change per camera (8-bit code values): {}",
+                package.color_samples,
+                changes.join(", ")
             );
         }
     } else if report.steps.is_some() {

@@ -5,6 +5,9 @@ use serde::{Deserialize, Serialize};
 use super::error::{SceneError, SceneResult};
 use super::limits::*;
 use crate::camera::{Camera, Intrinsics, Rigid3};
+use crate::color_balance::{ColorTransform, MAX_GAIN, MAX_OFFSET, MIN_GAIN};
+use crate::raster::RgbRaster;
+use crate::render::InputView;
 
 /// The manifest file's name inside a package.
 pub const MANIFEST_FILE: &str = "scene.json";
@@ -56,6 +59,11 @@ pub struct CameraEntry {
     /// `camera_from_world` for every time step, or (format v2) one pose for all of them: a
     /// camera that stands still. Read them with [`CameraEntry::pose`].
     pub poses: Vec<PoseEntry>,
+    /// The map of this camera's colors to the response all cameras share
+    /// ([`crate::color_balance`]), applied to its frames before rendering; none: as stored.
+    /// Optional in both format versions (readers that predate it ignore it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub color_balance: Option<ColorTransform>,
 }
 
 impl CameraEntry {
@@ -301,7 +309,28 @@ impl Manifest {
         for (t, pose) in camera.poses.iter().enumerate() {
             validate_pose(pose, file, &field(&format!("poses[{t}]")))?;
         }
+        if let Some(balance) = &camera.color_balance {
+            for (k, (&gain, &offset)) in balance.gain.iter().zip(&balance.offset).enumerate() {
+                if !(gain.is_finite() && (MIN_GAIN..=MAX_GAIN).contains(&gain)) {
+                    let name = field(&format!("color_balance.gain[{k}]"));
+                    return Err(SceneError::invalid(file, name, format!("must be in [{MIN_GAIN}, {MAX_GAIN}], found {gain}")));
+                }
+                if !(offset.is_finite() && offset.abs() <= MAX_OFFSET) {
+                    let name = field(&format!("color_balance.offset[{k}]"));
+                    return Err(SceneError::invalid(file, name, format!("must be in [-{MAX_OFFSET}, {MAX_OFFSET}], found {offset}")));
+                }
+            }
+        }
         Ok(())
+    }
+
+    /// Camera `camera`'s frame at time step `t` as the renderer's input: its color balance
+    /// applied, then its pyramid of `levels` levels built.
+    pub fn input_view(&self, camera: usize, t: u32, mut frame: RgbRaster, levels: usize) -> InputView {
+        if let Some(balance) = &self.cameras[camera].color_balance {
+            balance.apply_to(&mut frame);
+        }
+        InputView::new(self.camera_at(camera, t), frame, levels)
     }
 
     /// The posed camera `camera` at time step `t` (both must be in range).

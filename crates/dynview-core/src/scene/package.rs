@@ -275,13 +275,14 @@ impl ScenePackage {
 
 impl ScenePackage {
     /// Loads everything the renderer needs for time step `t`: its cloud and every camera's
-    /// frame with a `levels`-deep pyramid.
+    /// frame, its color balance applied ([`Manifest::input_view`]), with a `levels`-deep
+    /// pyramid.
     pub fn time_step_inputs(&self, t: u32, levels: usize) -> SceneResult<crate::render::TimeStepInputs> {
         let cloud = self.read_cloud(t)?;
         let frames = crate::par::map_range(self.camera_count(), |c| self.read_frame(c, t));
         let mut views = Vec::with_capacity(frames.len());
         for (c, frame) in frames.into_iter().enumerate() {
-            views.push(crate::render::InputView::new(self.camera(c, t)?, frame?, levels));
+            views.push(self.manifest.input_view(c, t, frame?, levels));
         }
         Ok(crate::render::TimeStepInputs { cloud, views })
     }

@@ -17,6 +17,7 @@ pub fn small_manifest(cameras: usize, steps: u32) -> Manifest {
                 height: 6,
                 intrinsics: Intrinsics::from_vertical_fov(1.0, 8, 6),
                 poses: vec![PoseEntry::from(pose); steps as usize],
+                color_balance: None,
             }
         })
         .collect::<Vec<_>>();

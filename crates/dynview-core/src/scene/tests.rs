@@ -59,6 +59,48 @@ fn package_round_trip() {
 }
 
 #[test]
+fn a_cameras_color_balance_reaches_the_renderer_and_nothing_else() {
+    use crate::color_balance::ColorTransform;
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("scene");
+    let mut manifest = small_manifest(2, 1);
+    let balance = ColorTransform { gain: [0.5, 1.0, 1.0], offset: [0.1, 0.0, -0.1] };
+    manifest.cameras[1].color_balance = Some(balance);
+    let mut writer = SceneWriter::create(&dir, manifest).unwrap();
+    for c in 0..2 {
+        writer.write_frame(c, 0, &frame_for(c, 0)).unwrap();
+    }
+    writer.push_cloud(&cloud_for_step(0)).unwrap();
+    writer.finish().unwrap();
+    let package = ScenePackage::open(&dir).unwrap();
+    assert_eq!(package.manifest().cameras[1].color_balance, Some(balance));
+    let inputs = package.time_step_inputs(0, 2).unwrap();
+    // As stored, the frames are the cameras' own; the renderer sees camera 1 balanced.
+    for c in 0..2 {
+        let stored = package.read_frame(c, 0).unwrap();
+        assert_eq!(stored.to_rgb8(), frame_for(c, 0));
+        let expected: Vec<_> =
+            if c == 1 { stored.data.iter().map(|&px| balance.apply(px).map(|v| v.clamp(0.0, 1.0))).collect() } else { stored.data.clone() };
+        assert_eq!(inputs.views[c].levels[0].data, expected);
+    }
+}
+
+#[test]
+fn a_color_balance_out_of_range_is_named() {
+    for (field, gain, offset) in
+        [("gain[1]", f32::NAN, 0.0), ("gain[1]", 0.0, 0.0), ("gain[1]", 40.0, 0.0), ("offset[1]", 1.0, f32::INFINITY)]
+    {
+        let mut manifest = small_manifest(2, 1);
+        let mut balance = crate::color_balance::ColorTransform::IDENTITY;
+        balance.gain[1] = gain;
+        balance.offset[1] = offset;
+        manifest.cameras[1].color_balance = Some(balance);
+        let err = manifest.validate("scene.json").unwrap_err();
+        assert!(err.to_string().contains(&format!("cameras[1].color_balance.{field}")), "{err}");
+    }
+}
+
+#[test]
 fn reading_one_step_ignores_the_others() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("scene");
