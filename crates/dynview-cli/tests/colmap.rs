@@ -95,6 +95,49 @@ fn export_then_import_gives_the_package_poses_in_text_and_binary() {
 }
 
 #[test]
+fn a_video_package_exports_its_frames_as_the_images_the_model_names() {
+    let tmp = tempfile::tempdir().unwrap();
+    let event = tmp.path().join("event");
+    let manifest = synth(&event);
+    let video = tmp.path().join("video");
+    let (ok, log) = dynview(&["repack", path(&event.join("scene")), "--out", path(&video)]);
+    assert!(ok, "{log}");
+    let package = ScenePackage::open(&video).unwrap();
+    assert!(package.manifest().frame_format.is_video());
+    let model = tmp.path().join("model");
+    let (ok, log) = dynview(&["export-colmap", path(&video), "--out", path(&model)]);
+    assert!(ok, "{log}");
+    assert!(log.contains(&format!("its images are in {}", model.join("images").display())), "{log}");
+    let poses = import(&model, &tmp.path().join("poses.json"));
+    assert_poses_match_package(&poses, &manifest, "jpg");
+    for (c, camera) in poses.cameras.iter().enumerate() {
+        for (t, frame) in camera.frames.iter().enumerate() {
+            let image = image::open(model.join("images").join(&camera.name).join(&frame.file)).unwrap().to_rgb8();
+            let stored = package.read_frame(c, t as u32).unwrap().to_rgb8();
+            assert_eq!(image.dimensions(), stored.dimensions());
+            let mean_error = image.as_raw().iter().zip(stored.as_raw()).map(|(a, b)| f64::from(a.abs_diff(*b))).sum::<f64>()
+                / image.as_raw().len() as f64;
+            assert!(mean_error < 4.0, "{}/{}: mean difference {mean_error} code values", camera.name, frame.file);
+        }
+    }
+    // An image package's files are copied as they are, on request.
+    let images = tmp.path().join("copied");
+    let (ok, log) =
+        dynview(&["export-colmap", path(&event.join("scene")), "--out", path(&tmp.path().join("m2")), "--images", path(&images)]);
+    assert!(ok, "{log}");
+    let extension = manifest.frame_format.extension();
+    let first = format!("{}/00001.{extension}", manifest.cameras[2].name);
+    assert_eq!(fs::read(images.join(&first)).unwrap(), fs::read(event.join("scene/frames").join(&first)).unwrap());
+    // A folder that holds something else is left alone.
+    fs::write(images.join("notes.txt"), "mine").unwrap();
+    let (ok, log) =
+        dynview(&["export-colmap", path(&event.join("scene")), "--out", path(&tmp.path().join("m3")), "--images", path(&images)]);
+    assert!(!ok && log.contains("\"notes.txt\"") && log.contains("refusing"), "{log}");
+    assert_eq!(fs::read_to_string(images.join("notes.txt")).unwrap(), "mine");
+    assert!(!tmp.path().join("m3/cameras.txt").exists(), "nothing is written when the images cannot be");
+}
+
+#[test]
 fn imports_the_synth_ground_truth_model() {
     let tmp = tempfile::tempdir().unwrap();
     let event = tmp.path().join("event");

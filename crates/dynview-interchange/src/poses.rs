@@ -281,10 +281,16 @@ impl EventPoses {
         self.cameras.iter().flat_map(|c| &c.frames).filter(|f| f.camera_from_world.is_some()).count()
     }
 
-    /// The poses of a scene package: every camera, frame files `<t:05>.<ext>`, no distortion
-    /// (package frames are undistorted), every frame registered.
+    /// Extension of the image files a video package's frames are exported as
+    /// (`dynview export-colmap`).
+    pub const VIDEO_FRAME_EXPORT_EXTENSION: &'static str = "jpg";
+
+    /// The poses of a scene package: every camera, frame files `<t:05>.<ext>` (an image
+    /// package's own files; for a video package, the JPEG files `export-colmap` writes of its
+    /// frames), no distortion (package frames are undistorted), every frame registered.
     pub fn from_manifest(manifest: &Manifest) -> Self {
-        let extension = manifest.frame_format.extension();
+        let extension =
+            if manifest.frame_format.is_video() { Self::VIDEO_FRAME_EXPORT_EXTENSION } else { manifest.frame_format.extension() };
         let cameras = manifest
             .cameras
             .iter()

@@ -62,17 +62,36 @@ pub struct ExportArgs {
     /// Write cameras.bin, images.bin, points3D.bin instead of the .txt files.
     #[arg(long)]
     binary: bool,
+    /// Also write the package's frames as the images the model names, `<camera>/<t:05>.<ext>`
+    /// in this folder: an image package's files as they are, a video package's frames as JPEG
+    /// (quality 95). A video package writes them to `OUT/images` when this is not given.
+    #[arg(long)]
+    images: Option<PathBuf>,
 }
+
+/// JPEG quality of a video package's frames written as images.
+const EXPORTED_JPEG_QUALITY: u8 = 95;
 
 /// Runs `dynview export-colmap`: one COLMAP camera per camera, one image per registered frame,
 /// no points.
 pub fn run_export(args: ExportArgs) -> anyhow::Result<()> {
     let source = &args.source;
+    let mut images_dir = None;
     let poses = if source.is_file() {
+        anyhow::ensure!(args.images.is_none(), "--images needs a scene package; {} is a poses file", source.display());
         EventPoses::read(source)?
     } else {
         let package = ScenePackage::open(source).with_context(|| format!("opening scene package {}", source.display()))?;
-        EventPoses::from_manifest(package.manifest())
+        let poses = EventPoses::from_manifest(package.manifest());
+        let images = args.images.clone().or_else(|| package.manifest().frame_format.is_video().then(|| args.out.join("images")));
+        match images {
+            Some(dir) => {
+                check_images_dir(&dir, &poses)?;
+                images_dir = Some((dir, Some(package)));
+            }
+            None => images_dir = Some((source.join(dynview_core::scene::manifest::FRAMES_DIR), None)),
+        }
+        poses
     };
     let model = poses.to_colmap();
     let format = if args.binary { ColmapFormat::Binary } else { ColmapFormat::Text };
@@ -85,5 +104,60 @@ pub fn run_export(args: ExportArgs) -> anyhow::Result<()> {
         poses.registered_frame_count(),
         poses.frame_count()
     );
+    if let Some((dir, package)) = images_dir {
+        if let Some(package) = package {
+            write_frames(&package, &poses, &dir)?;
+        }
+        println!("its images are in {} (COLMAP's --image_path)", dir.display());
+    }
+    Ok(())
+}
+
+/// Refuses an images folder that holds anything but folders named after `poses`' cameras (an
+/// earlier export, whose files are replaced).
+fn check_images_dir(dir: &std::path::Path, poses: &EventPoses) -> anyhow::Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else { return Ok(()) };
+    for entry in entries {
+        let entry = entry.with_context(|| format!("listing {}", dir.display()))?;
+        let name = entry.file_name();
+        let ours = entry.path().is_dir() && poses.cameras.iter().any(|c| name.to_str() == Some(c.name.as_str()));
+        anyhow::ensure!(
+            ours,
+            "{}: holds {:?}, which is not a camera's folder of an earlier export; refusing to write images into it",
+            dir.display(),
+            name
+        );
+    }
+    Ok(())
+}
+
+/// Writes every frame of `package` into `dir` under the name `poses` gives it: an image
+/// package's files copied, a video package's frames decoded and encoded as JPEG.
+fn write_frames(package: &ScenePackage, poses: &EventPoses, dir: &std::path::Path) -> anyhow::Result<()> {
+    let bars = crate::progress::StageBars::new();
+    let total = poses.frame_count() as u64;
+    let mut done = 0;
+    for (c, camera) in poses.cameras.iter().enumerate() {
+        let camera_dir = dir.join(&camera.name);
+        std::fs::create_dir_all(&camera_dir).with_context(|| format!("creating {}", camera_dir.display()))?;
+        for (t, frame) in camera.frames.iter().enumerate() {
+            let path = camera_dir.join(&frame.file);
+            let bytes = if package.manifest().frame_format.is_video() {
+                let rgb = package.read_frame(c, t as u32)?.to_rgb8();
+                let mut jpeg = Vec::new();
+                image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, EXPORTED_JPEG_QUALITY)
+                    .encode_image(&rgb)
+                    .with_context(|| format!("encoding {}", path.display()))?;
+                jpeg
+            } else {
+                let from = package.frame_path(c, t as u32)?;
+                std::fs::read(&from).with_context(|| format!("reading {}", from.display()))?
+            };
+            dynview_core::fsutil::write_atomic(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
+            done += 1;
+            bars.update("images", done, total);
+        }
+    }
+    bars.finish();
     Ok(())
 }

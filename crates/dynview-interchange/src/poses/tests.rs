@@ -196,6 +196,10 @@ fn from_manifest_names_frames_by_time_step() {
     assert_eq!(poses.cameras[1].frames[2].file, "00002.png");
     assert_eq!(poses.cameras[1].frames[2].camera_from_world, Some(manifest.cameras[1].poses[2]));
     assert_eq!(poses.cameras[0].intrinsics, manifest.cameras[0].intrinsics);
+    // A video package has no frame files: its frames are named as `export-colmap` writes them.
+    let mut video = manifest.clone();
+    video.set_video_frames(30);
+    assert_eq!(EventPoses::from_manifest(&video).cameras[1].frames[2].file, "00002.jpg");
 }
 
 fn expect_field(poses: &EventPoses, field: &str) {
