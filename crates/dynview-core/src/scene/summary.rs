@@ -18,6 +18,9 @@ pub struct CameraSummary {
     pub fx: f64,
     /// Path length of the camera centre over the event, in scene units.
     pub path_length: f64,
+    /// The largest change its color balance makes to a color, in 8-bit code values (`None`:
+    /// no color balance).
+    pub color_change: Option<f32>,
 }
 
 /// What `dynview info` prints.
@@ -52,7 +55,9 @@ impl SceneSummary {
                     width: c.width,
                     height: c.height,
                     fx: c.intrinsics.fx,
-                    path_length: centres.windows(2).map(|w| (w[1] - w[0]).length()).sum(),
+                    // A fold from +0: an empty sum of floats is -0, which prints as "-0.000".
+                    path_length: centres.windows(2).map(|w| (w[1] - w[0]).length()).fold(0.0, |a, b| a + b),
+                    color_change: c.color_balance.map(|b| 255.0 * b.largest_change()),
                 }
             })
             .collect();
@@ -78,7 +83,11 @@ impl fmt::Display for SceneSummary {
         writeln!(f, "time steps  {} at {} fps ({:.2} s)", self.time_step_count, self.fps, f64::from(self.time_step_count) / self.fps)?;
         writeln!(f, "cameras     {}", self.cameras.len())?;
         for c in &self.cameras {
-            writeln!(f, "  {:<16} {}x{}  fx {:.1} px  path {:.3}", c.name, c.width, c.height, c.fx, c.path_length)?;
+            write!(f, "  {:<16} {}x{}  fx {:.1} px  path {:.3}", c.name, c.width, c.height, c.fx, c.path_length)?;
+            match c.color_change {
+                Some(change) => writeln!(f, "  colors balanced (up to {change:.0} code values)")?,
+                None => writeln!(f)?,
+            }
         }
         writeln!(f, "points      {total} in all; per step min {min}, mean {mean:.0}, max {max}")?;
         let b = &self.bounds;

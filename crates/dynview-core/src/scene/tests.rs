@@ -74,6 +74,12 @@ fn a_cameras_color_balance_reaches_the_renderer_and_nothing_else() {
     writer.finish().unwrap();
     let package = ScenePackage::open(&dir).unwrap();
     assert_eq!(package.manifest().cameras[1].color_balance, Some(balance));
+    // `dynview info` says which cameras are balanced (the largest change: red at white,
+    // 0.5 + 0.1 - 1, 102 code values); one pose is a path of +0, not "-0.000".
+    let summary = package.summary().unwrap().to_string();
+    let lines: Vec<&str> = summary.lines().filter(|l| l.starts_with("  cam")).collect();
+    assert!(lines[1].ends_with("colors balanced (up to 102 code values)") && !lines[0].contains("balanced"), "{summary}");
+    assert!(lines.iter().all(|l| l.contains("path 0.000")), "{summary}");
     let inputs = package.time_step_inputs(0, 2).unwrap();
     // As stored, the frames are the cameras' own; the renderer sees camera 1 balanced.
     for c in 0..2 {
