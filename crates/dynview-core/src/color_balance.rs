@@ -73,6 +73,9 @@ pub struct CameraFrame<'a> {
 
 /// Relative depth within which a point counts as the surface a camera sees at its pixel.
 const VISIBLE_DEPTH_RATIO: f32 = 0.01;
+/// Relative depth gap of the consistency filter applied to each camera's projected points (the
+/// renderer's default `sparse_consistency`): points hidden behind nearer ones are not samples.
+const CONSISTENCY_RATIO: f32 = 0.03;
 /// Share of the samples with the largest residuals left out of the refit.
 const TRIM_SHARE: f64 = 0.2;
 /// Fewest samples a camera needs for its own map; below it, the identity.
@@ -81,22 +84,24 @@ pub const MIN_SAMPLES: usize = 200;
 const ROUNDS: usize = 3;
 
 /// The color samples of one point: `(camera, color)` for each camera that sees it.
-type PointSamples = Vec<(usize, Rgb)>;
+pub type PointSamples = Vec<(usize, Rgb)>;
 
 /// Gathers, for every point of each step that at least two cameras see unoccluded, its color in
-/// each of them (the nearest pixel). `steps` holds, per time step, the cloud and every camera
-/// (in the same order at every step).
+/// each of them (the nearest pixel; the image border left out). `steps` holds, per time step,
+/// the cloud and every camera (in the same order at every step).
 pub fn gather_samples(steps: &[(&PointCloud, Vec<CameraFrame>)]) -> Vec<PointSamples> {
     let mut samples = Vec::new();
     for (cloud, cameras) in steps {
         let mut per_point: Vec<PointSamples> = vec![Vec::new(); cloud.len()];
         for (c, view) in cameras.iter().enumerate() {
             let (w, h) = (view.camera.width_px as usize, view.camera.height_px as usize);
-            if (view.frame.width, view.frame.height) != (w, h) {
+            // A frame of another size than its camera, or too small to hold an interior pixel,
+            // gives no samples.
+            if (view.frame.width, view.frame.height) != (w, h) || w < 3 || h < 3 {
                 continue;
             }
             let mut maps = project_cloud(cloud, &view.camera);
-            maps.drop_inconsistent(0.03, None);
+            maps.drop_inconsistent(CONSISTENCY_RATIO, None);
             for (i, p) in cloud.positions_world.iter().enumerate() {
                 let Some((uv, z)) = view.camera.project_world(glam::DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))) else {
                     continue;
