@@ -28,7 +28,7 @@ pub fn browser_fixture(dynview: &Path, root: &Path, frames: u32, width: u32, hei
     let corrupt_scene = root.join("corrupt");
     let video_scene = root.join("video");
     let stamp = root.join("fixture.json");
-    let config = format!("{{\"frames\":{frames},\"width\":{width},\"height\":{height},\"v\":2}}");
+    let config = format!("{{\"frames\":{frames},\"width\":{width},\"height\":{height},\"v\":3}}");
     let binary_time = std::fs::metadata(dynview).and_then(|m| m.modified()).ok();
     let stamp_time = std::fs::metadata(&stamp).and_then(|m| m.modified()).ok();
     let current = std::fs::read_to_string(&stamp).is_ok_and(|s| s == config) && stamp_time >= binary_time;
@@ -37,6 +37,7 @@ pub fn browser_fixture(dynview: &Path, root: &Path, frames: u32, width: u32, hei
         synth.arg("synth").arg("--out").arg(&event).args(["--cameras", "4", "--no-video"]);
         synth.args(["--frames", &frames.to_string(), "--width", &width.to_string(), "--height", &height.to_string()]);
         run_step("make the browser-test event", synth)?;
+        balance_one_camera(&event.join("scene/scene.json"))?;
         let mut render = Command::new(dynview);
         render.arg("render").arg("--scene").arg(event.join("scene")).arg("--path").arg(event.join("camera_path.json"));
         render.arg("--out").arg(&native_render);
@@ -55,6 +56,19 @@ pub fn browser_fixture(dynview: &Path, root: &Path, frames: u32, width: u32, hei
         std::fs::write(&stamp, config)?;
     }
     Ok(BrowserFixture { event, corrupt_scene, video_scene })
+}
+
+/// Gives `cam01` of the fixture package a color balance, so that every comparison of the
+/// browser's renders with the native ones (image and video packages) also checks that both
+/// apply it. `dynview synth` writes none: its cameras share one response.
+fn balance_one_camera(manifest: &Path) -> anyhow::Result<()> {
+    let text = std::fs::read_to_string(manifest).with_context(|| format!("reading {}", manifest.display()))?;
+    let camera = "\"name\": \"cam01\",";
+    anyhow::ensure!(text.matches(camera).count() == 1, "{}: expected one camera named cam01", manifest.display());
+    let balance = "\"color_balance\": {\"gain\": [0.8, 0.9, 1.15], \"offset\": [0.06, 0.0, -0.05]},";
+    std::fs::write(manifest, text.replace(camera, &format!("{camera} {balance}")))
+        .with_context(|| format!("writing {}", manifest.display()))?;
+    Ok(())
 }
 
 fn copy_dir(from: &Path, to: &Path) -> anyhow::Result<()> {
