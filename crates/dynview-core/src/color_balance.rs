@@ -185,15 +185,11 @@ fn normalise(maps: &mut [ColorTransform], fitted: &[bool]) {
 /// `None` when the colors do not vary or the gain comes out outside `[0.25, 4]`.
 fn trimmed_fit(pairs: &[(f64, f64)]) -> Option<(f64, f64)> {
     let (g, o) = fit(pairs.iter())?;
-    let mut residuals: Vec<f64> = pairs.iter().map(|&(x, y)| (y - g * x - o).abs()).collect();
-    let keep_below = {
-        let mut sorted = residuals.clone();
-        let cut = (((1.0 - TRIM_SHARE) * sorted.len() as f64) as usize).min(sorted.len() - 1);
-        sorted.select_nth_unstable_by(cut, f64::total_cmp);
-        sorted[cut]
-    };
-    residuals.iter_mut().for_each(|r| *r = if *r <= keep_below { 1.0 } else { 0.0 });
-    let (g, o) = fit(pairs.iter().zip(&residuals).filter(|(_, keep)| **keep > 0.0).map(|(p, _)| p))?;
+    let residual = |&(x, y): &(f64, f64)| (y - g * x - o).abs();
+    let mut residuals: Vec<f64> = pairs.iter().map(residual).collect();
+    let cut = (((1.0 - TRIM_SHARE) * residuals.len() as f64) as usize).min(residuals.len() - 1);
+    let (_, &mut keep_below, _) = residuals.select_nth_unstable_by(cut, f64::total_cmp);
+    let (g, o) = fit(pairs.iter().filter(|p| residual(p) <= keep_below))?;
     (f64::from(MIN_GAIN)..=f64::from(MAX_GAIN)).contains(&g).then_some((g, o))
 }
 

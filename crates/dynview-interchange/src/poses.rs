@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use crate::colmap::{ColmapCamera, ColmapImage, ColmapModel, Distortion};
 use dynview_core::camera::{Intrinsics, Rigid3};
 use dynview_core::scene::limits::{MAX_ABS_COORDINATE_M, MAX_IMAGE_SIDE_PX, MAX_NAME_CHARS, MAX_TIME_STEPS};
-use dynview_core::scene::manifest::{Manifest, PoseEntry, is_safe_name};
+use dynview_core::scene::manifest::{FrameFormat, Manifest, PoseEntry, is_safe_name};
 
 /// The file's usual name.
 pub const POSES_FILE: &str = "poses.json";
@@ -281,16 +281,17 @@ impl EventPoses {
         self.cameras.iter().flat_map(|c| &c.frames).filter(|f| f.camera_from_world.is_some()).count()
     }
 
-    /// Extension of the image files a video package's frames are exported as
-    /// (`dynview export-colmap`).
-    pub const VIDEO_FRAME_EXPORT_EXTENSION: &'static str = "jpg";
+    /// The format of the image files [`EventPoses::from_manifest`] names: an image package's
+    /// own; JPEG for a video package (the files `dynview export-colmap` writes of its frames).
+    pub fn image_format_of(manifest: &Manifest) -> FrameFormat {
+        if manifest.frame_format.is_video() { FrameFormat::Jpeg } else { manifest.frame_format }
+    }
 
-    /// The poses of a scene package: every camera, frame files `<t:05>.<ext>` (an image
-    /// package's own files; for a video package, the JPEG files `export-colmap` writes of its
-    /// frames), no distortion (package frames are undistorted), every frame registered.
+    /// The poses of a scene package: every camera, frame files `<t:05>.<ext>` in
+    /// [`EventPoses::image_format_of`], no distortion (package frames are undistorted), every
+    /// frame registered.
     pub fn from_manifest(manifest: &Manifest) -> Self {
-        let extension =
-            if manifest.frame_format.is_video() { Self::VIDEO_FRAME_EXPORT_EXTENSION } else { manifest.frame_format.extension() };
+        let extension = Self::image_format_of(manifest).extension();
         let cameras = manifest
             .cameras
             .iter()

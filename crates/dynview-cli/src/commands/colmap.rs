@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use dynview_core::scene::ScenePackage;
+use dynview_core::scene::{ScenePackage, encode_frame};
 use dynview_interchange::colmap::{ColmapFormat, ColmapModel};
 use dynview_interchange::import::{CalibrationFormat, read_event_poses};
 use dynview_interchange::poses::EventPoses;
@@ -64,35 +64,30 @@ pub struct ExportArgs {
     binary: bool,
     /// Also write the package's frames as the images the model names, `<camera>/<t:05>.<ext>`
     /// in this folder: an image package's files as they are, a video package's frames as JPEG
-    /// (quality 95). A video package writes them to `OUT/images` when this is not given.
+    /// (at the packages' JPEG quality). A video package writes them to `OUT/images` when this
+    /// is not given.
     #[arg(long)]
     images: Option<PathBuf>,
 }
-
-/// JPEG quality of a video package's frames written as images.
-const EXPORTED_JPEG_QUALITY: u8 = 95;
 
 /// Runs `dynview export-colmap`: one COLMAP camera per camera, one image per registered frame,
 /// no points.
 pub fn run_export(args: ExportArgs) -> anyhow::Result<()> {
     let source = &args.source;
-    let mut images_dir = None;
-    let poses = if source.is_file() {
+    let (poses, package) = if source.is_file() {
         anyhow::ensure!(args.images.is_none(), "--images needs a scene package; {} is a poses file", source.display());
-        EventPoses::read(source)?
+        (EventPoses::read(source)?, None)
     } else {
         let package = ScenePackage::open(source).with_context(|| format!("opening scene package {}", source.display()))?;
-        let poses = EventPoses::from_manifest(package.manifest());
-        let images = args.images.clone().or_else(|| package.manifest().frame_format.is_video().then(|| args.out.join("images")));
-        match images {
-            Some(dir) => {
-                check_images_dir(&dir, &poses)?;
-                images_dir = Some((dir, Some(package)));
-            }
-            None => images_dir = Some((source.join(dynview_core::scene::manifest::FRAMES_DIR), None)),
-        }
-        poses
+        (EventPoses::from_manifest(package.manifest()), Some(package))
     };
+    // Where the frames are to be written: checked before anything is.
+    let write_to = package
+        .as_ref()
+        .and_then(|p| args.images.clone().or_else(|| p.manifest().frame_format.is_video().then(|| args.out.join("images"))));
+    if let Some(dir) = &write_to {
+        check_images_dir(dir, &poses)?;
+    }
     let model = poses.to_colmap();
     let format = if args.binary { ColmapFormat::Binary } else { ColmapFormat::Text };
     model.write_dir(&args.out, format).with_context(|| format!("writing the COLMAP model to {}", args.out.display()))?;
@@ -104,10 +99,15 @@ pub fn run_export(args: ExportArgs) -> anyhow::Result<()> {
         poses.registered_frame_count(),
         poses.frame_count()
     );
-    if let Some((dir, package)) = images_dir {
-        if let Some(package) = package {
-            write_frames(&package, &poses, &dir)?;
+    let images = match (&package, write_to) {
+        (Some(package), Some(dir)) => {
+            write_frames(package, &poses, &dir)?;
+            Some(dir)
         }
+        (Some(_), None) => Some(source.join(dynview_core::scene::manifest::FRAMES_DIR)),
+        (None, _) => None,
+    };
+    if let Some(dir) = images {
         println!("its images are in {} (COLMAP's --image_path)", dir.display());
     }
     Ok(())
@@ -144,11 +144,7 @@ fn write_frames(package: &ScenePackage, poses: &EventPoses, dir: &std::path::Pat
             let path = camera_dir.join(&frame.file);
             let bytes = if package.manifest().frame_format.is_video() {
                 let rgb = package.read_frame(c, t as u32)?.to_rgb8();
-                let mut jpeg = Vec::new();
-                image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, EXPORTED_JPEG_QUALITY)
-                    .encode_image(&rgb)
-                    .with_context(|| format!("encoding {}", path.display()))?;
-                jpeg
+                encode_frame(&rgb, EventPoses::image_format_of(package.manifest()), &path.display().to_string())?
             } else {
                 let from = package.frame_path(c, t as u32)?;
                 std::fs::read(&from).with_context(|| format!("reading {}", from.display()))?
