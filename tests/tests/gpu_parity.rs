@@ -214,9 +214,7 @@ fn the_gpu_display_shows_what_the_cpu_picture_shows() {
     let color = download_rgb(&ctx, &frame);
     let depth = frame.depth().download(&ctx).unwrap();
     let depth = Raster::from_vec(color.width, color.height, depth).unwrap();
-    let packed = frame.view_weights.as_ref().expect("the frame keeps its view weights").download(&ctx).unwrap();
-    let n = color.width * color.height;
-    let weights: Vec<f32> = (0..n).map(|i| (0..frame.views_used).map(|s| packed[s * n + i]).sum()).collect();
+    let weights = frame.view_weight.as_ref().expect("the frame keeps its view weight").download(&ctx).unwrap();
     let weights = Raster::from_vec(color.width, color.height, weights).unwrap();
     for format in [wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureFormat::Bgra8UnormSrgb] {
         let display = FrameDisplay::new(&ctx, format);

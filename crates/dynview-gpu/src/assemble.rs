@@ -8,6 +8,8 @@ use crate::context::{GpuContext, GpuError};
 use crate::image::GpuImage;
 use crate::kernel::Kernel;
 use crate::shaders;
+use crate::views::{FIRST_CHUNK, LAST_CHUNK, ViewStack};
+use crate::warp::GpuWarps;
 
 /// A grid system on the GPU, as dynview-core's `GridSystem`: couplings to the right and down
 /// neighbours, `1 / diag`, and the right-hand side (`channels` per pixel).
@@ -23,19 +25,6 @@ pub struct GpuSystem {
     pub rhs: GpuImage,
 }
 
-/// The warps of the chosen views, packed: view `s` occupies rows `s * height ..` of each image.
-#[derive(Clone, Copy, Debug)]
-pub struct PackedViews<'a> {
-    /// Warped colors `P^s` (RGB).
-    pub colors: &'a GpuImage,
-    /// `sigma_vis^s` (0 or 1).
-    pub visibility: &'a GpuImage,
-    /// 1 where the warp lands inside input `s`, else 0.
-    pub valid: &'a GpuImage,
-    /// Number of views.
-    pub count: usize,
-}
-
 /// The uniform block of `shaders/assemble/*.wgsl` (`assemble/params.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -43,7 +32,7 @@ struct AssembleParams {
     width: u32,
     height: u32,
     views: u32,
-    _pad0: u32,
+    chunk: u32,
     sigma: f32,
     lambda_pc: f32,
     lambda_p: f32,
@@ -92,6 +81,7 @@ pub struct AssembleKernels {
     support_rows: Kernel,
     plane_prior: Kernel,
     color_system: Kernel,
+    view_weight: Kernel,
 }
 
 fn check(image: &GpuImage, what: &str, width: usize, height: usize, channels: usize) -> Result<(), GpuError> {
@@ -118,15 +108,17 @@ impl AssembleKernels {
             // Row sums in, prior out, temporal terms in.
             plane_prior: Kernel::new(ctx, &shaders::module(ctx, shaders::PLANE_SUPPORT), "plane_prior", &[true, false, true], 8),
             color_system: kernel(shaders::COLOR_SYSTEM, "color_system", 3, 4),
+            view_weight: kernel(shaders::VIEW_WEIGHT, "view_weight", 1, 1),
         }
     }
 
-    fn uniform(params: &RenderParams, width: usize, height: usize, views: usize) -> AssembleParams {
+    /// The uniform block for a chunk of `views` views with chunk flags `chunk`.
+    fn uniform(params: &RenderParams, width: usize, height: usize, views: usize, chunk: u32) -> AssembleParams {
         AssembleParams {
             width: width as u32,
             height: height as u32,
             views: views as u32,
-            _pad0: 0,
+            chunk,
             sigma: params.sigma,
             lambda_pc: params.lambda_pc,
             lambda_p: params.lambda_p,
@@ -195,53 +187,58 @@ impl AssembleKernels {
         Ok(prior)
     }
 
-    /// `w_P^s` of every view (packed like `views`), `-1` where the warp of view `s` is
+    /// `w_P^s` of every view (stacked like the warps), `-1` where the warp of view `s` is
     /// invalid; `color` is the current estimate.
     pub fn projection_weights(
         &self,
         ctx: &GpuContext,
         params: &RenderParams,
         color: &GpuImage,
-        views: PackedViews,
-    ) -> Result<GpuImage, GpuError> {
-        let PackedViews { colors: warp_colors, visibility, valid, count: views } = views;
+        warps: &GpuWarps,
+    ) -> Result<ViewStack, GpuError> {
         let (w, h) = (color.width, color.height);
+        let split = warps.split();
         check(color, "color", w, h, 3)?;
-        check(warp_colors, "warp colors", w, h * views, 3)?;
-        check(visibility, "visibility", w, h * views, 1)?;
-        check(valid, "validity", w, h * views, 1)?;
-        let w_p = GpuImage::zeroed(ctx, w, h * views, 1)?;
-        self.run(ctx, &self.projection_weights, &Self::uniform(params, w, h, views), &[color, warp_colors, visibility, valid, &w_p]);
+        warps.colors.check("warp colors", split, w, h, 3)?;
+        warps.visibility.check("visibility", split, w, h, 1)?;
+        warps.valid.check("validity", split, w, h, 1)?;
+        let w_p = ViewStack::zeroed(ctx, split, w, h, 1)?;
+        for (c, (views, flags)) in split.iter().enumerate() {
+            let images = [color, &warps.colors.chunks[c], &warps.visibility.chunks[c], &warps.valid.chunks[c], &w_p.chunks[c]];
+            self.run(ctx, &self.projection_weights, &Self::uniform(params, w, h, views.len(), flags), &images);
+        }
         Ok(w_p)
     }
 
     /// The depth system from the current color, `w_p` (from [`Self::projection_weights`]),
-    /// the packed visibility, the sparse maps (`sparse_color_mask`: RGB and mask; `sparse_depth`,
-    /// infinite where no point) and the temporal terms (`temporal`: `lambda_T w_T` and the
-    /// previous depth per pixel).
+    /// the warps' visibility, the sparse maps (`sparse_color_mask`: RGB and mask;
+    /// `sparse_depth`, infinite where no point) and the temporal terms (`temporal`:
+    /// `lambda_T w_T` and the previous depth per pixel).
     #[allow(clippy::too_many_arguments)]
     pub fn depth_system(
         &self,
         ctx: &GpuContext,
         params: &RenderParams,
         color: &GpuImage,
-        w_p: &GpuImage,
-        visibility: &GpuImage,
+        w_p: &ViewStack,
+        visibility: &ViewStack,
         sparse_color_mask: &GpuImage,
         sparse_depth: &GpuImage,
         temporal: &GpuImage,
-        views: usize,
     ) -> Result<GpuSystem, GpuError> {
         let (w, h) = (color.width, color.height);
-        check(w_p, "w_p", w, h * views, 1)?;
-        check(visibility, "visibility", w, h * views, 1)?;
+        let split = w_p.split;
+        w_p.check("w_p", split, w, h, 1)?;
+        visibility.check("visibility", split, w, h, 1)?;
         check(sparse_color_mask, "sparse color and mask", w, h, 4)?;
         check(sparse_depth, "sparse depth", w, h, 1)?;
         check(temporal, "temporal terms", w, h, 2)?;
-        let uniform = Self::uniform(params, w, h, views);
         let w_d = GpuImage::zeroed(ctx, w, h, 1)?;
         let attach = GpuImage::zeroed(ctx, w, h, 1)?;
-        self.run(ctx, &self.depth_weights, &uniform, &[color, w_p, visibility, sparse_color_mask, &w_d, &attach]);
+        for (c, (views, flags)) in split.iter().enumerate() {
+            let images = [color, &w_p.chunks[c], &visibility.chunks[c], sparse_color_mask, &w_d, &attach];
+            self.run(ctx, &self.depth_weights, &Self::uniform(params, w, h, views.len(), flags), &images);
+        }
         let sys = GpuSystem {
             right: GpuImage::zeroed(ctx, w, h, 1)?,
             down: GpuImage::zeroed(ctx, w, h, 1)?,
@@ -251,26 +248,26 @@ impl AssembleKernels {
         self.run(
             ctx,
             &self.depth_system,
-            &uniform,
+            &Self::uniform(params, w, h, 0, FIRST_CHUNK | LAST_CHUNK),
             &[&w_d, &attach, sparse_depth, temporal, &sys.right, &sys.down, &sys.inv_diag, &sys.rhs],
         );
         Ok(sys)
     }
 
-    /// The color system from the packed warp colors, `w_p` and the temporal terms
-    /// (`temporal`: `lambda_T w_T` and the previous RGB per pixel).
+    /// The color system from the warp colors, `w_p` and the temporal terms (`temporal`:
+    /// `lambda_T w_T` and the previous RGB per pixel).
     pub fn color_system(
         &self,
         ctx: &GpuContext,
         params: &RenderParams,
-        warp_colors: &GpuImage,
-        w_p: &GpuImage,
+        warp_colors: &ViewStack,
+        w_p: &ViewStack,
         temporal: &GpuImage,
-        views: usize,
     ) -> Result<GpuSystem, GpuError> {
         let (w, h) = (temporal.width, temporal.height);
-        check(warp_colors, "warp colors", w, h * views, 3)?;
-        check(w_p, "w_p", w, h * views, 1)?;
+        let split = w_p.split;
+        warp_colors.check("warp colors", split, w, h, 3)?;
+        w_p.check("w_p", split, w, h, 1)?;
         check(temporal, "temporal terms", w, h, 4)?;
         let sys = GpuSystem {
             right: GpuImage::zeroed(ctx, w, h, 1)?,
@@ -278,9 +275,23 @@ impl AssembleKernels {
             inv_diag: GpuImage::zeroed(ctx, w, h, 1)?,
             rhs: GpuImage::zeroed(ctx, w, h, 3)?,
         };
-        let uniform = Self::uniform(params, w, h, views);
-        self.run(ctx, &self.color_system, &uniform, &[warp_colors, w_p, temporal, &sys.right, &sys.down, &sys.inv_diag, &sys.rhs]);
+        for (c, (views, flags)) in split.iter().enumerate() {
+            let images = [&warp_colors.chunks[c], &w_p.chunks[c], temporal, &sys.right, &sys.down, &sys.inv_diag, &sys.rhs];
+            self.run(ctx, &self.color_system, &Self::uniform(params, w, h, views.len(), flags), &images);
+        }
         Ok(sys)
+    }
+
+    /// `sum_s w_P^s` over the views, invalid warps counting 0: the view weight the viewer
+    /// shows, as dynview-core's render job keeps it.
+    pub fn view_weight(&self, ctx: &GpuContext, params: &RenderParams, w_p: &ViewStack) -> Result<GpuImage, GpuError> {
+        let (w, h) = (w_p.width, w_p.height);
+        w_p.check("w_p", w_p.split, w, h, 1)?;
+        let sum = GpuImage::zeroed(ctx, w, h, 1)?;
+        for (views, flags, chunk) in w_p.iter() {
+            self.run(ctx, &self.view_weight, &Self::uniform(params, w, h, views.len(), flags), &[chunk, &sum]);
+        }
+        Ok(sum)
     }
 }
 
@@ -289,7 +300,7 @@ impl AssembleKernels {
 #[cfg(test)]
 pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
     use crate::shaders::layout_tests::mirror;
-    [shaders::PROJECTION_WEIGHTS, shaders::DEPTH_WEIGHTS, shaders::DEPTH_SYSTEM, shaders::COLOR_SYSTEM]
+    [shaders::PROJECTION_WEIGHTS, shaders::DEPTH_WEIGHTS, shaders::DEPTH_SYSTEM, shaders::COLOR_SYSTEM, shaders::VIEW_WEIGHT]
         .into_iter()
         .map(|shader| {
             mirror!(
@@ -299,7 +310,7 @@ pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
                     width,
                     height,
                     views,
-                    _pad0,
+                    chunk,
                     sigma,
                     lambda_pc,
                     lambda_p,

@@ -59,6 +59,8 @@ pub struct GpuContext {
     recorder: Mutex<Recorder>,
     /// Zeros over a reused image's buffer (`shaders/zero.wgsl`), compiled on first use.
     zero: std::sync::OnceLock<Kernel>,
+    /// A small storage buffer bound where a kernel's binding is unused (`placeholder`).
+    placeholder: std::sync::OnceLock<wgpu::Buffer>,
 }
 
 /// Keeps a frame open: work recorded meanwhile goes into one command buffer, submitted when the
@@ -118,13 +120,36 @@ impl GpuContext {
             .await
             .map_err(|e| GpuError::NoDevice(e.to_string()))?;
         let recorder = Mutex::new(Recorder::new(&device, &queue));
-        Ok(Self { device, queue, adapter_info, instance, adapter, pool: BufferPool::default(), recorder, zero: Default::default() })
+        Ok(Self {
+            device,
+            queue,
+            adapter_info,
+            instance,
+            adapter,
+            pool: BufferPool::default(),
+            recorder,
+            zero: Default::default(),
+            placeholder: Default::default(),
+        })
     }
 
     /// The zero-fill kernel.
     pub(crate) fn zero_kernel(&self) -> &Kernel {
         self.zero.get_or_init(|| {
             Kernel::new(self, &crate::shaders::module(self, crate::shaders::ZERO), "zero", &[false], crate::kernel::LINEAR_WORKGROUP)
+        })
+    }
+
+    /// A 16-byte storage buffer for a binding the dispatch does not use (a kernel's partial
+    /// sums when the views are in one chunk).
+    pub(crate) fn placeholder(&self) -> &wgpu::Buffer {
+        self.placeholder.get_or_init(|| {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("placeholder"),
+                size: 16,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            })
         })
     }
 

@@ -162,8 +162,8 @@ impl FrameDisplay {
         }
         let (color, depth) = (frame.color(), frame.depth());
         let scratch;
-        let (weights, views) = match &frame.view_weights {
-            Some(w) if w.width == color.width && w.height == color.height * frame.views_used => (w, frame.views_used),
+        let (weights, views) = match &frame.view_weight {
+            Some(w) if w.width == color.width && w.height == color.height => (w, frame.views_used),
             _ => {
                 scratch = GpuImage::zeroed(ctx, 1, 1, 1)?;
                 (&scratch, 0)

@@ -38,9 +38,10 @@ mod solver;
 mod splat;
 mod streaming;
 mod temporal;
+mod views;
 mod warp;
 
-pub use assemble::{AssembleKernels, GpuSystem, PackedViews};
+pub use assemble::{AssembleKernels, GpuSystem};
 pub use blend::{BlendKernel, MAX_VIEWS};
 pub use consistency::ConsistencyKernels;
 pub use context::{FrameGuard, GpuContext, GpuError};
@@ -56,6 +57,7 @@ pub use solver::GridSolver;
 pub use splat::{GpuCloud, GpuSplat, SplatKernels};
 pub use streaming::{GpuStreamingRenderer, StreamRequest};
 pub use temporal::TemporalKernels;
+pub use views::{ViewChunks, ViewStack};
 pub use warp::{GpuWarps, WarpKernels};
 
 /// wgpu, as this crate uses it (for targets to draw into).

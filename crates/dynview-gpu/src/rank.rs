@@ -9,6 +9,7 @@ use crate::context::{GpuContext, GpuError};
 use crate::image::GpuImage;
 use crate::kernel::Kernel;
 use crate::shaders;
+use crate::views::ViewStack;
 
 /// `rank_preference.wgsl`'s uniform block.
 #[repr(C)]
@@ -54,22 +55,25 @@ impl RankKernels {
         Ok(out)
     }
 
-    /// Scales the packed `w_p` (one `w x h` block per view) in place by `1 + u preference_s`
-    /// (`preferences` from dynview-core's `render::weights::rank_preferences`, `unsupported`
-    /// from [`Self::unsupported`]).
-    pub fn apply(&self, ctx: &GpuContext, w_p: &GpuImage, unsupported: &GpuImage, preferences: &[f32]) -> Result<(), GpuError> {
+    /// Scales `w_p` (from [`crate::AssembleKernels::projection_weights`]) in place by
+    /// `1 + u preference_s` (`preferences` from dynview-core's
+    /// `render::weights::rank_preferences`, `unsupported` from [`Self::unsupported`]).
+    pub fn apply(&self, ctx: &GpuContext, w_p: &ViewStack, unsupported: &GpuImage, preferences: &[f32]) -> Result<(), GpuError> {
         let (w, h) = (unsupported.width, unsupported.height);
         let views = preferences.len();
-        if views > MAX_VIEWS || (w_p.width, w_p.height, w_p.channels) != (w, h * views, 1) || unsupported.channels != 1 {
+        if views > MAX_VIEWS || views != w_p.split.count || unsupported.channels != 1 {
             return Err(GpuError::Size(format!(
-                "w_p is {}x{}x{} for {views} views of {w}x{h} (at most {MAX_VIEWS} views)",
-                w_p.width, w_p.height, w_p.channels
+                "{views} view preferences for w_p of {} views (at most {MAX_VIEWS}), support of {} channels",
+                w_p.split.count, unsupported.channels
             )));
         }
-        let mut packed = [0.0; MAX_VIEWS];
-        packed[..views].copy_from_slice(preferences);
-        let uniform = RankParams { width: w as u32, height: h as u32, views: views as u32, _pad0: 0, preferences: packed };
-        self.rank_preference.dispatch(ctx, bytemuck::bytes_of(&uniform), &[&unsupported.buffer, &w_p.buffer], w, h);
+        w_p.check("w_p", w_p.split, w, h, 1)?;
+        for (chunk_views, _, chunk) in w_p.iter() {
+            let mut packed = [0.0; MAX_VIEWS];
+            packed[..chunk_views.len()].copy_from_slice(&preferences[chunk_views.clone()]);
+            let uniform = RankParams { width: w as u32, height: h as u32, views: chunk_views.len() as u32, _pad0: 0, preferences: packed };
+            self.rank_preference.dispatch(ctx, bytemuck::bytes_of(&uniform), &[&unsupported.buffer, &chunk.buffer], w, h);
+        }
         Ok(())
     }
 }

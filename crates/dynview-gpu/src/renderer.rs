@@ -55,9 +55,9 @@ pub struct GpuFrame {
     pub camera: Camera,
     /// Depth (1 channel) and color (RGB) per level, finest first.
     pub levels: Vec<(GpuImage, GpuImage)>,
-    /// `w_P` of each view used at the finest level (their images stacked, view after view),
-    /// for the view-weights display.
-    pub view_weights: Option<GpuImage>,
+    /// `sum_s w_P^s` over the views used at the finest level, for the view-weights display
+    /// (dynview-core's `FrameOutput::view_weight`).
+    pub view_weight: Option<GpuImage>,
     /// How many views were used.
     pub views_used: usize,
     /// The plane the depth was pulled toward (kept for the next frame while it still fits).
@@ -138,7 +138,7 @@ impl GpuRenderer {
             .flatten();
         let mut state: Option<(GpuImage, GpuImage)> = None;
         let mut solutions = Vec::with_capacity(params.levels);
-        let mut view_weights = None;
+        let mut view_weight = None;
         for level in (0..params.levels).rev() {
             let (w, h) = sizes[level];
             let cam = camera_at(camera, w, h);
@@ -206,9 +206,10 @@ impl GpuRenderer {
                 Some(rows) if params.view_rank_exponent > 0.0 => Some(self.rank.unsupported(ctx, rows, level, params.view_rank_support)?),
                 _ => None,
             };
+            let mut last_w_p = None;
             for _ in 0..params.outer_iterations_at(level) {
                 ctx.set_stage(level, "weights");
-                let w_p = self.assemble.projection_weights(ctx, params, &color, warps.packed())?;
+                let w_p = self.assemble.projection_weights(ctx, params, &color, &warps)?;
                 ctx.set_stage(level, "depth system");
                 let sys = self.assemble.depth_system(
                     ctx,
@@ -219,36 +220,32 @@ impl GpuRenderer {
                     &sparse_color_mask,
                     &sparse.depth,
                     &temporal_depth,
-                    warps.count,
                 )?;
                 ctx.set_stage(level, "depth solve");
                 self.solver.solve_on_gpu(ctx, &sys, &depth, params.depth_sweeps, params.relaxation)?;
                 ctx.set_stage(level, "warp");
                 warps = self.warps.warp_views(ctx, &cam, &depth, &view_images, params.visibility_tolerance)?;
                 ctx.set_stage(level, "weights");
-                let w_p = self.assemble.projection_weights(ctx, params, &color, warps.packed())?;
+                let w_p = self.assemble.projection_weights(ctx, params, &color, &warps)?;
                 if let Some(unsupported) = &unsupported {
                     self.rank.apply(ctx, &w_p, unsupported, &rank_preferences)?;
                 }
                 ctx.set_stage(level, "color system");
-                let sys = self.assemble.color_system(ctx, params, &warps.colors, &w_p, &temporal_color, warps.count)?;
+                let sys = self.assemble.color_system(ctx, params, &warps.colors, &w_p, &temporal_color)?;
                 ctx.set_stage(level, "color solve");
                 self.solver.solve_on_gpu(ctx, &sys, &color, params.color_sweeps, params.relaxation)?;
                 if level == 0 {
-                    view_weights = Some(w_p);
+                    last_w_p = Some(w_p);
                 }
+            }
+            if let Some(w_p) = last_w_p.take() {
+                view_weight = Some(self.assemble.view_weight(ctx, params, &w_p)?);
             }
             solutions.push((self.copy(ctx, &depth)?, self.copy(ctx, &color)?));
             state = Some((depth, color));
         }
         solutions.reverse();
-        Ok(GpuFrame {
-            camera: *camera,
-            levels: solutions,
-            view_weights,
-            views_used: chosen.len(),
-            plane: plane.map(|p| p.to_world(camera)),
-        })
+        Ok(GpuFrame { camera: *camera, levels: solutions, view_weight, views_used: chosen.len(), plane: plane.map(|p| p.to_world(camera)) })
     }
 
     /// A copy of `image` (the level's solution, kept while the next level overwrites its own).

@@ -35,7 +35,8 @@ pub(crate) const WARP: Shader = shader!("warp.wgsl", "common/float_bits.wgsl", "
 /// `w_P^s` of every view.
 pub(crate) const PROJECTION_WEIGHTS: Shader = shader!("assemble/projection_weights.wgsl", "assemble/params.wgsl", "common/agreement.wgsl");
 /// `w_D` and the sparse attachment `lambda_PC w_H`.
-pub(crate) const DEPTH_WEIGHTS: Shader = shader!("assemble/depth_weights.wgsl", "assemble/params.wgsl", "common/agreement.wgsl");
+pub(crate) const DEPTH_WEIGHTS: Shader =
+    shader!("assemble/depth_weights.wgsl", "assemble/params.wgsl", "common/agreement.wgsl", "common/chunk.wgsl");
 /// The depth system.
 pub(crate) const DEPTH_SYSTEM: Shader = shader!("assemble/depth_system.wgsl", "assemble/params.wgsl", "common/float_bits.wgsl");
 /// The plane's pull per pixel from the points' support.
@@ -43,7 +44,9 @@ pub(crate) const PLANE_SUPPORT: Shader = shader!("assemble/plane_support.wgsl");
 /// The rank preference of the color energy where points are scarce.
 pub(crate) const RANK_PREFERENCE: Shader = shader!("assemble/rank_preference.wgsl");
 /// The color system.
-pub(crate) const COLOR_SYSTEM: Shader = shader!("assemble/color_system.wgsl", "assemble/params.wgsl");
+pub(crate) const COLOR_SYSTEM: Shader = shader!("assemble/color_system.wgsl", "assemble/params.wgsl", "common/chunk.wgsl");
+/// The view weight the viewer shows, `sum_s w_P^s`.
+pub(crate) const VIEW_WEIGHT: Shader = shader!("assemble/view_weight.wgsl", "assemble/params.wgsl", "common/chunk.wgsl");
 /// Projection of the sparse cloud's points into a camera.
 pub(crate) const SPLAT_POINTS: Shader = shader!("splat_points.wgsl", "common/outside.wgsl", "common/splat_emit.wgsl", "common/linear.wgsl");
 /// Forward warp of a rendered frame's pixels into a camera.
@@ -59,9 +62,9 @@ pub(crate) const SPLAT_PACK: Shader = shader!("splat_pack.wgsl");
 /// The sparse consistency filter.
 pub(crate) const CONSISTENCY: Shader = shader!("consistency.wgsl", "common/float_bits.wgsl");
 /// The color initial guess: the weighted blend of the visible warps.
-pub(crate) const BLEND: Shader = shader!("blend.wgsl");
+pub(crate) const BLEND: Shader = shader!("blend.wgsl", "common/chunk.wgsl");
 /// `w_T`.
-pub(crate) const TEMPORAL_WEIGHTS: Shader = shader!("temporal_weights.wgsl", "common/agreement.wgsl");
+pub(crate) const TEMPORAL_WEIGHTS: Shader = shader!("temporal_weights.wgsl", "common/agreement.wgsl", "common/chunk.wgsl");
 /// The temporal terms of both systems.
 pub(crate) const TEMPORAL_TERMS: Shader = shader!("temporal_terms.wgsl");
 /// The range of the false-color depth display.
@@ -84,6 +87,7 @@ pub const SHADERS: &[(&str, &str)] = &[
     PLANE_SUPPORT,
     RANK_PREFERENCE,
     COLOR_SYSTEM,
+    VIEW_WEIGHT,
     SPLAT_POINTS,
     SPLAT_PIXELS,
     SPLAT_RESOLVE,

@@ -7,6 +7,7 @@ use crate::image::GpuImage;
 use crate::kernel::Kernel;
 use crate::shaders;
 use crate::splat::GpuSplat;
+use crate::views::{partial_binding, partial_sums};
 use crate::warp::GpuWarps;
 
 /// `temporal_weights.wgsl`'s uniform block.
@@ -17,6 +18,10 @@ struct WeightsParams {
     height: u32,
     views: u32,
     sigma: f32,
+    chunk: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 /// `temporal_terms.wgsl`'s uniform block.
@@ -42,7 +47,7 @@ impl TemporalKernels {
         let weights = shaders::module(ctx, shaders::TEMPORAL_WEIGHTS);
         let terms = shaders::module(ctx, shaders::TEMPORAL_TERMS);
         Self {
-            weights: Kernel::new(ctx, &weights, "temporal_weights", &[true, true, true, true, false], 8),
+            weights: Kernel::new(ctx, &weights, "temporal_weights", &[true, true, true, true, false, false], 8),
             terms: Kernel::new(ctx, &terms, "temporal_terms", &[true, true, true, true, false, false], 8),
         }
     }
@@ -51,9 +56,21 @@ impl TemporalKernels {
     pub fn temporal_weights(&self, ctx: &GpuContext, previous: &GpuSplat, warps: &GpuWarps, sigma: f32) -> Result<GpuImage, GpuError> {
         let (w, h) = (previous.mask.width, previous.mask.height);
         let w_t = GpuImage::zeroed(ctx, w, h, 1)?;
-        let params = WeightsParams { width: w as u32, height: h as u32, views: warps.count as u32, sigma };
-        let buffers = [&warps.colors.buffer, &warps.valid.buffer, &previous.color.buffer, &previous.mask.buffer, &w_t.buffer];
-        self.weights.dispatch(ctx, bytemuck::bytes_of(&params), &buffers, w, h);
+        let split = warps.split();
+        let partial = partial_sums(ctx, split, w, h, 2)?;
+        for (c, (views, chunk)) in split.iter().enumerate() {
+            let params =
+                WeightsParams { width: w as u32, height: h as u32, views: views.len() as u32, sigma, chunk, _pad0: 0, _pad1: 0, _pad2: 0 };
+            let buffers = [
+                &warps.colors.chunks[c].buffer,
+                &warps.valid.chunks[c].buffer,
+                &previous.color.buffer,
+                &previous.mask.buffer,
+                &w_t.buffer,
+                partial_binding(ctx, &partial),
+            ];
+            self.weights.dispatch(ctx, bytemuck::bytes_of(&params), &buffers, w, h);
+        }
         Ok(w_t)
     }
 
@@ -83,7 +100,7 @@ impl TemporalKernels {
 pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
     use crate::shaders::layout_tests::mirror;
     vec![
-        mirror!(shaders::TEMPORAL_WEIGHTS, "Params", WeightsParams { width, height, views, sigma }),
+        mirror!(shaders::TEMPORAL_WEIGHTS, "Params", WeightsParams { width, height, views, sigma, chunk, _pad0, _pad1, _pad2 }),
         mirror!(shaders::TEMPORAL_TERMS, "Params", TermsParams { width, height, coverage_scaling, lambda_t }),
     ]
 }

@@ -4,30 +4,28 @@
 use dynview_core::camera::Camera;
 use dynview_core::render::transfer::PixelTransfer;
 
-use crate::assemble::PackedViews;
 use crate::context::{GpuContext, GpuError};
 use crate::image::GpuImage;
 use crate::kernel::Kernel;
 use crate::shaders;
+use crate::views::{ViewChunks, ViewStack};
 
-/// The chosen input views warped into the novel view, packed: view `s` occupies rows
-/// `s * height ..` of each image.
+/// The chosen input views warped into the novel view, each stacked view after view in the
+/// buffers of one split.
 #[derive(Debug)]
 pub struct GpuWarps {
     /// `I^proj_s`, RGB (black where invalid).
-    pub colors: GpuImage,
+    pub colors: ViewStack,
     /// `sigma_vis^s` (0 or 1).
-    pub visibility: GpuImage,
+    pub visibility: ViewStack,
     /// 1 where the novel pixel lands inside input `s`.
-    pub valid: GpuImage,
-    /// Number of views.
-    pub count: usize,
+    pub valid: ViewStack,
 }
 
 impl GpuWarps {
-    /// The warps as the assembly kernels take them.
-    pub fn packed(&self) -> PackedViews<'_> {
-        PackedViews { colors: &self.colors, visibility: &self.visibility, valid: &self.valid, count: self.count }
+    /// How the views are split into buffers.
+    pub fn split(&self) -> ViewChunks {
+        self.colors.split
     }
 }
 
@@ -86,20 +84,19 @@ impl WarpKernels {
                 w, h, depth.channels, novel.width_px, novel.height_px
             )));
         }
-        let count = inputs.len();
-        if count == 0 {
+        if inputs.is_empty() {
             return Err(GpuError::InvalidParams { field: "inputs", reason: "no input views to warp".into() });
         }
+        let split = ViewChunks::for_device(ctx, w, h, inputs.len())?;
         let out = GpuWarps {
-            colors: GpuImage::zeroed(ctx, w, h * count, 3)?,
-            visibility: GpuImage::zeroed(ctx, w, h * count, 1)?,
-            valid: GpuImage::zeroed(ctx, w, h * count, 1)?,
-            count,
+            colors: ViewStack::zeroed(ctx, split, w, h, 3)?,
+            visibility: ViewStack::zeroed(ctx, split, w, h, 1)?,
+            valid: ViewStack::zeroed(ctx, split, w, h, 1)?,
         };
         let target = GpuImage::zeroed(ctx, w, h, 1)?;
         let depth_in_input = GpuImage::zeroed(ctx, w, h, 1)?;
         let _frame = ctx.frame();
-        let mut zbufs = Vec::with_capacity(count);
+        let mut zbufs = Vec::with_capacity(inputs.len());
         for (s, (input_camera, input)) in inputs.iter().enumerate() {
             if (input.width, input.height, input.channels) != (input_camera.width_px as usize, input_camera.height_px as usize, 3) {
                 return Err(GpuError::Size(format!(
@@ -108,13 +105,14 @@ impl WarpKernels {
                 )));
             }
             let (m, e) = PixelTransfer::new(novel, input_camera).coefficients();
+            let ((colors, offset), (visibility, _), (valid, _)) = (out.colors.locate(s), out.visibility.locate(s), out.valid.locate(s));
             let params = WarpParams {
                 width: w as u32,
                 height: h as u32,
                 input_width: input.width as u32,
                 input_height: input.height as u32,
                 tolerance,
-                offset: (s * w * h) as u32,
+                offset: offset as u32,
                 _pad1: 0,
                 _pad2: 0,
                 m_row0: [m[0], m[1], m[2], 0.0],
@@ -127,12 +125,12 @@ impl WarpKernels {
             let buffers = [
                 &depth.buffer,
                 &input.buffer,
-                &out.colors.buffer,
+                &colors.buffer,
                 &target.buffer,
                 &depth_in_input.buffer,
-                &out.visibility.buffer,
+                &visibility.buffer,
                 &zbuf.buffer,
-                &out.valid.buffer,
+                &valid.buffer,
             ];
             let uniform = bytemuck::bytes_of(&params);
             self.clear_zbuf.dispatch(ctx, uniform, &buffers, input.width * input.height, 1);

@@ -263,7 +263,7 @@ use dynview_core::render::RenderParams;
 use dynview_core::render::solve::{ColorTerms, ColorView};
 use dynview_core::render::sparse::SplatMaps;
 use dynview_core::render::weights;
-use dynview_gpu::{AssembleKernels, PackedViews};
+use dynview_gpu::{AssembleKernels, GpuWarps, ViewChunks, ViewStack};
 
 /// Largest difference relative to the magnitude (at least `floor`).
 fn max_relative_difference(gpu: &[f32], cpu: &[f32], floor: f32) -> f32 {
@@ -358,15 +358,11 @@ fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
     };
     let cpu_color = color_terms.system();
 
-    // GPU.
+    // GPU: all views in one buffer, and each view in its own (as where one binding cannot
+    // hold them all); the split sums per chunk and must give the same systems.
     let up = |data: &[f32], rows: usize, channels: usize| GpuImage::upload(&ctx, data, w, rows, channels).unwrap();
     let packed = |f: &dyn Fn(&dynview_core::render::warp::ViewWarp) -> Vec<f32>| warps.iter().flat_map(f).collect::<Vec<f32>>();
-    let warp_colors = up(&packed(&|wp| wp.color.as_flattened().to_vec()), 2 * h, 3);
-    let visibility = up(&packed(&|wp| wp.visibility.clone()), 2 * h, 1);
-    let valid = up(&packed(&|wp| (0..n).map(|i| if wp.valid(i) { 1.0 } else { 0.0 }).collect()), 2 * h, 1);
     let color_gpu = up(color.data.as_flattened(), h, 3);
-    let packed_views = PackedViews { colors: &warp_colors, visibility: &visibility, valid: &valid, count: 2 };
-    let w_p_gpu = assemble.projection_weights(&ctx, &params, &color_gpu, packed_views).unwrap();
     let sparse_color_mask: Vec<f32> = (0..n)
         .flat_map(|i| {
             let c = sparse.color.data[i];
@@ -386,39 +382,53 @@ fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
     let prior_weights: Vec<f32> = prior.download(&ctx).unwrap().chunks(2).map(|c| c[0]).collect();
     let cpu_weights: Vec<f32> = (0..n).map(|i| temporal[i] + plane_weight[i]).collect();
     assert_eq!(prior_weights, cpu_weights, "temporal and plane weights");
-    let gpu_depth = assemble
-        .depth_system(
-            &ctx,
-            &params,
-            &color_gpu,
-            &w_p_gpu,
-            &visibility,
-            &up(&sparse_color_mask, h, 4),
-            &up(&sparse.depth.data, h, 1),
-            &prior,
-            2,
-        )
-        .unwrap();
-    let gpu_color = assemble.color_system(&ctx, &params, &warp_colors, &w_p_gpu, &up(&temporal_color, h, 4), 2).unwrap();
-
     let cpu_w_p: Vec<f32> =
         warps.iter().zip(&w_p).flat_map(|(warp, wp)| (0..n).map(|i| if warp.valid(i) { wp[i] } else { -1.0 })).collect();
-    let d = max_difference(&w_p_gpu.download(&ctx).unwrap(), &cpu_w_p);
-    assert!(d <= 1e-5, "w_P: max difference {d}");
-    for (name, gpu, cpu) in [
-        ("depth right", &gpu_depth.right, &cpu_depth.right),
-        ("depth down", &gpu_depth.down, &cpu_depth.down),
-        ("depth inv_diag", &gpu_depth.inv_diag, &cpu_depth.inv_diag),
-        ("depth rhs", &gpu_depth.rhs, &cpu_depth.rhs),
-        ("color right", &gpu_color.right, &cpu_color.right),
-        ("color down", &gpu_color.down, &cpu_color.down),
-        ("color inv_diag", &gpu_color.inv_diag, &cpu_color.inv_diag),
-    ] {
-        let d = max_relative_difference(&gpu.download(&ctx).unwrap(), cpu, 1e-3);
-        assert!(d <= 1e-3, "{name}: max relative difference {d}");
+    let cpu_view_weight: Vec<f32> = (0..n).map(|i| w_p.iter().map(|wp| wp[i]).sum()).collect();
+    for split in [ViewChunks::single(2), ViewChunks { count: 2, per_chunk: 1 }] {
+        let stack = |data: Vec<f32>, channels: usize| ViewStack::upload(&ctx, split, w, h, channels, &data).unwrap();
+        let gpu_warps = GpuWarps {
+            colors: stack(packed(&|wp| wp.color.as_flattened().to_vec()), 3),
+            visibility: stack(packed(&|wp| wp.visibility.clone()), 1),
+            valid: stack(packed(&|wp| (0..n).map(|i| if wp.valid(i) { 1.0 } else { 0.0 }).collect()), 1),
+        };
+        let w_p_gpu = assemble.projection_weights(&ctx, &params, &color_gpu, &gpu_warps).unwrap();
+        let gpu_depth = assemble
+            .depth_system(
+                &ctx,
+                &params,
+                &color_gpu,
+                &w_p_gpu,
+                &gpu_warps.visibility,
+                &up(&sparse_color_mask, h, 4),
+                &up(&sparse.depth.data, h, 1),
+                &prior,
+            )
+            .unwrap();
+        let gpu_color = assemble.color_system(&ctx, &params, &gpu_warps.colors, &w_p_gpu, &up(&temporal_color, h, 4)).unwrap();
+        let d = max_difference(&w_p_gpu.download(&ctx).unwrap(), &cpu_w_p);
+        assert!(d <= 1e-5, "{split:?}: w_P: max difference {d}");
+        let d = max_relative_difference(
+            &assemble.view_weight(&ctx, &params, &w_p_gpu).unwrap().download(&ctx).unwrap(),
+            &cpu_view_weight,
+            1e-3,
+        );
+        assert!(d <= 1e-5, "{split:?}: view weight: max relative difference {d}");
+        for (name, gpu, cpu) in [
+            ("depth right", &gpu_depth.right, &cpu_depth.right),
+            ("depth down", &gpu_depth.down, &cpu_depth.down),
+            ("depth inv_diag", &gpu_depth.inv_diag, &cpu_depth.inv_diag),
+            ("depth rhs", &gpu_depth.rhs, &cpu_depth.rhs),
+            ("color right", &gpu_color.right, &cpu_color.right),
+            ("color down", &gpu_color.down, &cpu_color.down),
+            ("color inv_diag", &gpu_color.inv_diag, &cpu_color.inv_diag),
+        ] {
+            let d = max_relative_difference(&gpu.download(&ctx).unwrap(), cpu, 1e-3);
+            assert!(d <= 1e-3, "{split:?}: {name}: max relative difference {d}");
+        }
+        let d = max_relative_difference(&gpu_color.rhs.download(&ctx).unwrap(), cpu_color.rhs.as_flattened(), 1e-2);
+        assert!(d <= 1e-3, "{split:?}: color rhs: max relative difference {d}");
     }
-    let d = max_relative_difference(&gpu_color.rhs.download(&ctx).unwrap(), cpu_color.rhs.as_flattened(), 1e-2);
-    assert!(d <= 1e-3, "color rhs: max relative difference {d}");
     // The scene exercises the terms: clamped and free w_D, sparse attachment, invalid warps.
     assert!(depth_terms.attach.iter().any(|&a| a > 0.5) && cpu_w_p.iter().any(|&v| v < 0.0));
     // ... and the plane: full pull far from the points, none among them, partial in between.

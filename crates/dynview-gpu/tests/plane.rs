@@ -6,7 +6,7 @@ use dynview_core::camera::{Camera, Intrinsics, Rigid3};
 use dynview_core::raster::{Raster, RgbRaster};
 use dynview_core::render::{InputView, Method, RenderHooks, RenderParams, TimeStepInputs, render_frame};
 use dynview_core::scene::PointCloud;
-use dynview_gpu::{GpuContext, GpuInputs, GpuRenderer};
+use dynview_gpu::{GpuContext, GpuFrame, GpuInputs, GpuRenderer, wgpu};
 use glam::DVec3;
 
 /// The scene: a floor at y = -1 and a wall at z = -3, both smoothly textured.
@@ -70,9 +70,8 @@ fn psnr(a: &[f32], b: &[f32]) -> f64 {
     10.0 * (1.0 / mse.max(1e-20)).log10()
 }
 
-#[test]
-fn a_sparse_frame_with_the_plane_matches_on_the_gpu_and_nears_the_truth() {
-    let (w, h) = (96u32, 64u32);
+/// Three views of the scene at `w x h` with the sparse cloud.
+fn inputs(w: u32, h: u32) -> TimeStepInputs {
     let views: Vec<InputView> = [DVec3::new(-1.0, 0.3, 4.0), DVec3::new(1.2, 0.4, 4.2), DVec3::new(0.1, 1.0, 4.5)]
         .into_iter()
         .map(|eye| {
@@ -80,7 +79,13 @@ fn a_sparse_frame_with_the_plane_matches_on_the_gpu_and_nears_the_truth() {
             InputView::new(cam, ray_cast(&cam).1, 4)
         })
         .collect();
-    let inputs = TimeStepInputs { cloud: sparse_cloud(), views };
+    TimeStepInputs { cloud: sparse_cloud(), views }
+}
+
+#[test]
+fn a_sparse_frame_with_the_plane_matches_on_the_gpu_and_nears_the_truth() {
+    let (w, h) = (96u32, 64u32);
+    let inputs = inputs(w, h);
     let novel = camera(DVec3::new(0.3, 0.5, 4.3), w, h);
     let (true_depth, _) = ray_cast(&novel);
     let on_floor: Vec<bool> = (0..true_depth.len())
@@ -120,4 +125,52 @@ fn a_sparse_frame_with_the_plane_matches_on_the_gpu_and_nears_the_truth() {
     let (with_plane, without_plane) = (right_half_error(&cpu.depth.data), right_half_error(&membrane.depth.data));
     eprintln!("mean relative depth error on the floor on the right: {with_plane:.4} with the plane, {without_plane:.4} without");
     assert!(with_plane < 0.7 * without_plane, "{with_plane:.4} against {without_plane:.4}");
+}
+
+/// Color and depth of a GPU frame, and its view weight.
+fn download(ctx: &GpuContext, frame: &GpuFrame) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+    let weight = frame.view_weight.as_ref().expect("the finest level's view weight").download(ctx).unwrap();
+    (frame.color().download(ctx).unwrap(), frame.depth().download(ctx).unwrap(), weight)
+}
+
+#[test]
+fn frames_render_the_same_where_each_view_needs_a_buffer_of_its_own() {
+    let (w, h) = (96u32, 64u32);
+    let inputs = inputs(w, h);
+    let first = camera(DVec3::new(0.3, 0.5, 4.3), w, h);
+    let second = camera(DVec3::new(0.35, 0.5, 4.3), w, h);
+    let params = RenderParams::default();
+    assert_eq!(params.method, Method::Full);
+    // One RGB view's warp is 96 x 64 x 12 bytes = 73728; the largest single image (RGBA at
+    // 96 x 64) is 98304. A binding of 100000 bytes holds one view's warp, not two.
+    let small = GpuContext::with_limits_blocking(wgpu::Limits { max_storage_buffer_binding_size: 100_000, ..wgpu::Limits::default() })
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(dynview_gpu::ViewChunks::for_device(&small, w as usize, h as usize, inputs.views.len()).unwrap().per_chunk, 1);
+    let ctx = GpuContext::new_blocking().unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(dynview_gpu::ViewChunks::for_device(&ctx, w as usize, h as usize, inputs.views.len()).unwrap().per_chunk, 3);
+    let frames = |ctx: &GpuContext| {
+        let renderer = GpuRenderer::new(ctx);
+        let uploaded = GpuInputs::upload(ctx, &inputs).unwrap();
+        let a = renderer.render(ctx, &params, &first, &uploaded, None).unwrap();
+        let b = renderer.render(ctx, &params, &second, &uploaded, Some(&a)).unwrap();
+        (download(ctx, &a), download(ctx, &b))
+    };
+    let (split, whole) = (frames(&small), frames(&ctx));
+    // The CPU renders the same two frames.
+    let cpu_a = render_frame(&params, &first, &inputs, None, &mut RenderHooks::default()).unwrap();
+    let previous = cpu_a.clone().into_previous(first);
+    let cpu_b = render_frame(&params, &second, &inputs, Some(&previous), &mut RenderHooks::default()).unwrap();
+    for (name, (split, whole), cpu) in [("first", (&split.0, &whole.0), &cpu_a), ("second", (&split.1, &whole.1), &cpu_b)] {
+        let scale = cpu.depth.data.iter().copied().fold(0.0f32, f32::max);
+        let relative = |d: &[f32]| d.iter().map(|v| v / scale).collect::<Vec<_>>();
+        let (color_db, depth_db) = (psnr(&split.0, &whole.0), psnr(&relative(&split.1), &relative(&whole.1)));
+        let weight_db = psnr(&split.2.iter().map(|v| v / 3.0).collect::<Vec<_>>(), &whole.2.iter().map(|v| v / 3.0).collect::<Vec<_>>());
+        eprintln!("{name} frame, views split against whole: color {color_db:.1} dB, depth {depth_db:.1} dB, view weight {weight_db:.1} dB");
+        assert!(color_db >= 80.0 && depth_db >= 80.0 && weight_db >= 80.0, "{name}: {color_db:.1} / {depth_db:.1} / {weight_db:.1} dB");
+        let cpu_db = psnr(&split.0, cpu.color.data.as_flattened());
+        let weight_cpu_db =
+            psnr(&split.2.iter().map(|v| v / 3.0).collect::<Vec<_>>(), &cpu.view_weight.data.iter().map(|v| v / 3.0).collect::<Vec<_>>());
+        eprintln!("{name} frame, views split against the CPU: color {cpu_db:.1} dB, view weight {weight_cpu_db:.1} dB");
+        assert!(cpu_db >= 45.0 && weight_cpu_db >= 45.0, "{name}: {cpu_db:.1} / {weight_cpu_db:.1} dB against the CPU");
+    }
 }

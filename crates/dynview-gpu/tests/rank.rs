@@ -5,7 +5,7 @@
 use dynview_core::raster::Raster;
 use dynview_core::render::plane::plane_weights;
 use dynview_core::render::weights::{apply_rank_preference, rank_preferences};
-use dynview_gpu::{AssembleKernels, GpuContext, GpuImage, RankKernels};
+use dynview_gpu::{AssembleKernels, GpuContext, GpuImage, RankKernels, ViewChunks, ViewStack};
 
 /// A deterministic pseudo-random sequence in [0, 1).
 fn noise(seed: u32) -> impl FnMut() -> f32 {
@@ -58,7 +58,8 @@ fn rank_preference_on_the_gpu_matches_the_cpu() {
     let gpu_input: Vec<f32> = (0..views * n).map(|j| if invalid[j] { -1.0 } else { cpu_w_p[j / n][j % n] }).collect();
     let preferences = rank_preferences(&[1.0, 0.3, 1e-5], 1.0);
     apply_rank_preference(&mut cpu_w_p, &preferences, &cpu_unsupported);
-    let gpu_w_p = GpuImage::upload(&ctx, &gpu_input, w, h * views, 1).unwrap();
+    // Split two and one a buffer: each chunk takes its own views' preferences.
+    let gpu_w_p = ViewStack::upload(&ctx, ViewChunks { count: views, per_chunk: 2 }, w, h, 1, &gpu_input).unwrap();
     kernels.apply(&ctx, &gpu_w_p, &gpu_unsupported, &preferences).unwrap();
     let out = gpu_w_p.download(&ctx).unwrap();
     let mut worst = 0.0f32;

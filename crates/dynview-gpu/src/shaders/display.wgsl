@@ -19,7 +19,7 @@ struct Params {
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> color: array<f32>;
 @group(0) @binding(2) var<storage, read> depth: array<f32>;
-// w_P of every view, packed view after view (`views` images of src size).
+// sum_s w_P^s over the `views` views (src size; empty when `views` is 0).
 @group(0) @binding(3) var<storage, read> weights: array<f32>;
 @group(0) @binding(4) var<storage, read> range: array<f32>;
 
@@ -75,12 +75,9 @@ fn fs(in: VertexOut) -> @location(0) vec4<f32> {
             out = vec3<f32>(1.0 - u, 0.8 - 0.5 * u, 0.2 + 0.8 * u);
         }
     } else {
-        let n = params.src_width * params.src_height;
-        var sum = 0.0;
-        for (var s = 0u; s < params.views; s = s + 1u) {
-            sum = sum + weights[s * n + nearest];
+        if (params.views > 0u) {
+            out = vec3<f32>(clamp(weights[nearest] * (1.0 / f32(params.views)), 0.0, 1.0));
         }
-        out = vec3<f32>(clamp(sum / f32(max(params.views, 1u)), 0.0, 1.0));
     }
     if (params.srgb_target == 1u) {
         out = to_linear(out);

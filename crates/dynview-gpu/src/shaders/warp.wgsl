@@ -4,7 +4,7 @@
 //
 // Entry points, in order: clear_zbuf (over input pixels), warp (over novel pixels),
 // visible (over novel pixels). Color, visibility and validity are written at `offset` into
-// buffers that pack the views (view s at s * width * height).
+// buffers that stack the views (the view's first pixel in its chunk of views, views.rs).
 
 struct Params {
     width: u32,

@@ -2,9 +2,9 @@
 // couplings 1 + lambda_G sum_s w^s_xy; the diagonal with lambda_P w_P^s and the temporal term;
 // the right-hand side with the gradient targets.
 
-// Warped colors of the views (RGB, packed).
+// Warped colors of the views (RGB, the chunk's views stacked).
 @group(0) @binding(1) var<storage, read> warp_rgb: array<f32>;
-// w_P of the views (packed; negative where invalid).
+// w_P of the views (the chunk's views stacked; negative where invalid).
 @group(0) @binding(2) var<storage, read> w_p: array<f32>;
 // The temporal terms: (lambda_T w_T, previous RGB) per pixel.
 @group(0) @binding(3) var<storage, read> temporal: array<f32>;
@@ -29,15 +29,16 @@ fn edge_weight(s: u32, i: u32, j: u32) -> f32 {
     return 0.5 * (a + b);
 }
 
-fn edge_coupling(i: u32, j: u32) -> f32 {
+// sum_s w^s_xy over the chunk's views.
+fn edge_weight_sum(i: u32, j: u32) -> f32 {
     var sum = 0.0;
     for (var s = 0u; s < params.views; s = s + 1u) {
         sum = sum + edge_weight(s, i, j);
     }
-    return 1.0 + params.lambda_g * sum;
+    return sum;
 }
 
-// g_xy = lambda_G sum_s w^s_xy (P^s_x - P^s_y), in view order.
+// g_xy = lambda_G sum_s w^s_xy (P^s_x - P^s_y) over the chunk's views, in view order.
 fn edge_target(i: u32, j: u32) -> vec3<f32> {
     let n = params.width * params.height;
     var g = vec3<f32>(0.0);
@@ -50,6 +51,11 @@ fn edge_target(i: u32, j: u32) -> vec3<f32> {
     return g;
 }
 
+// Couplings 1 + lambda_G sum_s w^s_xy of the right and down edges, the diagonal (the four
+// edges' couplings, lambda_P sum_s w_P^s and the temporal weight) and the right-hand side.
+// Before the last chunk of views, `right` and `down` hold the partial sums sum_s w^s_xy,
+// `inv_diag` the diagonal's partial sum of the view terms of the left and up edges and of
+// lambda_P w_P^s, and `rhs` the right-hand side's partial sum.
 @compute @workgroup_size(8, 8)
 fn color_system(@builtin(global_invocation_id) id: vec3<u32>) {
     let x = id.x;
@@ -61,34 +67,62 @@ fn color_system(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let n = w * h;
     let i = y * w + x;
-    var r = 0.0;
-    var g_right = vec3<f32>(0.0);
+    var sum_right = 0.0;
+    var sum_down = 0.0;
+    var diag_views = 0.0;
+    var b = vec3<f32>(0.0);
+    if (!is_first_chunk(params.chunk)) {
+        sum_right = right[i];
+        sum_down = down[i];
+        diag_views = inv_diag[i];
+        b = vec3<f32>(rhs[i * 3u], rhs[i * 3u + 1u], rhs[i * 3u + 2u]);
+    }
     if (x + 1u < w) {
-        r = edge_coupling(i, i + 1u);
-        g_right = edge_target(i, i + 1u);
+        sum_right = sum_right + edge_weight_sum(i, i + 1u);
+        b = b + edge_target(i, i + 1u);
     }
-    var d = 0.0;
-    var g_down = vec3<f32>(0.0);
     if (y + 1u < h) {
-        d = edge_coupling(i, i + w);
-        g_down = edge_target(i, i + w);
+        sum_down = sum_down + edge_weight_sum(i, i + w);
+        b = b + edge_target(i, i + w);
     }
-    var diag = r + d;
-    var b = (g_right - vec3<f32>(0.0)) + g_down;
     if (x > 0u) {
-        diag = diag + edge_coupling(i - 1u, i);
+        diag_views = diag_views + params.lambda_g * edge_weight_sum(i - 1u, i);
         b = b - edge_target(i - 1u, i);
     }
     if (y > 0u) {
-        diag = diag + edge_coupling(i - w, i);
+        diag_views = diag_views + params.lambda_g * edge_weight_sum(i - w, i);
         b = b - edge_target(i - w, i);
     }
     for (var s = 0u; s < params.views; s = s + 1u) {
         let wp = w_p[s * n + i];
         if (wp > 0.0) {
-            diag = diag + params.lambda_p * wp;
+            diag_views = diag_views + params.lambda_p * wp;
             b = b + warp_at(s * n + i) * (params.lambda_p * wp);
         }
+    }
+    if (!is_last_chunk(params.chunk)) {
+        right[i] = sum_right;
+        down[i] = sum_down;
+        inv_diag[i] = diag_views;
+        rhs[i * 3u] = b.x;
+        rhs[i * 3u + 1u] = b.y;
+        rhs[i * 3u + 2u] = b.z;
+        return;
+    }
+    var r = 0.0;
+    if (x + 1u < w) {
+        r = 1.0 + params.lambda_g * sum_right;
+    }
+    var d = 0.0;
+    if (y + 1u < h) {
+        d = 1.0 + params.lambda_g * sum_down;
+    }
+    var diag = r + d + diag_views;
+    if (x > 0u) {
+        diag = diag + 1.0;
+    }
+    if (y > 0u) {
+        diag = diag + 1.0;
     }
     let t = temporal[i * 4u];
     if (t > 0.0) {

@@ -5,13 +5,14 @@
 
 // The current color estimate (RGB).
 @group(0) @binding(1) var<storage, read> color_rgb: array<f32>;
-// w_P of the views (packed; negative where invalid).
+// w_P of the views (the chunk's views stacked; negative where invalid).
 @group(0) @binding(2) var<storage, read> w_p: array<f32>;
-// sigma_vis of the views (packed).
+// sigma_vis of the views (the chunk's views stacked).
 @group(0) @binding(3) var<storage, read> visibility: array<f32>;
 // The sparse maps' color and mask (4 per pixel).
 @group(0) @binding(4) var<storage, read> sparse_color_mask: array<f32>;
-// Out: w_D and lambda_PC w_H.
+// Out: w_D and lambda_PC w_H; before the last chunk of views, the partial sums of w_P and of
+// sigma_vis.
 @group(0) @binding(5) var<storage, read_write> w_d: array<f32>;
 @group(0) @binding(6) var<storage, read_write> attach: array<f32>;
 
@@ -57,9 +58,18 @@ fn depth_weights(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.y * params.width + id.x;
     var sum_wp = 0.0;
     var sum_vis = 0.0;
+    if (!is_first_chunk(params.chunk)) {
+        sum_wp = w_d[i];
+        sum_vis = attach[i];
+    }
     for (var s = 0u; s < params.views; s = s + 1u) {
         sum_wp = sum_wp + max(w_p[s * n + i], 0.0);
         sum_vis = sum_vis + visibility[s * n + i];
+    }
+    if (!is_last_chunk(params.chunk)) {
+        w_d[i] = sum_wp;
+        attach[i] = sum_vis;
+        return;
     }
     let g = gradient_sq(id.x, id.y) * params.gradient_unit * params.gradient_unit + params.eps_gradient;
     let v = sum_vis + params.eps_visibility;

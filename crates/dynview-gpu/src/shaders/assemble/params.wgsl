@@ -1,13 +1,15 @@
 // The uniform block of the weights and the assembly of the depth and color systems
 // (assemble/*.wgsl), which follow dynview-core's render::weights and render::solve term by
-// term; the systems feed red_black.wgsl. Views are packed: view s's pixel i is at s * n + i
-// (n = width * height).
+// term; the systems feed red_black.wgsl. The kernels run once per chunk of views
+// (common/chunk.wgsl): view s of the chunk has its pixel i at s * n + i (n = width * height).
 
 struct Params {
     width: u32,
     height: u32,
+    // Views in this chunk.
     views: u32,
-    _pad0: u32,
+    // FIRST_CHUNK | LAST_CHUNK flags (the kernels that sum over the views).
+    chunk: u32,
     sigma: f32,
     lambda_pc: f32,
     lambda_p: f32,

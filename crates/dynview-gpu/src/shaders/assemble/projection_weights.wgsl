@@ -4,13 +4,13 @@
 
 // The current color estimate (RGB).
 @group(0) @binding(1) var<storage, read> color_rgb: array<f32>;
-// Warped colors of the views (RGB, packed).
+// Warped colors of the views (RGB, the chunk's views stacked).
 @group(0) @binding(2) var<storage, read> warp_rgb: array<f32>;
-// sigma_vis of the views (packed).
+// sigma_vis of the views (the chunk's views stacked).
 @group(0) @binding(3) var<storage, read> visibility: array<f32>;
-// 1 where view s's warp lands inside its image, else 0 (packed).
+// 1 where view s's warp lands inside its image, else 0 (the chunk's views stacked).
 @group(0) @binding(4) var<storage, read> valid: array<f32>;
-// Out: w_P of the views (packed).
+// Out: w_P of the views (the chunk's views stacked).
 @group(0) @binding(5) var<storage, read_write> w_p: array<f32>;
 
 @compute @workgroup_size(8, 8)

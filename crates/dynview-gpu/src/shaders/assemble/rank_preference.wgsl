@@ -2,21 +2,23 @@
 // apply_rank_preference): each view's w_P^s scaled by 1 + u preference_s, where u is how far
 // the pixel is from the points' support (plane_support.wgsl's `unsupported`) and
 // preference_s = r_s^gamma - 1 from the view's relative rank (0 for the best view). Views are
-// packed: view s's pixel i is at s * n + i (n = width * height).
+// stacked per chunk of views (common/chunk.wgsl): view s of the chunk has its pixel i at
+// s * n + i (n = width * height).
 
 struct RankParams {
     width: u32,
     height: u32,
     views: u32,
     _pad0: u32,
-    // preference_s of each view (up to 8).
+    // preference_s of each view of the chunk (up to 8).
     preferences: array<vec4<f32>, 2>,
 };
 
 @group(0) @binding(0) var<uniform> params: RankParams;
 // u per pixel, in [0, 1].
 @group(0) @binding(1) var<storage, read> unsupported: array<f32>;
-// w_P of the views (packed; negative where the warp is invalid, left so), scaled in place.
+// w_P of the views (the chunk's views stacked; negative where the warp is invalid, left so),
+// scaled in place.
 @group(0) @binding(2) var<storage, read_write> w_p: array<f32>;
 
 @compute @workgroup_size(8, 8)
