@@ -15,10 +15,34 @@ use dynview_synth::SynthConfig;
 
 use crate::paths::workspace_root;
 
-/// Resolutions of the benchmark.
-pub const SIZES: [(u32, u32); 3] = [(480, 270), (960, 540), (1920, 1080)];
-/// Timed runs per resolution (after one warm-up run); the median is reported.
-const RUNS: usize = 5;
+/// Options of `dynview-eval bench` (`cargo xtask bench`).
+#[derive(Debug, clap::Args)]
+pub struct Options {
+    /// Output sizes, `WxH` comma-separated (the synthetic event is made at each size: its
+    /// input views have the output's size).
+    #[arg(long, value_delimiter = ',', value_parser = parse_size, default_values = ["480x270", "960x540", "1920x1080"])]
+    pub sizes: Vec<(u32, u32)>,
+    /// Time the GPU only (for sizes where the CPU takes minutes a frame).
+    #[arg(long)]
+    pub gpu_only: bool,
+    /// Ask the GPU for WebGPU's default limits (128 MiB a storage binding, 256 MiB a buffer), as
+    /// a browser on a modest device gives, instead of the adapter's own: large outputs split
+    /// their views into several buffers.
+    #[arg(long)]
+    pub webgpu_limits: bool,
+    /// Timed frames per size and path (after the warm-up); the median is reported.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u16).range(1..))]
+    pub runs: u16,
+}
+
+/// `WxH` (both 16 to 8192).
+fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let parsed = text.split_once('x').and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)));
+    match parsed {
+        Some((w, h)) if (16..=8192).contains(&w) && (16..=8192).contains(&h) => Ok((w, h)),
+        _ => Err(format!("`{text}` is not WIDTHxHEIGHT with each side 16 to 8192")),
+    }
+}
 
 /// A one-frame synthetic event at `width x height` (made once, cached under target/bench/).
 pub fn bench_event(width: u32, height: u32) -> anyhow::Result<(TimeStepInputs, Camera)> {
@@ -36,15 +60,29 @@ pub fn bench_event(width: u32, height: u32) -> anyhow::Result<(TimeStepInputs, C
 }
 
 /// The benchmark: prints the tables and writes them to `target/bench/report.md`.
-pub fn run() -> anyhow::Result<()> {
+pub fn run(options: Options) -> anyhow::Result<()> {
+    let Options { sizes, gpu_only, webgpu_limits, runs } = options;
+    let runs = usize::from(runs);
     let params = RenderParams::default();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut report = String::new();
-    let _ = writeln!(report, "Full method, {} views, {} levels, {threads} threads, median of {RUNS} runs:\n", params.views, params.levels);
-    let gpu = match dynview_gpu::GpuContext::new_blocking() {
+    let _ = writeln!(report, "Full method, {} views, {} levels, {threads} threads, median of {runs} runs:\n", params.views, params.levels);
+    let context = match webgpu_limits {
+        true => dynview_gpu::GpuContext::with_limits_blocking(dynview_gpu::wgpu::Limits::default()),
+        false => dynview_gpu::GpuContext::new_blocking(),
+    };
+    let gpu = match context {
         Ok(ctx) => {
             let renderer = dynview_gpu::GpuRenderer::new(&ctx);
-            let _ = writeln!(report, "GPU: {} ({:?}, {}).\n", ctx.adapter_info.name, ctx.adapter_info.backend, ctx.adapter_info.driver);
+            let limits = if webgpu_limits { "WebGPU's default limits" } else { "the adapter's limits" };
+            let _ = writeln!(
+                report,
+                "GPU: {} ({:?}, {}), {limits}: {} MiB a storage binding.\n",
+                ctx.adapter_info.name,
+                ctx.adapter_info.backend,
+                ctx.adapter_info.driver,
+                ctx.storage_limit_bytes() >> 20
+            );
             Some((ctx, renderer))
         }
         Err(e) => {
@@ -56,24 +94,27 @@ pub fn run() -> anyhow::Result<()> {
     let _ = writeln!(report, "| --- | ---: | ---: | ---: | ---: | ---: |");
     let mut details = String::new();
     let mut gpu_rows = String::new();
-    for (w, h) in SIZES {
+    for (w, h) in sizes {
         let (inputs, camera) = bench_event(w, h)?;
         let origin = Instant::now();
         let clock = move || origin.elapsed().as_secs_f64() * 1000.0;
-        let mut runs = Vec::new();
-        for run in 0..=RUNS {
+        let mut cpu_runs = Vec::new();
+        for run in 0..=runs {
+            if gpu_only {
+                break;
+            }
             let mut hooks = RenderHooks { clock: Some(&clock), ..RenderHooks::default() };
             let start = Instant::now();
             let out = render_frame(&params, &camera, &inputs, None, &mut hooks)?;
             let ms = start.elapsed().as_secs_f64() * 1000.0;
             if run > 0 {
-                runs.push((ms, out.timings));
+                cpu_runs.push((ms, out.timings));
             }
         }
-        runs.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let (ms, timings) = &runs[runs.len() / 2];
+        cpu_runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let cpu = cpu_runs.get(cpu_runs.len() / 2);
         let gpu_figures = match &gpu {
-            Some((ctx, renderer)) => Some(gpu_frame_figures(ctx, renderer, &params, &camera, &inputs)?),
+            Some((ctx, renderer)) => Some(gpu_frame_figures(ctx, renderer, &params, &camera, &inputs, runs)?),
             None => None,
         };
         let gpu_ms = gpu_figures.as_ref().map(|f| f.wall_ms);
@@ -86,27 +127,34 @@ pub fn run() -> anyhow::Result<()> {
             let gpu_ms_sum = gpu_stages.as_ref().map_or("-".to_string(), |(sum, _)| format!("{sum:.2}"));
             let _ = writeln!(
                 gpu_rows,
-                "| {w}x{h} | {:.1} | {gpu_ms_sum} | {} | {} | {} | {} | {} | {:.0} |",
+                "| {w}x{h} | {:.1} | {gpu_ms_sum} | {} | {} | {} | {} | {} | {:.0} | {} |",
                 f.wall_ms,
                 c.dispatches,
                 c.passes,
                 c.bind_groups_created,
                 c.submits,
                 c.uniform_bytes,
-                c.bytes_bound as f64 / 1e6
+                c.bytes_bound as f64 / 1e6,
+                f.view_buffers
             );
         }
-        let (gpu_cell, ratio_cell) = match gpu_ms {
-            Some(g) => (format!("{g:.1}"), format!("{:.2}", ms / g)),
-            None => ("-".into(), "-".into()),
+        let (gpu_cell, ratio_cell) = match (gpu_ms, cpu) {
+            (Some(g), Some((ms, _))) => (format!("{g:.1}"), format!("{:.2}", ms / g)),
+            (Some(g), None) => (format!("{g:.1}"), "-".into()),
+            (None, _) => ("-".into(), "-".into()),
         };
-        let _ = writeln!(report, "| {w}x{h} | {ms:.0} | {:.2} | {:.1}x | {gpu_cell} | {ratio_cell} |", 1000.0 / ms, 6800.0 / ms);
-        let _ = writeln!(details, "\n{w}x{h}: per level and stage (ms)\n");
-        let _ =
-            writeln!(details, "| level | size | sparse | push-pull | warp | visibility | weights | depth solve | color solve | total |");
-        let _ = writeln!(details, "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
-        for l in &timings.levels {
-            let _ = writeln!(details, "{}", level_row(l));
+        let cpu_cells = cpu.map_or("- | - | -".to_string(), |(ms, _)| format!("{ms:.0} | {:.2} | {:.1}x", 1000.0 / ms, 6800.0 / ms));
+        let _ = writeln!(report, "| {w}x{h} | {cpu_cells} | {gpu_cell} | {ratio_cell} |");
+        if let Some((_, timings)) = cpu {
+            let _ = writeln!(details, "\n{w}x{h}: per level and stage (ms)\n");
+            let _ = writeln!(
+                details,
+                "| level | size | sparse | push-pull | warp | visibility | weights | depth solve | color solve | total |"
+            );
+            let _ = writeln!(details, "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
+            for l in &timings.levels {
+                let _ = writeln!(details, "{}", level_row(l));
+            }
         }
         if let Some((_, table)) = gpu_stages {
             let _ = writeln!(
@@ -115,15 +163,17 @@ pub fn run() -> anyhow::Result<()> {
                  the rest of the wall time is the host encoding dispatches)\n\n{table}"
             );
         }
-        println!("{w}x{h}: CPU {ms:.0} ms, GPU {}", gpu_ms.map_or("-".to_string(), |g| format!("{g:.1} ms")));
+        let cpu_ms = cpu.map_or("-".to_string(), |(ms, _)| format!("{ms:.0} ms"));
+        println!("{w}x{h}: CPU {cpu_ms}, GPU {}", gpu_ms.map_or("-".to_string(), |g| format!("{g:.1} ms")));
     }
     if !gpu_rows.is_empty() {
         let _ = writeln!(
             report,
-            "\nGPU, a streaming frame (after {GPU_SETTLING_FRAMES} frames in a row): wall ms (median of {RUNS}), GPU ms (sum of the \
-             timestamp queries of one profiled frame), and the work recorded per frame\n\n\
-             | output | wall ms | GPU ms | dispatches | passes | bind groups created | submits | uniform bytes | MB bound |\n\
-             | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n{gpu_rows}"
+            "\nGPU, a streaming frame (after {GPU_SETTLING_FRAMES} frames in a row): wall ms (median of {runs}), GPU ms (sum of the \
+             timestamp queries of one profiled frame), the work recorded per frame, and the buffers the views' images \
+             take (more than 1 where one binding cannot hold them all)\n\n\
+             | output | wall ms | GPU ms | dispatches | passes | bind groups created | submits | uniform bytes | MB bound | view buffers |\n\
+             | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n{gpu_rows}"
         );
     }
     println!("\n{report}{details}");
@@ -142,6 +192,8 @@ const GPU_SETTLING_FRAMES: usize = 6;
 struct GpuFrameFigures {
     wall_ms: f64,
     counters: dynview_gpu::GpuCounters,
+    /// Buffers each of the views' per-pixel images takes at the finest level.
+    view_buffers: usize,
 }
 
 /// Streaming GPU frames (each with the previous one's temporal terms; inputs already uploaded).
@@ -151,25 +203,28 @@ fn gpu_frame_figures(
     params: &RenderParams,
     camera: &Camera,
     inputs: &TimeStepInputs,
+    runs: usize,
 ) -> anyhow::Result<GpuFrameFigures> {
     let uploaded = dynview_gpu::GpuInputs::upload(ctx, inputs)?;
     ctx.wait()?;
     let mut previous = None;
-    let mut runs = Vec::new();
+    let mut times = Vec::new();
     let mut counters = dynview_gpu::GpuCounters::default();
-    for run in 0..GPU_SETTLING_FRAMES + RUNS {
+    for run in 0..GPU_SETTLING_FRAMES + runs {
         let before = ctx.counters();
         let start = Instant::now();
         let frame = renderer.render(ctx, params, camera, &uploaded, previous.as_ref())?;
         ctx.wait()?;
         if run >= GPU_SETTLING_FRAMES {
-            runs.push(start.elapsed().as_secs_f64() * 1000.0);
+            times.push(start.elapsed().as_secs_f64() * 1000.0);
             counters = ctx.counters() - before;
         }
         previous = Some(frame);
     }
-    runs.sort_by(f64::total_cmp);
-    Ok(GpuFrameFigures { wall_ms: runs[runs.len() / 2], counters })
+    times.sort_by(f64::total_cmp);
+    let views = params.views.min(inputs.views.len());
+    let view_buffers = dynview_gpu::ViewChunks::for_device(ctx, camera.width_px as usize, camera.height_px as usize, views)?.len();
+    Ok(GpuFrameFigures { wall_ms: times[times.len() / 2], counters, view_buffers })
 }
 
 /// Stages of the GPU renderer, in the order of the table.

@@ -20,9 +20,9 @@ enum Command {
     /// Leave-one-camera-out on the real captures, Panoptic's arc and Pose2Sim's lab
     /// (`docs/results/real.md`).
     EvalReal(eval_real::Options),
-    /// Milliseconds per frame of the full method at 480x270, 960x540 and 1920x1080, per level
-    /// and stage, on the CPU and on the GPU wgpu finds.
-    Bench,
+    /// Milliseconds per frame of the full method (at 480x270, 960x540 and 1920x1080 unless
+    /// told), per level and stage, on the CPU and on the GPU wgpu finds.
+    Bench(bench_render::Options),
     /// The whole `dynview prep` on a 6-camera, 100-frame, 960x540 hand-held event
     /// (`docs/results/prep.md`).
     BenchPrep(bench_prep::Options),
@@ -35,7 +35,7 @@ fn main() -> std::process::ExitCode {
     let result = match Cli::parse().command {
         Command::Eval(options) => eval::run(options),
         Command::EvalReal(options) => eval_real::run(options),
-        Command::Bench => bench_render::run(),
+        Command::Bench(options) => bench_render::run(options),
         Command::BenchPrep(options) => bench_prep::run(options),
         Command::BenchSfm(options) => bench_sfm::run(options),
     };
