@@ -8,7 +8,7 @@ use dynview_core::metrics::psnr;
 use dynview_core::raster::Raster;
 use dynview_core::render::{Method, RenderHooks, RenderParams, render_frame};
 use dynview_core::scene::ScenePackage;
-use dynview_gpu::{FrameDisplay, GpuContext, GpuInputs, GpuRenderer, GpuStreamingRenderer, StreamRequest, wgpu};
+use dynview_gpu::{FrameDisplay, GpuContext, GpuInputs, GpuRenderer, GpuStreamingRenderer, StreamRequest, SweepKernel, wgpu};
 use dynview_interchange::camera_path::parse_path;
 use dynview_tests::small_event;
 
@@ -30,10 +30,13 @@ fn download_rgb(ctx: &GpuContext, frame: &dynview_gpu::GpuFrame) -> RgbRaster {
 fn gpu_frames_match_cpu_frames_with_and_without_the_temporal_terms() {
     let ctx = GpuContext::new_blocking().unwrap_or_else(|e| panic!("{e}"));
     eprintln!("adapter: {} ({:?})", ctx.adapter_info.name, ctx.adapter_info.backend);
-    let renderer = GpuRenderer::new(&ctx);
     let package = ScenePackage::open(small_event().join("scene")).unwrap();
     let path = parse_path(&std::fs::read(small_event().join("camera_path.json")).unwrap(), "camera_path.json", None).unwrap();
-    for method in [Method::NoTemporal, Method::Full] {
+    // Both sweep kernels, whichever the adapter would get.
+    for (kernel, method) in
+        [SweepKernel::PerColour, SweepKernel::Tiled].into_iter().flat_map(|k| [(k, Method::NoTemporal), (k, Method::Full)])
+    {
+        let renderer = GpuRenderer::with_sweep_kernel(&ctx, kernel);
         let params = RenderParams { method, ..RenderParams::default() };
         let mut cpu_previous = None;
         let mut gpu_previous = None;
@@ -47,7 +50,7 @@ fn gpu_frames_match_cpu_frames_with_and_without_the_temporal_terms() {
             let db = psnr(&gpu_color, &cpu.color);
             let mad = mean_abs_difference(&gpu_color, &cpu.color);
             eprintln!(
-                "{method:?} frame {i} (temporal {}): GPU vs CPU {db:.1} dB, mean abs difference {:.3}/255",
+                "{kernel:?} {method:?} frame {i} (temporal {}): GPU vs CPU {db:.1} dB, mean abs difference {:.3}/255",
                 cpu.temporal_used,
                 mad * 255.0
             );
@@ -237,31 +240,43 @@ fn the_gpu_display_shows_what_the_cpu_picture_shows() {
 
 #[test]
 fn timestamp_queries_time_every_stage_of_every_level_without_changing_the_frame() {
-    let Setup { ctx, renderer, camera, params, inputs } = setup();
-    let plain = download_rgb(&ctx, &renderer.render(&ctx, &params, &camera, &inputs, None).unwrap());
-    assert!(ctx.start_profile(), "the adapter ({}) has no timestamp queries", ctx.adapter_info.name);
-    let profiled = download_rgb(&ctx, &renderer.render(&ctx, &params, &camera, &inputs, None).unwrap());
-    let stages = ctx.finish_profile().unwrap();
-    assert_eq!(plain.data, profiled.data, "profiling changed the frame");
-    for level in 0..params.levels {
-        for stage in ["splat", "push-pull", "warp", "weights", "depth system", "depth solve", "color system", "color solve"] {
-            let found = stages.iter().find(|s| s.level == level && s.stage == stage);
-            let found = found.unwrap_or_else(|| panic!("no time for {stage} at level {level}: {stages:?}"));
-            assert!(found.ms.is_finite() && found.ms >= 0.0 && found.passes > 0, "{found:?}");
-        }
-    }
-    // All red-black sweeps of a solve are one pass: one per outer iteration.
-    let depth_solve = stages.iter().find(|s| s.level == 0 && s.stage == "depth solve").unwrap();
-    assert_eq!(depth_solve.passes, params.outer_iterations_at(0));
-    // Each sweep binds the system (right, down, inv_diag, rhs: 4 floats a pixel) and the depth
-    // (1 float a pixel), twice (red, black).
+    let Setup { ctx, camera, params, inputs, .. } = setup();
     let (w, h) = (camera.width_px as u64, camera.height_px as u64);
-    let per_solve = 2 * params.depth_sweeps as u64 * 5 * 4 * w * h;
-    assert_eq!(depth_solve.bytes_bound, per_solve * params.outer_iterations_at(0) as u64, "{depth_solve:?}");
-    let total: f64 = stages.iter().map(|s| s.ms).sum();
-    assert!(total > 0.0, "{stages:?}");
-    eprintln!("GPU time of a profiled frame: {total:.1} ms in {} passes", stages.iter().map(|s| s.passes).sum::<usize>());
-    // Profiling is over: the next frame writes no timestamps.
-    drop(renderer.render(&ctx, &params, &camera, &inputs, None).unwrap());
-    assert!(ctx.finish_profile().unwrap().is_empty());
+    for kernel in [SweepKernel::PerColour, SweepKernel::Tiled] {
+        let renderer = GpuRenderer::with_sweep_kernel(&ctx, kernel);
+        let plain = download_rgb(&ctx, &renderer.render(&ctx, &params, &camera, &inputs, None).unwrap());
+        assert!(ctx.start_profile(), "the adapter ({}) has no timestamp queries", ctx.adapter_info.name);
+        let profiled = download_rgb(&ctx, &renderer.render(&ctx, &params, &camera, &inputs, None).unwrap());
+        let stages = ctx.finish_profile().unwrap();
+        assert_eq!(plain.data, profiled.data, "{kernel:?}: profiling changed the frame");
+        for level in 0..params.levels {
+            for stage in ["splat", "push-pull", "warp", "weights", "depth system", "depth solve", "color system", "color solve"] {
+                let found = stages.iter().find(|s| s.level == level && s.stage == stage);
+                let found = found.unwrap_or_else(|| panic!("{kernel:?}: no time for {stage} at level {level}: {stages:?}"));
+                assert!(found.ms.is_finite() && found.ms >= 0.0 && found.passes > 0, "{found:?}");
+            }
+        }
+        let depth_solve = stages.iter().find(|s| s.level == 0 && s.stage == "depth solve").unwrap();
+        let iterations = params.outer_iterations_at(0);
+        let (passes, per_solve) = match kernel {
+            // All half-sweeps (red, black) of a solve are one dispatch call and so one pass;
+            // each binds the system (right, down, inv_diag, rhs: 4 floats a pixel) and the
+            // depth (1 float a pixel).
+            SweepKernel::PerColour => (iterations, 2 * params.depth_sweeps as u64 * 5 * 4 * w * h),
+            // Up to 4 half-sweeps a dispatch, an even number of dispatches, each a pass while
+            // profiled; each binds the system and the depth before and after (2 floats a pixel).
+            SweepKernel::Tiled => {
+                let dispatches = (2 * params.depth_sweeps).div_ceil(4).next_multiple_of(2);
+                (dispatches * iterations, dispatches as u64 * 6 * 4 * w * h)
+            }
+        };
+        assert_eq!(depth_solve.passes, passes, "{kernel:?}: {depth_solve:?}");
+        assert_eq!(depth_solve.bytes_bound, per_solve * iterations as u64, "{kernel:?}: {depth_solve:?}");
+        let total: f64 = stages.iter().map(|s| s.ms).sum();
+        assert!(total > 0.0, "{stages:?}");
+        eprintln!("{kernel:?}: GPU time of a profiled frame: {total:.1} ms in {} passes", stages.iter().map(|s| s.passes).sum::<usize>());
+        // Profiling is over: the next frame writes no timestamps.
+        drop(renderer.render(&ctx, &params, &camera, &inputs, None).unwrap());
+        assert!(ctx.finish_profile().unwrap().is_empty());
+    }
 }

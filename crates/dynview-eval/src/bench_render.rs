@@ -30,9 +30,24 @@ pub struct Options {
     /// their views into several buffers.
     #[arg(long)]
     pub webgpu_limits: bool,
+    /// The GPU's red-black sweep kernel: `auto` (per colour on a CPU adapter, tiled on a GPU),
+    /// `per-colour` or `tiled`.
+    #[arg(long, value_enum, default_value_t = Sweeps::Auto)]
+    pub sweeps: Sweeps,
     /// Timed frames per size and path (after the warm-up); the median is reported.
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u16).range(1..))]
     pub runs: u16,
+}
+
+/// The `--sweeps` choice.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum Sweeps {
+    /// The adapter's default (`dynview_gpu::SweepKernel::for_adapter`).
+    Auto,
+    /// One colour per dispatch.
+    PerColour,
+    /// Up to four colours per dispatch on workgroup-local tiles.
+    Tiled,
 }
 
 /// `WxH` (both 16 to 8192).
@@ -61,7 +76,7 @@ pub fn bench_event(width: u32, height: u32) -> anyhow::Result<(TimeStepInputs, C
 
 /// The benchmark: prints the tables and writes them to `target/bench/report.md`.
 pub fn run(options: Options) -> anyhow::Result<()> {
-    let Options { sizes, gpu_only, webgpu_limits, runs } = options;
+    let Options { sizes, gpu_only, webgpu_limits, sweeps, runs } = options;
     let runs = usize::from(runs);
     let params = RenderParams::default();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -73,11 +88,16 @@ pub fn run(options: Options) -> anyhow::Result<()> {
     };
     let gpu = match context {
         Ok(ctx) => {
-            let renderer = dynview_gpu::GpuRenderer::new(&ctx);
+            let kernel = match sweeps {
+                Sweeps::Auto => dynview_gpu::SweepKernel::for_adapter(&ctx.adapter_info),
+                Sweeps::PerColour => dynview_gpu::SweepKernel::PerColour,
+                Sweeps::Tiled => dynview_gpu::SweepKernel::Tiled,
+            };
+            let renderer = dynview_gpu::GpuRenderer::with_sweep_kernel(&ctx, kernel);
             let limits = if webgpu_limits { "WebGPU's default limits" } else { "the adapter's limits" };
             let _ = writeln!(
                 report,
-                "GPU: {} ({:?}, {}), {limits}: {} MiB a storage binding.\n",
+                "GPU: {} ({:?}, {}), {limits}: {} MiB a storage binding; sweep kernel {kernel:?}.\n",
                 ctx.adapter_info.name,
                 ctx.adapter_info.backend,
                 ctx.adapter_info.driver,

@@ -122,6 +122,16 @@ impl GpuImage {
         Ok(Self { buffer, width, height, channels, pool: ctx.pool.clone() })
     }
 
+    /// An image whose pixels the caller writes before reading any (a pooled buffer keeps its
+    /// old contents: no zeroing pass).
+    pub(crate) fn scratch(ctx: &GpuContext, width: usize, height: usize, channels: usize) -> Result<Self, GpuError> {
+        let size = Self::check(ctx, width, height, channels)?;
+        let buffer = Self::take(ctx, size).unwrap_or_else(|| {
+            ctx.device.create_buffer(&wgpu::BufferDescriptor { label: Some("image"), size, usage: IMAGE_USAGE, mapped_at_creation: false })
+        });
+        Ok(Self { buffer, width, height, channels, pool: ctx.pool.clone() })
+    }
+
     /// Reads the pixels back without blocking the thread (the browser's way).
     pub async fn download_async(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
         crate::readback::read_floats(ctx, &self.buffer, self.width * self.height * self.channels).await

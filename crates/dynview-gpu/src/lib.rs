@@ -8,7 +8,7 @@
 //! weights and the assembly of both systems ([`AssembleKernels`]), the color initial guess
 //! ([`BlendKernel`]), the color energy's rank preference where points are scarce
 //! ([`RankKernels`]), `w_T` and the temporal terms ([`TemporalKernels`]), and red-black sweeps
-//! ([`GridSolver`]). Each matches its dynview-core counterpart; a whole frame matches the CPU's
+//! ([`GridSolver`], in one of two kernels that give the same result, [`SweepKernel`]). Each matches its dynview-core counterpart; a whole frame matches the CPU's
 //! (tests/gpu_parity.rs). The baselines stay on the CPU. The WGSL ([`SHADERS`]) is composed from
 //! per-kernel files and shared code in `src/shaders/common/`; it owns the uniform layouts, which
 //! the Rust mirrors are tested against.
@@ -53,7 +53,7 @@ pub use readback::{read_bytes, read_floats};
 pub use recorder::GpuCounters;
 pub use renderer::{GpuFrame, GpuInputs, GpuRenderer};
 pub use shaders::SHADERS;
-pub use solver::GridSolver;
+pub use solver::{GridSolver, SweepKernel};
 pub use splat::{GpuCloud, GpuSplat, SplatKernels};
 pub use streaming::{GpuStreamingRenderer, StreamRequest};
 pub use temporal::TemporalKernels;

@@ -14,7 +14,7 @@ use crate::consistency::ConsistencyKernels;
 use crate::context::{GpuContext, GpuError};
 use crate::image::{GpuImage, ImageKernels};
 use crate::rank::RankKernels;
-use crate::solver::GridSolver;
+use crate::solver::{GridSolver, SweepKernel};
 use crate::splat::{GpuCloud, GpuSplat, SplatKernels};
 use crate::temporal::TemporalKernels;
 use crate::warp::WarpKernels;
@@ -91,10 +91,16 @@ pub struct GpuRenderer {
 }
 
 impl GpuRenderer {
-    /// Compiles the kernels on `ctx`'s device.
+    /// Compiles the kernels on `ctx`'s device, the sweep kernel chosen for its adapter
+    /// ([`SweepKernel::for_adapter`]).
     pub fn new(ctx: &GpuContext) -> Self {
+        Self::with_sweep_kernel(ctx, SweepKernel::for_adapter(&ctx.adapter_info))
+    }
+
+    /// Compiles the kernels on `ctx`'s device with the sweep kernel `sweeps`.
+    pub fn with_sweep_kernel(ctx: &GpuContext, sweeps: SweepKernel) -> Self {
         Self {
-            solver: GridSolver::new(ctx),
+            solver: GridSolver::with_kernel(ctx, sweeps),
             images: ImageKernels::new(ctx),
             warps: WarpKernels::new(ctx),
             assemble: AssembleKernels::new(ctx),
@@ -104,6 +110,11 @@ impl GpuRenderer {
             temporal: TemporalKernels::new(ctx),
             rank: RankKernels::new(ctx),
         }
+    }
+
+    /// The kernel that runs the red-black sweeps.
+    pub fn sweep_kernel(&self) -> SweepKernel {
+        self.solver.kernel()
     }
 
     /// Renders `camera` at the time step of `inputs` with the full method (temporal terms from

@@ -22,8 +22,10 @@ macro_rules! shader {
     };
 }
 
-/// Red-black sweeps of a grid system.
+/// Red-black sweeps of a grid system, one colour per dispatch.
 pub(crate) const RED_BLACK: Shader = shader!("red_black.wgsl");
+/// Red-black sweeps of a grid system, several colours per dispatch on workgroup-local tiles.
+pub(crate) const RED_BLACK_TILED: Shader = shader!("red_black_tiled.wgsl");
 /// 2x2 box downsampling and bilinear upsampling.
 pub(crate) const PYRAMID: Shader = shader!("pyramid.wgsl", "common/bilinear.wgsl");
 /// Push-pull hole filling: the pull (premultiplied 2x2 sums).
@@ -77,6 +79,7 @@ pub(crate) const DISPLAY: Shader = shader!("display.wgsl", "common/float_bits.wg
 /// Every WGSL shader of the crate as `(name, composed source)` (validated by naga in the tests).
 pub const SHADERS: &[(&str, &str)] = &[
     RED_BLACK,
+    RED_BLACK_TILED,
     PYRAMID,
     PUSHPULL_PULL,
     PUSHPULL_PUSH,

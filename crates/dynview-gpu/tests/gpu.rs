@@ -3,7 +3,7 @@
 
 use dynview_core::raster::Rgb;
 use dynview_core::render::solve::{DepthTerms, GridSystem};
-use dynview_gpu::{GpuContext, GridSolver, SHADERS};
+use dynview_gpu::{GpuContext, GridSolver, SHADERS, SweepKernel};
 
 /// Largest difference allowed between a GPU and a CPU solve after 24 sweeps, relative to the
 /// solution's range. Both do the same float operations in the same order; the GPU may fuse a
@@ -60,8 +60,8 @@ fn max_difference(a: &[f32], b: &[f32]) -> f32 {
 #[test]
 fn depth_sweeps_on_the_gpu_match_the_cpu() {
     let ctx = context();
-    let solver = GridSolver::new(&ctx);
-    // An odd size, so partial workgroups and both parities at the borders are exercised.
+    // An odd size, so partial workgroups and tiles and both parities at the borders are
+    // exercised.
     let (w, h) = (97, 61);
     let sys = depth_terms(w, h).system();
     let start: Vec<f32> = {
@@ -73,20 +73,22 @@ fn depth_sweeps_on_the_gpu_match_the_cpu() {
     for _ in 0..24 {
         sys.sweep(&mut cpu, &mut scratch, 1.6);
     }
-    let mut gpu = start.clone();
-    solver.solve_depth(&ctx, &sys, &mut gpu, 24, 1.6).unwrap();
-    let range = 5.0;
-    let diff = max_difference(&cpu, &gpu);
-    assert!(diff <= MAX_RELATIVE_DIFFERENCE * range, "GPU vs CPU depth after 24 sweeps: max difference {diff} ({})", ctx.adapter_info.name);
-    // And the sweeps did something: the solution moved and the residual fell.
-    assert!(max_difference(&start, &gpu) > 0.1);
-    assert!(sys.relative_residual(&gpu) < sys.relative_residual(&start) * 0.5);
+    for kernel in [SweepKernel::PerColour, SweepKernel::Tiled] {
+        let mut gpu = start.clone();
+        GridSolver::with_kernel(&ctx, kernel).solve_depth(&ctx, &sys, &mut gpu, 24, 1.6).unwrap();
+        let range = 5.0;
+        let diff = max_difference(&cpu, &gpu);
+        let adapter = &ctx.adapter_info.name;
+        assert!(diff <= MAX_RELATIVE_DIFFERENCE * range, "{kernel:?} GPU vs CPU depth after 24 sweeps: max difference {diff} ({adapter})");
+        // And the sweeps did something: the solution moved and the residual fell.
+        assert!(max_difference(&start, &gpu) > 0.1);
+        assert!(sys.relative_residual(&gpu) < sys.relative_residual(&start) * 0.5);
+    }
 }
 
 #[test]
 fn color_sweeps_on_the_gpu_match_the_cpu() {
     let ctx = context();
-    let solver = GridSolver::new(&ctx);
     let (w, h) = (64, 33);
     let n = w * h;
     let mut r = noise(11);
@@ -108,11 +110,13 @@ fn color_sweeps_on_the_gpu_match_the_cpu() {
     for _ in 0..12 {
         sys.sweep(&mut cpu, &mut scratch, 1.6);
     }
-    let mut gpu = start.clone();
-    solver.solve_color(&ctx, &sys, &mut gpu, 12, 1.6).unwrap();
-    let diff = max_difference(bytemuck_flat(&cpu), bytemuck_flat(&gpu));
-    assert!(diff <= MAX_RELATIVE_DIFFERENCE, "GPU vs CPU color after 12 sweeps: max difference {diff}");
-    assert!(max_difference(bytemuck_flat(&start), bytemuck_flat(&gpu)) > 0.05);
+    for kernel in [SweepKernel::PerColour, SweepKernel::Tiled] {
+        let mut gpu = start.clone();
+        GridSolver::with_kernel(&ctx, kernel).solve_color(&ctx, &sys, &mut gpu, 12, 1.6).unwrap();
+        let diff = max_difference(bytemuck_flat(&cpu), bytemuck_flat(&gpu));
+        assert!(diff <= MAX_RELATIVE_DIFFERENCE, "{kernel:?} GPU vs CPU color after 12 sweeps: max difference {diff}");
+        assert!(max_difference(bytemuck_flat(&start), bytemuck_flat(&gpu)) > 0.05);
+    }
 }
 
 fn bytemuck_flat(v: &[Rgb]) -> &[f32] {
