@@ -23,9 +23,9 @@ macro_rules! shader {
 }
 
 /// Red-black sweeps of a grid system, one colour per dispatch.
-pub(crate) const RED_BLACK: Shader = shader!("red_black.wgsl");
+pub(crate) const RED_BLACK: Shader = shader!("red_black.wgsl", "common/grid_system.wgsl");
 /// Red-black sweeps of a grid system, several colours per dispatch on workgroup-local tiles.
-pub(crate) const RED_BLACK_TILED: Shader = shader!("red_black_tiled.wgsl");
+pub(crate) const RED_BLACK_TILED: Shader = shader!("red_black_tiled.wgsl", "common/grid_system.wgsl");
 /// 2x2 box downsampling and bilinear upsampling.
 pub(crate) const PYRAMID: Shader = shader!("pyramid.wgsl", "common/bilinear.wgsl");
 /// Push-pull hole filling: the pull (premultiplied 2x2 sums).

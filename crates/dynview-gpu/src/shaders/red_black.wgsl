@@ -18,13 +18,7 @@ struct Params {
 };
 
 @group(0) @binding(0) var<uniform> params: Params;
-// Coupling of pixel i with i + 1 (0 in the last column).
-@group(0) @binding(1) var<storage, read> right: array<f32>;
-// Coupling of pixel i with i + width (0 in the last row).
-@group(0) @binding(2) var<storage, read> down: array<f32>;
-// 1 / diag_i.
-@group(0) @binding(3) var<storage, read> inv_diag: array<f32>;
-@group(0) @binding(4) var<storage, read> rhs: array<f32>;
+// Bindings 1 to 4: the system (common/grid_system.wgsl).
 @group(0) @binding(5) var<storage, read_write> u: array<f32>;
 
 @compute @workgroup_size(8, 8)
