@@ -120,6 +120,10 @@ pub fn match_all_pairs(
     Ok(verified.into_iter().filter(|(_, _, v)| !v.inliers.is_empty()).collect())
 }
 
+/// [`KeyframeModel::focal_source`] of a camera whose focal length nothing measured: no pair
+/// self-calibrated and none was given (later notes are appended to it).
+pub const PRIOR_FOCAL_SOURCE: &str = "prior (1.2 x longer side)";
+
 /// Initial intrinsics per camera: the known ones, else self-calibration, else the prior.
 pub fn initial_intrinsics(
     frames: &EventFrames,
@@ -155,9 +159,7 @@ pub fn initial_intrinsics(
                 (None, Some(factor)) => {
                     (Intrinsics::centred(factor * longer, c.width, c.height), format!("self-calibrated ({factor:.3} x {longer})"))
                 }
-                (None, None) => {
-                    (Intrinsics::centred(PRIOR_FOCAL_FACTOR * longer, c.width, c.height), "prior (1.2 x longer side)".to_string())
-                }
+                (None, None) => (Intrinsics::centred(PRIOR_FOCAL_FACTOR * longer, c.width, c.height), PRIOR_FOCAL_SOURCE.to_string()),
             }
         })
         .unzip()
