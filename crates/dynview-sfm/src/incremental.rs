@@ -484,25 +484,53 @@ impl Mapper<'_> {
             let pixels = |image: usize, side: usize| -> Vec<Vector2<f64>> {
                 pair.inliers.iter().map(|m| self.observation(image, m[side])).collect()
             };
-            let (k_new, k_placed) = (self.intrinsics[self.images[new].camera], self.intrinsics[self.images[placed].camera]);
-            let Some(relative) = relative_pose(&k_placed, &k_new, &pixels(placed, placed_side), &pixels(new, new_side))? else {
-                continue;
-            };
+            let camera = self.images[new].camera;
+            let k_placed = self.intrinsics[self.images[placed].camera];
             let Some(placed_pose) = self.poses[placed] else { continue };
-            if relative.in_front < self.options.min_initial_points {
-                continue;
-            }
             let correspondences = self.correspondences(new);
             let min_inliers = MIN_PAIR_SCALE_INLIERS.max(correspondences.len().div_ceil(2));
-            if let Some((pose, _)) =
-                place_along(&k_new, &placed_pose, &relative, &correspondences, self.options.max_reprojection_px, min_inliers)
-            {
-                self.poses[new] = Some(pose);
-                self.placed_from_pair.push(new);
-                return Ok(Some(new));
+            for k_new in self.pair_focals(camera) {
+                let Some(relative) = relative_pose(&k_placed, &k_new, &pixels(placed, placed_side), &pixels(new, new_side))? else {
+                    continue;
+                };
+                if relative.in_front < self.options.min_initial_points {
+                    continue;
+                }
+                if let Some((pose, _)) =
+                    place_along(&k_new, &placed_pose, &relative, &correspondences, self.options.max_reprojection_px, min_inliers)
+                {
+                    self.poses[new] = Some(pose);
+                    self.intrinsics[camera] = k_new;
+                    self.placed_from_pair.push(new);
+                    return Ok(Some(new));
+                }
             }
         }
         Ok(None)
+    }
+
+    /// The intrinsics to place an image of `camera` from a pair under: its own, then, for a
+    /// camera with no image placed yet whose focal may be refined, its own with the median
+    /// focal of the placed cameras (every camera starts from one focal, the self-calibration or
+    /// the prior, which bundle adjustment has since refined for the placed ones: on the temple
+    /// ring as 16 one-frame cameras the prior is half the true focal and the placed cameras'
+    /// median within 1% of it).
+    fn pair_focals(&self, camera: usize) -> Vec<Intrinsics> {
+        let own = self.intrinsics[camera];
+        let unplaced = !(0..self.images.len()).any(|j| self.images[j].camera == camera && self.poses[j].is_some());
+        let longer = |k: &Intrinsics| 2.0 * k.cx_px.max(k.cy_px) + 1.0;
+        let mut factors: Vec<f64> = (0..self.images.len())
+            .filter(|&j| self.poses[j].is_some())
+            .map(|j| &self.intrinsics[self.images[j].camera])
+            .map(|k| k.focal_px / longer(k))
+            .collect();
+        factors.sort_by(f64::total_cmp);
+        match factors.get(factors.len() / 2) {
+            Some(&factor) if self.options.refine_focal && unplaced && (factor * longer(&own) / own.focal_px - 1.0).abs() > 0.01 => {
+                vec![own, Intrinsics { focal_px: factor * longer(&own), ..own }]
+            }
+            _ => vec![own],
+        }
     }
 
     fn next_image(&self, failed: &[bool]) -> Option<usize> {
