@@ -167,6 +167,12 @@ struct Mapper<'a> {
     placed_from_pair: Vec<usize>,
 }
 
+/// The longer side of the image of a camera with intrinsics `k`, from its principal point (pixel
+/// centres at integers: a centred principal point is at (width - 1) / 2).
+fn longer_side_px(k: &Intrinsics) -> f64 {
+    2.0 * k.cx_px.max(k.cy_px) + 1.0
+}
+
 fn pixel(xy: [f32; 2]) -> Vector2<f64> {
     Vector2::new(f64::from(xy[0]), f64::from(xy[1]))
 }
@@ -338,17 +344,10 @@ impl Mapper<'_> {
     /// the Panoptic arc, 2 of its 8 cameras).
     fn first_focal(&self, camera: usize, object: &Vector<Point3d>, image: &Vector<Point2d>) -> SfmResult<Option<Intrinsics>> {
         let current = self.intrinsics[camera];
-        let longer = |k: &Intrinsics| 2.0 * k.cx_px.max(k.cy_px) + 1.0;
-        let mut placed: Vec<f64> = (0..self.images.len())
-            .filter(|&j| self.poses[j].is_some())
-            .map(|j| &self.intrinsics[self.images[j].camera])
-            .map(|k| k.focal_px / longer(k))
-            .collect();
-        placed.sort_by(f64::total_cmp);
         let mut factors: Vec<f64> = (0..=14).map(|n| 0.5 * 1.104_f64.powi(n)).collect();
-        factors.extend(placed.get(placed.len() / 2));
+        factors.extend(self.placed_focal_factor());
         let mut best: Option<(Intrinsics, usize)> = None;
-        for focal_px in factors.iter().map(|f| f * longer(&current)) {
+        for focal_px in factors.iter().map(|f| f * longer_side_px(&current)) {
             let k = Intrinsics { focal_px, ..current };
             if let Some((_, inliers)) = pnp_ransac(&k, object, image, self.options.max_reprojection_px, 500, 0.999)?
                 && best.is_none_or(|(_, most)| inliers > most)
@@ -518,19 +517,23 @@ impl Mapper<'_> {
     fn pair_focals(&self, camera: usize) -> Vec<Intrinsics> {
         let own = self.intrinsics[camera];
         let unplaced = !(0..self.images.len()).any(|j| self.images[j].camera == camera && self.poses[j].is_some());
-        let longer = |k: &Intrinsics| 2.0 * k.cx_px.max(k.cy_px) + 1.0;
-        let mut factors: Vec<f64> = (0..self.images.len())
-            .filter(|&j| self.poses[j].is_some())
-            .map(|j| &self.intrinsics[self.images[j].camera])
-            .map(|k| k.focal_px / longer(k))
-            .collect();
-        factors.sort_by(f64::total_cmp);
-        match factors.get(factors.len() / 2) {
-            Some(&factor) if self.options.refine_focal && unplaced && (factor * longer(&own) / own.focal_px - 1.0).abs() > 0.01 => {
-                vec![own, Intrinsics { focal_px: factor * longer(&own), ..own }]
+        match self.placed_focal_factor().map(|factor| factor * longer_side_px(&own)) {
+            Some(focal_px) if self.options.refine_focal && unplaced && (focal_px / own.focal_px - 1.0).abs() > 0.01 => {
+                vec![own, Intrinsics { focal_px, ..own }]
             }
             _ => vec![own],
         }
+    }
+
+    /// The median focal of the images placed so far, in longer sides of their camera's image.
+    fn placed_focal_factor(&self) -> Option<f64> {
+        let mut factors: Vec<f64> = (0..self.images.len())
+            .filter(|&j| self.poses[j].is_some())
+            .map(|j| &self.intrinsics[self.images[j].camera])
+            .map(|k| k.focal_px / longer_side_px(k))
+            .collect();
+        factors.sort_by(f64::total_cmp);
+        factors.get(factors.len() / 2).copied()
     }
 
     fn next_image(&self, failed: &[bool]) -> Option<usize> {
