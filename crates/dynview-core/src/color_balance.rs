@@ -86,40 +86,35 @@ const ROUNDS: usize = 3;
 /// The color samples of one point: `(camera, color)` for each camera that sees it.
 pub type PointSamples = Vec<(usize, Rgb)>;
 
-/// Gathers, for every point of each step that at least two cameras see unoccluded, its color in
-/// each of them (the nearest pixel; the image border left out). `steps` holds, per time step,
-/// the cloud and every camera (in the same order at every step).
-pub fn gather_samples(steps: &[(&PointCloud, Vec<CameraFrame>)]) -> Vec<PointSamples> {
-    let mut samples = Vec::new();
-    for (cloud, cameras) in steps {
-        let mut per_point: Vec<PointSamples> = vec![Vec::new(); cloud.len()];
-        for (c, view) in cameras.iter().enumerate() {
-            let (w, h) = (view.camera.width_px as usize, view.camera.height_px as usize);
-            // A frame of another size than its camera, or too small to hold an interior pixel,
-            // gives no samples.
-            if (view.frame.width, view.frame.height) != (w, h) || w < 3 || h < 3 {
+/// Gathers, for every point of `cloud` that at least two of `cameras` (one time step) see
+/// unoccluded, its color in each of them (the nearest pixel; the image border left out).
+pub fn gather_samples(cloud: &PointCloud, cameras: &[CameraFrame]) -> Vec<PointSamples> {
+    let mut per_point: Vec<PointSamples> = vec![Vec::new(); cloud.len()];
+    for (c, view) in cameras.iter().enumerate() {
+        let (w, h) = (view.camera.width_px as usize, view.camera.height_px as usize);
+        // A frame of another size than its camera, or too small to hold an interior pixel,
+        // gives no samples.
+        if (view.frame.width, view.frame.height) != (w, h) || w < 3 || h < 3 {
+            continue;
+        }
+        let mut maps = project_cloud(cloud, &view.camera);
+        maps.drop_inconsistent(CONSISTENCY_RATIO, None);
+        for (i, p) in cloud.positions_world.iter().enumerate() {
+            let Some((uv, z)) = view.camera.project_world(glam::DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))) else {
+                continue;
+            };
+            let (x, y) = (uv.x.round(), uv.y.round());
+            if !(x >= 1.0 && y >= 1.0 && x < (w - 1) as f64 && y < (h - 1) as f64) {
                 continue;
             }
-            let mut maps = project_cloud(cloud, &view.camera);
-            maps.drop_inconsistent(CONSISTENCY_RATIO, None);
-            for (i, p) in cloud.positions_world.iter().enumerate() {
-                let Some((uv, z)) = view.camera.project_world(glam::DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))) else {
-                    continue;
-                };
-                let (x, y) = (uv.x.round(), uv.y.round());
-                if !(x >= 1.0 && y >= 1.0 && x < (w - 1) as f64 && y < (h - 1) as f64) {
-                    continue;
-                }
-                let j = y as usize * w + x as usize;
-                let seen = maps.depth.data[j];
-                if maps.mask.data[j] > 0.0 && (z as f32) <= seen * (1.0 + VISIBLE_DEPTH_RATIO) {
-                    per_point[i].push((c, view.frame.data[j]));
-                }
+            let j = y as usize * w + x as usize;
+            let seen = maps.depth.data[j];
+            if maps.mask.data[j] > 0.0 && (z as f32) <= seen * (1.0 + VISIBLE_DEPTH_RATIO) {
+                per_point[i].push((c, view.frame.data[j]));
             }
         }
-        samples.extend(per_point.into_iter().filter(|s| s.len() >= 2));
     }
-    samples
+    per_point.into_iter().filter(|s| s.len() >= 2).collect()
 }
 
 /// The maps of `cameras` cameras from the samples of [`gather_samples`], and each camera's
@@ -276,8 +271,8 @@ mod tests {
         let cameras: Vec<Camera> = (0..responses.len()).map(|c| camera(-0.6 + 0.4 * c as f64)).collect();
         let frames: Vec<RgbRaster> = cameras.iter().zip(responses).map(|(cam, r)| film(cam, r)).collect();
         let cloud = cloud();
-        let views = cameras.iter().zip(&frames).map(|(camera, frame)| CameraFrame { camera: *camera, frame }).collect();
-        estimate(&gather_samples(&[(&cloud, views)]), responses.len())
+        let views: Vec<CameraFrame> = cameras.iter().zip(&frames).map(|(camera, frame)| CameraFrame { camera: *camera, frame }).collect();
+        estimate(&gather_samples(&cloud, &views), responses.len())
     }
 
     #[test]
@@ -321,8 +316,8 @@ mod tests {
         // The third camera looks away: a frame of another size than its camera is skipped.
         frames[2] = RgbRaster::filled(8, 8, [0.5; 3]);
         let cloud = cloud();
-        let views = cameras.iter().zip(&frames).map(|(camera, frame)| CameraFrame { camera: *camera, frame }).collect();
-        let (maps, counts) = estimate(&gather_samples(&[(&cloud, views)]), 3);
+        let views: Vec<CameraFrame> = cameras.iter().zip(&frames).map(|(camera, frame)| CameraFrame { camera: *camera, frame }).collect();
+        let (maps, counts) = estimate(&gather_samples(&cloud, &views), 3);
         assert_eq!(counts[2], 0);
         assert_eq!(maps[2], ColorTransform::IDENTITY);
         let a = maps[0].apply([0.4; 3]);

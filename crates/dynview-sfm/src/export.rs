@@ -299,7 +299,7 @@ fn balance_colors(source_of: &[&Source], manifest: &mut Manifest, warnings: &mut
         let frames: Vec<_> = work_frames(source_of[t], manifest, t)?.iter().map(dynview_core::RgbRaster::from_rgb8).collect();
         let cameras: Vec<CameraFrame> =
             frames.iter().enumerate().map(|(c, frame)| CameraFrame { camera: manifest.camera_at(c, t as u32), frame }).collect();
-        samples.extend(color_balance::gather_samples(&[(&cloud, cameras)]));
+        samples.extend(color_balance::gather_samples(&cloud, &cameras));
     }
     progress("color balance", chosen.len() as u64, chosen.len() as u64);
     let (maps, counts) = color_balance::estimate(&samples, manifest.cameras.len());

@@ -46,22 +46,18 @@ fn every_view_of_the_temple_ring_is_registered_accurately() {
 fn two_views_placed_with_a_guessed_focal_length_are_refused_by_name() {
     let dir = tempfile::tempdir().expect("temp dir");
     let dataset = prepare("temple", dir.path()).expect("the temple ring from ../shared/data/middlebury-temple-sparse-ring");
-    let mut files: Vec<_> = walk(&dataset.images_dir);
-    files.sort();
+    let files = ring_views(&dataset.images_dir);
     assert_eq!(files.len(), 16);
     let input = dir.path().join("six");
-    for (i, file) in files.iter().step_by(3).enumerate() {
-        let camera = input.join(format!("cam{i}"));
-        std::fs::create_dir_all(&camera).expect("camera folder");
-        std::fs::copy(file, camera.join("00000.png")).expect("copy");
-    }
+    let six: Vec<_> = files.iter().step_by(3).collect();
+    let names = one_frame_cameras(&six, &input, |i| format!("cam{i}"));
     let options = PrepOptions { stop_after: Stage::Keyframes, ..PrepOptions::default() };
     let error = run(&input, &dir.path().join("guessed"), &options, &|_, _, _| {}, &AtomicBool::new(false))
         .expect_err("two views on a guessed focal length")
         .to_string();
     assert!(error.contains("only two views could be placed") && error.contains("not trusted"), "{error}");
     assert!(error.contains("could not be placed") && error.contains("--focal"), "{error}");
-    let placed = (0..6).filter(|i| error.contains(&format!("cam{i} 00000.png"))).count();
+    let placed = names.iter().filter(|name| error.contains(&format!("{name} 00000.png"))).count();
     assert_eq!(placed, 2, "{error}");
     // The temple's true focal length: the same views are kept.
     let given = PrepOptions { focal_px_all: Some(1520.4), ..options };
@@ -79,16 +75,13 @@ fn two_views_placed_with_a_guessed_focal_length_are_refused_by_name() {
 fn every_view_of_the_ring_as_its_own_camera_is_registered() {
     let dir = tempfile::tempdir().expect("temp dir");
     let dataset = prepare("temple", dir.path()).expect("the temple ring from ../shared/data/middlebury-temple-sparse-ring");
-    let mut files: Vec<_> = walk(&dataset.images_dir);
-    files.sort();
+    let files = ring_views(&dataset.images_dir);
     let input = dir.path().join("cameras");
+    let names = one_frame_cameras(&files.iter().collect::<Vec<_>>(), &input, |i| format!("cam{i:02}"));
     let mut truth = dynview_eval::sfm_data::Poses::new();
-    for (i, file) in files.iter().enumerate() {
-        let camera = input.join(format!("cam{i:02}"));
-        std::fs::create_dir_all(&camera).expect("camera folder");
-        std::fs::copy(file, camera.join("00000.png")).expect("copy");
+    for (file, camera) in files.iter().zip(&names) {
         let name = file.strip_prefix(&dataset.images_dir).expect("inside the dataset").to_string_lossy().replace('\\', "/");
-        truth.insert(format!("cam{i:02}/00000.png"), dataset.ground_truth[&name]);
+        truth.insert(format!("{camera}/00000.png"), dataset.ground_truth[&name]);
     }
     let out = dir.path().join("out");
     let options = PrepOptions { stop_after: Stage::Keyframes, ..PrepOptions::default() };
@@ -102,6 +95,29 @@ fn every_view_of_the_ring_as_its_own_camera_is_registered() {
     assert_eq!((report.keyframes_registered, accuracy.registered), (16, 16), "placed from pairs: {:?}", report.keyframes_placed_from_pair);
     assert!(!report.keyframes_placed_from_pair.is_empty(), "PnP alone registered every view: the test no longer covers pair placement");
     assert!(accuracy.rotation_error_median_deg <= 1.0, "rotation median {:.3} deg", accuracy.rotation_error_median_deg);
+}
+
+/// Every view of the ring under `dir`, in file-name order.
+fn ring_views(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut files = walk(dir);
+    files.sort();
+    files
+}
+
+/// Copies each of `views` into a camera folder of its own under `input`, as its one frame
+/// `00000.png`; returns the cameras' names (`name(i)` for the i-th view).
+fn one_frame_cameras(views: &[&std::path::PathBuf], input: &std::path::Path, name: impl Fn(usize) -> String) -> Vec<String> {
+    views
+        .iter()
+        .enumerate()
+        .map(|(i, file)| {
+            let camera = name(i);
+            let folder = input.join(&camera);
+            std::fs::create_dir_all(&folder).expect("camera folder");
+            std::fs::copy(file, folder.join("00000.png")).expect("copy");
+            camera
+        })
+        .collect()
 }
 
 /// Every file under `dir`.
