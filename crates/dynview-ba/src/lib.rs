@@ -31,6 +31,7 @@
 //!     points_world,
 //!     observations,
 //!     priors: vec![],
+//!     held_intrinsics: vec![],
 //! };
 //! let options = Options { refine_focal: false, refine_distortion: false, ..Options::default() };
 //! let report = solve(&mut problem, &options).unwrap();
@@ -52,6 +53,6 @@ pub use options::{
     DEFAULT_FUNCTION_TOLERANCE, DEFAULT_GRADIENT_TOLERANCE, DEFAULT_LOSS_SCALE_PX, DEFAULT_MAX_ITERATIONS, DEFAULT_PARAMETER_TOLERANCE,
     Options, Report, Termination,
 };
-pub use problem::{CameraIntrinsics, ImagePose, Observation, Problem, SmoothnessPrior};
+pub use problem::{CameraIntrinsics, HeldIntrinsics, ImagePose, Observation, Problem, SmoothnessPrior};
 pub use projection::{pixel_from_world, reprojection_errors_px};
-pub use solver::{principal_point_std_px, solve};
+pub use solver::{IntrinsicsStd, intrinsics_std, solve};

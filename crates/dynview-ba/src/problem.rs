@@ -72,6 +72,32 @@ pub struct SmoothnessPrior {
     pub weight_rotation: f64,
 }
 
+/// Which intrinsics of one camera stay as they are, whatever [`crate::Options`] refines: those
+/// the user gave (a calibration, or a focal length alone).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct HeldIntrinsics {
+    /// Keep `focal_px`.
+    pub focal: bool,
+    /// Keep `cx_px` and `cy_px`.
+    pub principal_point: bool,
+    /// Keep `k1` and `k2`.
+    pub distortion: bool,
+}
+
+impl HeldIntrinsics {
+    /// Every intrinsic held (a full calibration).
+    pub const ALL: Self = Self { focal: true, principal_point: true, distortion: true };
+
+    /// Whether the intrinsic with index `index` in `[focal_px, cx_px, cy_px, k1, k2]` is held.
+    pub fn holds(&self, index: usize) -> bool {
+        match index {
+            0 => self.focal,
+            1 | 2 => self.principal_point,
+            _ => self.distortion,
+        }
+    }
+}
+
 /// A bundle adjustment problem; [`crate::solve`] updates it in place.
 ///
 /// The cost is `sum_obs rho(||pixel(obs) - observation.pixel||^2) + sum_priors (...)` with
@@ -94,6 +120,16 @@ pub struct Problem {
     pub observations: Vec<Observation>,
     /// Smoothness priors between image poses.
     pub priors: Vec<SmoothnessPrior>,
+    /// Per camera, the intrinsics held as they are; empty: none held (every camera refines
+    /// what the options ask).
+    pub held_intrinsics: Vec<HeldIntrinsics>,
+}
+
+impl Problem {
+    /// What camera `camera` holds (nothing when `held_intrinsics` is empty).
+    pub fn held(&self, camera: usize) -> HeldIntrinsics {
+        self.held_intrinsics.get(camera).copied().unwrap_or_default()
+    }
 }
 
 impl Problem {
@@ -102,6 +138,9 @@ impl Problem {
         check_length("image_camera", self.image_camera.len(), "images", self.images.len())?;
         check_length("image_fixed", self.image_fixed.len(), "images", self.images.len())?;
         check_length("point_fixed", self.point_fixed.len(), "points_world", self.points_world.len())?;
+        if !self.held_intrinsics.is_empty() {
+            check_length("held_intrinsics", self.held_intrinsics.len(), "cameras", self.cameras.len())?;
+        }
         for (index, camera) in self.cameras.iter().enumerate() {
             let values = [camera.focal_px, camera.cx_px, camera.cy_px, camera.k1, camera.k2];
             for (name, value) in ["focal_px", "cx_px", "cy_px", "k1", "k2"].iter().zip(values) {

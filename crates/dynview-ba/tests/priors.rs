@@ -46,6 +46,7 @@ fn smooth_sequence(seed: u64) -> Problem {
         points_world,
         observations,
         priors: Vec::new(),
+        held_intrinsics: Vec::new(),
     }
 }
 

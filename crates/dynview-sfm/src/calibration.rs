@@ -11,6 +11,7 @@ use opencv::imgcodecs;
 use opencv::prelude::*;
 use rayon::prelude::*;
 
+use dynview_ba::HeldIntrinsics;
 use dynview_core::StageProgress;
 use dynview_core::fsutil::write_atomic;
 use dynview_interchange::poses::{CameraPoses, EventPoses};
@@ -47,9 +48,39 @@ pub fn calibration_for<'a>(given: &'a EventPoses, path: &Path, frames: &EventFra
         .collect()
 }
 
-/// Known intrinsics by camera name (undistorted: the frames are undistorted first).
-pub fn known_intrinsics(calibration: &[&CameraPoses]) -> BTreeMap<String, Intrinsics> {
-    calibration.iter().map(|c| (c.name.clone(), Intrinsics::from_pinhole(&c.intrinsics))).collect()
+/// Intrinsics the user gave for one camera, which bundle adjustment keeps as given.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct KnownIntrinsics {
+    /// The intrinsics (undistorted: the frames are undistorted first).
+    pub intrinsics: Intrinsics,
+    /// A whole calibration (`--intrinsics`, `--poses`): every intrinsic is held. Otherwise a
+    /// focal length alone (`--focal`): the focal is held and the principal point estimated as
+    /// for any camera.
+    pub calibrated: bool,
+}
+
+impl KnownIntrinsics {
+    /// A focal length alone, the principal point at the centre of a `width` x `height` image.
+    pub fn focal(focal_px: f64, width: u32, height: u32) -> Self {
+        Self { intrinsics: Intrinsics::centred(focal_px, width, height), calibrated: false }
+    }
+
+    /// What bundle adjustment holds.
+    pub fn held(&self) -> HeldIntrinsics {
+        if self.calibrated { HeldIntrinsics::ALL } else { HeldIntrinsics { focal: true, ..HeldIntrinsics::default() } }
+    }
+}
+
+/// Known intrinsics by camera name, every one held as given.
+pub type KnownCameras = BTreeMap<String, KnownIntrinsics>;
+
+/// Known intrinsics by camera name from a calibration (undistorted: the frames are undistorted
+/// first).
+pub fn known_intrinsics(calibration: &[&CameraPoses]) -> KnownCameras {
+    calibration
+        .iter()
+        .map(|c| (c.name.clone(), KnownIntrinsics { intrinsics: Intrinsics::from_pinhole(&c.intrinsics), calibrated: true }))
+        .collect()
 }
 
 /// Undistorts the frames of every camera whose calibration has a distortion into

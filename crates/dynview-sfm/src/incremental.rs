@@ -1,6 +1,7 @@
 //! Incremental structure from motion on keyframes: initial pair, registration by PnP,
 //! triangulation of tracks, bundle adjustment with a robust loss, outlier filtering.
 
+use dynview_ba::HeldIntrinsics;
 use dynview_core::StageProgress;
 use nalgebra::{Matrix3, Vector2, Vector3};
 use opencv::core::{Point2d, Point3d, Vector};
@@ -32,7 +33,7 @@ pub struct MapperOptions {
     /// everything). Off by default: cameras at an event are different phones and zooms, and
     /// equal image sizes say nothing about equal intrinsics.
     pub share_intrinsics: bool,
-    /// Refine the focal lengths in bundle adjustment (off when every focal is given).
+    /// Refine the focal lengths in bundle adjustment (those the user did not give).
     pub refine_focal: bool,
     /// Refine the principal points in the final bundle adjustment where the data fix them
     /// better than their usual distance from the centre ([`PRINCIPAL_POINT_PRIOR_FRACTION`];
@@ -107,6 +108,10 @@ pub struct Reconstruction {
     /// refined, measured by the final adjustment's trial; `None` where not measured.
     #[serde(default)]
     pub principal_point_std_px: Vec<Option<f64>>,
+    /// Per physical camera, the standard deviation (px) of its refined focal length in the
+    /// final adjustment; `None` where it was held or not measured.
+    #[serde(default)]
+    pub focal_std_px: Vec<Option<f64>>,
     /// Whether the final adjustment kept the refined principal points.
     #[serde(default)]
     pub principal_point_refined: bool,
@@ -154,12 +159,15 @@ struct Mapper<'a> {
     tracks: Tracks,
     options: &'a MapperOptions,
     intrinsics: Vec<Intrinsics>,
+    /// Per physical camera, the intrinsics the user gave (held as given).
+    held: Vec<HeldIntrinsics>,
     poses: Vec<Option<Pose>>,
     /// Per track: its point (index into `points`), if triangulated.
     point_of_track: Vec<Option<usize>>,
     points: Vec<Option<MapPoint>>,
     fixed_image: usize,
     principal_point_std_px: Vec<Option<f64>>,
+    focal_std_px: Vec<Option<f64>>,
     principal_point_refined: bool,
     /// Per physical camera, how far its principal point usually lies from the centre (px).
     principal_prior_px: Vec<f64>,
@@ -299,7 +307,7 @@ impl Mapper<'_> {
             return Ok(true);
         }
         let placed = (0..self.images.len()).any(|j| self.images[j].camera == camera && self.poses[j].is_some());
-        if self.options.refine_focal && !placed {
+        if self.options.refine_focal && !self.held[camera].focal && !placed {
             // The camera's first image: its focal may be far off (`first_focal`).
             if let Some(k) = self.first_focal(camera, &object, &image)?
                 && let Some(pose) = self.pose_by_pnp(&k, &object, &image)?
@@ -383,6 +391,7 @@ impl Mapper<'_> {
             point_fixed: vec![false; point_ids.len()],
             observations: Vec::new(),
             priors: Vec::new(),
+            held_intrinsics: self.held.clone(),
         };
         for (s, &p) in point_ids.iter().enumerate() {
             for &(i, f) in &self.points[p].as_ref().map_or(&Vec::new(), |q| &q.observations).clone() {
@@ -401,22 +410,30 @@ impl Mapper<'_> {
         // tries, and keeps the result when every camera's standard deviation is within its
         // prior (PRINCIPAL_POINT_PRIOR_FRACTION); otherwise they stay where they were (the
         // image centre).
-        let mut solved = false;
+        let mut solved = None;
         if last && self.options.refine_principal_point {
             let trial_options = dynview_ba::Options { refine_principal_point: true, ..options };
             let mut trial = problem.clone();
             let report = dynview_ba::solve(&mut trial, &trial_options)?;
-            let std_px = dynview_ba::principal_point_std_px(&trial, &trial_options, report.final_rms_px)?;
+            let std = dynview_ba::intrinsics_std(&trial, &trial_options, report.final_rms_px)?;
+            let std_px: Vec<Option<f64>> = std.iter().map(|s| s.principal_point_px).collect();
             let fixed = std_px.iter().zip(&self.principal_prior_px).all(|(s, prior)| s.is_none_or(|s| s <= *prior));
             self.principal_point_std_px = std_px;
             self.principal_point_refined = fixed;
             if fixed {
                 problem = trial;
-                solved = true;
+                solved = Some(std);
             }
         }
-        if !solved {
-            dynview_ba::solve(&mut problem, &options)?;
+        let std = match solved {
+            Some(std) => std,
+            None => {
+                let report = dynview_ba::solve(&mut problem, &options)?;
+                if last { dynview_ba::intrinsics_std(&problem, &options, report.final_rms_px)? } else { Vec::new() }
+            }
+        };
+        if last {
+            self.focal_std_px = std.iter().map(|s| s.focal_px).collect();
         }
         for (s, &i) in image_ids.iter().enumerate() {
             let p = &problem.images[s];
@@ -518,7 +535,9 @@ impl Mapper<'_> {
         let own = self.intrinsics[camera];
         let unplaced = !(0..self.images.len()).any(|j| self.images[j].camera == camera && self.poses[j].is_some());
         match self.placed_focal_factor().map(|factor| factor * longer_side_px(&own)) {
-            Some(focal_px) if self.options.refine_focal && unplaced && (focal_px / own.focal_px - 1.0).abs() > 0.01 => {
+            Some(focal_px)
+                if self.options.refine_focal && !self.held[camera].focal && unplaced && (focal_px / own.focal_px - 1.0).abs() > 0.01 =>
+            {
                 vec![own, Intrinsics { focal_px, ..own }]
             }
             _ => vec![own],
@@ -561,6 +580,7 @@ pub fn refine_pose(k: &Intrinsics, pose: Pose, correspondences: &[([f64; 3], [f6
         point_fixed: vec![true; correspondences.len()],
         observations: correspondences.iter().enumerate().map(|(p, c)| dynview_ba::Observation { image: 0, point: p, pixel: c.1 }).collect(),
         priors: Vec::new(),
+        held_intrinsics: Vec::new(),
     };
     let options = dynview_ba::Options {
         loss: dynview_ba::Loss::Cauchy { scale_px: loss_scale_px },
@@ -576,11 +596,13 @@ pub fn refine_pose(k: &Intrinsics, pose: Pose, correspondences: &[([f64; 3], [f6
 }
 
 /// Reconstructs the keyframes `images` from verified `pairs` `(a, b, geometry)` with initial
-/// `intrinsics` per physical camera.
+/// `intrinsics` per physical camera, of which each holds what `held` says (empty: nothing).
+#[allow(clippy::too_many_arguments)]
 pub fn reconstruct(
     images: &[MapImage],
     pairs: &[(usize, usize, TwoView)],
     intrinsics: Vec<Intrinsics>,
+    held: Vec<HeldIntrinsics>,
     match_options: &MatchOptions,
     options: &MapperOptions,
     progress: StageProgress,
@@ -596,11 +618,13 @@ pub fn reconstruct(
         point_of_track: vec![None; tracks.tracks.len()],
         tracks,
         options,
+        held: if held.is_empty() { vec![HeldIntrinsics::default(); intrinsics.len()] } else { held },
         intrinsics,
         poses: vec![None; images.len()],
         points: Vec::new(),
         fixed_image: 0,
         principal_point_std_px: Vec::new(),
+        focal_std_px: Vec::new(),
         principal_point_refined: false,
         principal_prior_px,
         placed_from_pair: Vec::new(),
@@ -683,6 +707,7 @@ pub fn reconstruct(
         poses: mapper.poses,
         points: mapper.points.into_iter().flatten().collect(),
         principal_point_std_px: mapper.principal_point_std_px,
+        focal_std_px: mapper.focal_std_px,
         principal_point_refined: mapper.principal_point_refined,
         placed_from_pair: mapper.placed_from_pair,
     })

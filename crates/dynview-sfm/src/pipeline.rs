@@ -13,17 +13,17 @@ use dynview_core::StageProgress;
 use dynview_core::scene::manifest::PoseEntry;
 use dynview_interchange::poses::{CameraPoses, EventPoses, FramePose, POSES_FILE};
 
-use crate::calibration::{calibration_for, known_intrinsics, read_poses, undistort_frames};
+use crate::calibration::{KnownCameras, KnownIntrinsics, calibration_for, known_intrinsics, read_poses, undistort_frames};
 use crate::error::{SfmError, SfmResult};
 use crate::export::{ExportReport, export_package, usable_poses};
 use crate::features::{FeatureOptions, Features};
 use crate::focal::PRIOR_FOCAL_FACTOR;
-use crate::geometry::{Intrinsics, Pose};
+use crate::geometry::Pose;
 use crate::incremental::MapperOptions;
 use crate::input::{EventFrames, decode_frames, discover, video_fps};
 use crate::keyframes::{
     Keyframe, KeyframeModel, PRIOR_FOCAL_SOURCE, intrinsics_notes, keyframe_features, keyframes, match_all_pairs, reconstruct_keyframes,
-    to_colmap, write_colmap_text,
+    to_colmap, weak_focal_warnings, write_colmap_text,
 };
 use crate::matching::MatchOptions;
 use crate::refine::{CameraTrack, KeyframeView, RefineOptions, RefineReport, refine_camera};
@@ -313,7 +313,7 @@ fn pose_stages(
     // Known calibration: from --intrinsics, else from --poses.
     let calibration_file = options.intrinsics.as_ref().or(options.poses.as_ref());
     let given = calibration_file.map(|p| read_poses(p)).transpose()?;
-    let mut known: BTreeMap<String, Intrinsics> = BTreeMap::new();
+    let mut known = KnownCameras::new();
     if let (Some(given), Some(path)) = (&given, calibration_file) {
         let calibration = calibration_for(given, path, &frames)?;
         frames = undistort_frames(&frames, &calibration, &work.join("undistorted"), progress, interrupt)?;
@@ -323,7 +323,7 @@ fn pose_stages(
         if !known.contains_key(&c.name)
             && let Some(f) = options.focal_px.get(&c.name).copied().or(options.focal_px_all)
         {
-            known.insert(c.name.clone(), Intrinsics::centred(f, c.width, c.height));
+            known.insert(c.name.clone(), KnownIntrinsics::focal(f, c.width, c.height));
         }
     }
     work.write_json("frames.json", &frames)?;
@@ -361,10 +361,7 @@ fn pose_stages(
     }
     lap(report, "keyframe features");
     let key_stage = (&frames, options.keyframe_interval, &options.features, &options.matching, &options.mapper, &known);
-    let mut mapper = options.mapper.clone();
-    if known.len() == frames.cameras.len() {
-        mapper.refine_focal = false;
-    }
+    let mapper = options.mapper.clone();
     let model: KeyframeModel = if work.is_done("keyframes", &key_stage) {
         report.skipped.push("keyframes".into());
         work.read_json("keyframes/model.json")?
@@ -403,6 +400,7 @@ fn pose_stages(
     report.keyframe_rms_px = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
     report.focal_source = model.focal_source.clone();
     report.intrinsics_refined = intrinsics_notes(&frames, &model, &known, &mapper);
+    report.warnings.extend(weak_focal_warnings(&frames, &model, &known, &mapper));
     lap(report, "keyframe reconstruction");
     if options.stop_after == Stage::Keyframes {
         return Ok(None);
@@ -423,7 +421,7 @@ fn pose_stages(
 /// (the prior, 1.2 x the longer side): on 6 views of the Middlebury temple (every third of the
 /// ring) the model placed 2 with a focal 45% short and their relative rotation 10.6 degrees
 /// off. The error names the views placed and the cameras that could not be.
-fn check_two_view_model(frames: &EventFrames, model: &KeyframeModel, known: &BTreeMap<String, Intrinsics>) -> SfmResult<()> {
+fn check_two_view_model(frames: &EventFrames, model: &KeyframeModel, known: &KnownCameras) -> SfmResult<()> {
     let r = &model.reconstruction;
     // Distinct viewpoints: a still camera's pooled keyframes share one pose.
     let mut viewpoints: Vec<(Pose, &Keyframe)> = Vec::new();

@@ -357,6 +357,7 @@ pub fn refine_camera(
             point_fixed: vec![true; used_points.len()],
             observations: Vec::new(),
             priors: Vec::new(),
+            held_intrinsics: Vec::new(),
         };
         for t in 0..n {
             if is_keyframe[t] {

@@ -317,6 +317,7 @@ mod tests {
             poses: vec![Some(pose)],
             points: vec![MapPoint { xyz: nalgebra::Vector3::new(0.0, 0.0, 1.0), observations: vec![(0, 0)] }],
             principal_point_std_px: vec![],
+            focal_std_px: vec![],
             principal_point_refined: false,
             placed_from_pair: vec![0],
         };

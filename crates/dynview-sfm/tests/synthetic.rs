@@ -86,15 +86,21 @@ fn every_frame_is_posed_accurately_and_the_priors_reduce_jitter() {
     let report = run(&input(), out.path(), &options, &|_, _, _| {}, &stop).expect("prep with priors");
     assert_eq!((report.cameras, report.frames), (4, FRAMES as usize));
     assert_eq!(report.keyframes_registered, report.keyframes, "every keyframe registered: {:?}", report.focal_source);
-    // Each camera its own intrinsics; the report says per camera whether the data fixed its
-    // principal point well enough to refine it, with the figure, and the cameras decide alike.
+    // Each camera its own intrinsics; the report says per camera how well the data fix its
+    // focal length, and whether they fixed its principal point well enough to refine it, with
+    // the figure; the cameras decide alike.
     assert_eq!(report.intrinsics_refined.len(), 4);
-    let refined = report.intrinsics_refined.iter().filter(|n| n.starts_with("focal refined, principal point refined (known to ")).count();
-    let kept = report
-        .intrinsics_refined
-        .iter()
-        .filter(|n| n.starts_with("focal refined, principal point kept at the image centre: the data fix it to "))
-        .count();
+    for note in &report.intrinsics_refined {
+        let percent: f64 = note
+            .strip_prefix("focal refined (known to ")
+            .and_then(|rest| rest.split_once("%)"))
+            .and_then(|(figure, _)| figure.parse().ok())
+            .unwrap_or_else(|| panic!("no focal standard deviation in {note:?}"));
+        assert!(percent > 0.0 && percent < 2.0, "{note}");
+    }
+    let refined = report.intrinsics_refined.iter().filter(|n| n.contains("), principal point refined (known to ")).count();
+    let kept =
+        report.intrinsics_refined.iter().filter(|n| n.contains("), principal point kept at the image centre: the data fix it to ")).count();
     assert!(refined == 4 || kept == 4, "{:?}", report.intrinsics_refined);
     assert!(report.intrinsics_refined.iter().all(|n| !n.contains("shared with")), "{:?}", report.intrinsics_refined);
     assert!(report.refine.iter().all(|r| r.frames_repaired == 0), "{:?}", report.refine);

@@ -9,6 +9,7 @@ use dynview_eval::align::{PoseEvalOptions, evaluate_poses};
 use dynview_eval::sfm_data::{poses_from_colmap, read_colmap_text};
 use dynview_eval::sfm_datasets::prepare;
 use dynview_eval::sfm_runners::OURS_MODEL_DIR;
+use dynview_interchange::poses::{CameraPoses, EventPoses, FramePose};
 use dynview_sfm::{PrepOptions, Stage, run};
 
 #[test]
@@ -95,6 +96,67 @@ fn every_view_of_the_ring_as_its_own_camera_is_registered() {
     assert_eq!((report.keyframes_registered, accuracy.registered), (16, 16), "placed from pairs: {:?}", report.keyframes_placed_from_pair);
     assert!(!report.keyframes_placed_from_pair.is_empty(), "PnP alone registered every view: the test no longer covers pair placement");
     assert!(accuracy.rotation_error_median_deg <= 1.0, "rotation median {:.3} deg", accuracy.rotation_error_median_deg);
+}
+
+/// What the user gives is kept: a calibration of the ring's camera keeps its focal length and
+/// principal point exactly; a focal length given for one of the ring's views as 16 one-frame
+/// cameras keeps that focal while the others are refined, each reported with its standard
+/// deviation. (Before, bundle adjustment refined a given focal whenever some camera's was not
+/// given, and a calibration's principal point always.)
+#[test]
+fn given_intrinsics_are_kept_as_given() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let dataset = prepare("temple", dir.path()).expect("the temple ring from ../shared/data/middlebury-temple-sparse-ring");
+    let files = ring_views(&dataset.images_dir);
+    let (name, truth) = dataset.intrinsics.iter().next().expect("the ring's camera");
+    let calibration = EventPoses {
+        cameras: vec![CameraPoses {
+            name: name.clone(),
+            width: 640,
+            height: 480,
+            intrinsics: *truth,
+            distortion: [0.0; 4],
+            frames: files
+                .iter()
+                .map(|f| FramePose { file: f.file_name().expect("a file").to_string_lossy().into_owned(), camera_from_world: None })
+                .collect(),
+        }],
+    };
+    let calibration_file = dir.path().join("calibration.json");
+    calibration.write(&calibration_file).expect("write the calibration");
+    let out = dir.path().join("calibrated");
+    let options =
+        PrepOptions { keyframe_interval: 1, stop_after: Stage::Keyframes, intrinsics: Some(calibration_file), ..PrepOptions::default() };
+    let report = run(&dataset.images_dir, &out, &options, &|_, _, _| {}, &AtomicBool::new(false)).expect("prep with a calibration");
+    assert_eq!(report.intrinsics_refined, vec!["focal kept as given, principal point kept as given".to_string()]);
+    let model = read_colmap_text(&out.join(OURS_MODEL_DIR)).expect("the keyframe model");
+    let params = &model.cameras.values().next().expect("one camera").params;
+    // One focal length (the mean of fx and fy: 1520.4 and 1525.9 here); COLMAP's pixel centres
+    // at +0.5.
+    let focal_px = 0.5 * (truth.fx + truth.fy);
+    assert_eq!(params[..3], [focal_px, truth.cx + 0.5, truth.cy + 0.5], "the calibration changed");
+
+    let input = dir.path().join("cameras");
+    let names = one_frame_cameras(&files.iter().collect::<Vec<_>>(), &input, |i| format!("cam{i:02}"));
+    let out = dir.path().join("one-focal");
+    let options = PrepOptions {
+        stop_after: Stage::Keyframes,
+        focal_px: [(names[0].clone(), focal_px)].into_iter().collect(),
+        ..PrepOptions::default()
+    };
+    let report = run(&input, &out, &options, &|_, _, _| {}, &AtomicBool::new(false)).expect("prep with one focal length");
+    assert!(report.intrinsics_refined[0].starts_with("focal kept as given, "), "{:?}", report.intrinsics_refined);
+    assert!(report.intrinsics_refined[1..].iter().all(|n| n.starts_with("focal refined (known to ")), "{:?}", report.intrinsics_refined);
+    let model = read_colmap_text(&out.join(OURS_MODEL_DIR)).expect("the keyframe model");
+    let focal_of = |camera: &str| {
+        let image = model.images.values().find(|i| i.name.starts_with(&format!("{camera}/"))).expect("registered");
+        model.cameras[&image.camera_id].params[0]
+    };
+    assert_eq!(focal_of(&names[0]), focal_px, "the given focal changed");
+    let refined: Vec<f64> = names[1..].iter().map(|n| focal_of(n)).collect();
+    eprintln!("one focal given: the others' {refined:.1?} px (true {focal_px})");
+    // They start from the prior (1.2 x 640 px, half the true focal) and are refined to it.
+    assert!(refined.iter().all(|f| (f / focal_px - 1.0).abs() < 0.05), "{refined:?}");
 }
 
 /// Every view of the ring under `dir`, in file-name order.

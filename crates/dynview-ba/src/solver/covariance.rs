@@ -1,5 +1,6 @@
-//! How well the data fix the principal points: the marginal covariance of each camera's
-//! `(cx, cy)` from the Gauss-Newton normal equations at the current parameters.
+//! How well the data fix each camera's intrinsics: the marginal standard deviations of its
+//! focal length and principal point from the Gauss-Newton normal equations at the current
+//! parameters.
 
 use super::block_cholesky::NotPositiveDefinite;
 use super::layout::{Layout, NodeKind};
@@ -15,40 +16,58 @@ use crate::problem::Problem;
 /// block of the inverse is that of the pseudo-inverse.
 const GAUGE_DAMPING: f64 = 1e-9;
 
-/// Per camera, the standard deviation (px) of its principal point along its worse axis,
-/// `noise_px * sqrt(max(var cx, var cy))` with the variances from `(J^T J)^-1` (robust
-/// weights as in the solve) after eliminating the points; `None` for a camera whose principal
-/// point is not refined under `options` (or that no observation reaches). `noise_px` is the
-/// standard deviation of one residual coordinate, for example the solve's final RMS.
-pub fn principal_point_std_px(problem: &Problem, options: &Options, noise_px: f64) -> Result<Vec<Option<f64>>, BaError> {
+/// How well the data fix one camera's refined intrinsics; `None` for what is not refined
+/// (held, not asked for by the options, or no observation reaches the camera).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct IntrinsicsStd {
+    /// Standard deviation of the focal length, px.
+    pub focal_px: Option<f64>,
+    /// Standard deviation of the principal point along its worse axis, px.
+    pub principal_point_px: Option<f64>,
+}
+
+/// Per camera, the standard deviations of its refined intrinsics, `noise_px * sqrt(var)` with
+/// the variances from `(J^T J)^-1` (robust weights as in the solve) after eliminating the
+/// points; the principal point's is `sqrt(max(var cx, var cy))`. Each is marginal: it includes
+/// what the other unknowns (poses, points, other intrinsics) leave undetermined. `noise_px` is
+/// the standard deviation of one residual coordinate, for example the solve's final RMS.
+pub fn intrinsics_std(problem: &Problem, options: &Options, noise_px: f64) -> Result<Vec<IntrinsicsStd>, BaError> {
     problem.validate()?;
     options.validate()?;
-    let mut out = vec![None; problem.cameras.len()];
-    if !options.refine_principal_point {
+    let mut out = vec![IntrinsicsStd::default(); problem.cameras.len()];
+    let layout = Layout::new(problem, options);
+    if !layout.node_kind.iter().any(|k| matches!(k, NodeKind::Camera(_))) {
         return Ok(out);
     }
-    let layout = Layout::new(problem, options);
     let parameters = Parameters::from_problem(problem);
     let linearization = linearize(&layout, &parameters, &problem.priors, &options.loss);
     let numerical = |_: NotPositiveDefinite| BaError::Numerical { reason: "the normal equations could not be factorised".into() };
     let mut system = reduced_system(&layout, &linearization, GAUGE_DAMPING).map_err(numerical)?;
     let pattern = &layout.pattern;
     pattern.factor(&mut system.reduced).map_err(numerical)?;
-    let locals: Vec<usize> = [1, 2].iter().filter_map(|index| layout.free_intrinsics.iter().position(|f| f == index)).collect();
+    let variance = |node: usize, local: usize| {
+        let unknown = pattern.node_offset(node) + local;
+        let mut unit = vec![0.0; pattern.dim()];
+        unit[unknown] = 1.0;
+        pattern.solve(&system.reduced, &unit)[unknown]
+    };
     for (node, kind) in layout.node_kind.iter().enumerate() {
         let NodeKind::Camera(camera) = *kind else { continue };
-        let mut worst: f64 = 0.0;
-        for &local in &locals {
-            let unknown = pattern.node_offset(node) + local;
-            let mut unit = vec![0.0; pattern.dim()];
-            unit[unknown] = 1.0;
-            let column = pattern.solve(&system.reduced, &unit);
-            worst = worst.max(column[unknown]);
+        let free = &layout.free_intrinsics[camera];
+        let std_of = |variance: f64| -> Result<f64, BaError> {
+            if !variance.is_finite() {
+                return Err(BaError::Numerical { reason: format!("camera {camera}: an intrinsic's variance is not finite") });
+            }
+            Ok(noise_px * variance.max(0.0).sqrt())
+        };
+        if let Some(local) = free.iter().position(|&index| index == 0) {
+            out[camera].focal_px = Some(std_of(variance(node, local))?);
         }
-        if !worst.is_finite() {
-            return Err(BaError::Numerical { reason: format!("camera {camera}: the principal point's variance is not finite") });
+        let principal: Vec<usize> = free.iter().enumerate().filter(|(_, index)| matches!(index, 1 | 2)).map(|(local, _)| local).collect();
+        if !principal.is_empty() {
+            let stds = principal.iter().map(|&local| std_of(variance(node, local))).collect::<Result<Vec<f64>, _>>()?;
+            out[camera].principal_point_px = Some(stds.into_iter().fold(0.0, f64::max));
         }
-        out[camera] = Some(noise_px * worst.max(0.0).sqrt());
     }
     Ok(out)
 }
@@ -101,6 +120,7 @@ mod tests {
             point_fixed,
             observations,
             priors: Vec::new(),
+            held_intrinsics: Vec::new(),
         }
     }
 
@@ -110,14 +130,16 @@ mod tests {
 
     #[test]
     fn a_wide_ring_fixes_the_principal_point_and_a_narrow_arc_does_not() {
-        let wide = principal_point_std_px(&arc_problem(12, 120.0, 30.0), &options(true), 1.0).unwrap()[0].unwrap();
-        let narrow = principal_point_std_px(&arc_problem(3, 10.0, 0.0), &options(true), 1.0).unwrap()[0].unwrap();
+        let principal =
+            |problem: &Problem, options: &Options, noise_px: f64| intrinsics_std(problem, options, noise_px).unwrap()[0].principal_point_px;
+        let wide = principal(&arc_problem(12, 120.0, 30.0), &options(true), 1.0).unwrap();
+        let narrow = principal(&arc_problem(3, 10.0, 0.0), &options(true), 1.0).unwrap();
         println!("principal point std: wide arc {wide:.3} px, narrow {narrow:.3} px");
         assert!(wide < 1.0, "wide arc: {wide} px");
         assert!(narrow > 10.0 * wide, "narrow arc {narrow} px, wide {wide} px");
         // Linear in the noise; nothing when the principal point is not refined.
-        let twice = principal_point_std_px(&arc_problem(12, 120.0, 30.0), &options(true), 2.0).unwrap()[0].unwrap();
+        let twice = principal(&arc_problem(12, 120.0, 30.0), &options(true), 2.0).unwrap();
         assert!((twice - 2.0 * wide).abs() < 1e-9 * wide.max(1.0), "{twice} vs {wide}");
-        assert_eq!(principal_point_std_px(&arc_problem(12, 120.0, 30.0), &options(false), 1.0).unwrap(), vec![None]);
+        assert_eq!(principal(&arc_problem(12, 120.0, 30.0), &options(false), 1.0), None);
     }
 }

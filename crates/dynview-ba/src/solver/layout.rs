@@ -74,8 +74,9 @@ pub(crate) struct Layout {
     pub image_node: Vec<Option<usize>>,
     /// Per node, what it stands for.
     pub node_kind: Vec<NodeKind>,
-    /// The refined intrinsics, as indices into `[focal, cx, cy, k1, k2]`.
-    pub free_intrinsics: Vec<usize>,
+    /// Per camera, its refined intrinsics as indices into `[focal, cx, cy, k1, k2]`: those the
+    /// options refine and the camera does not hold.
+    pub free_intrinsics: Vec<Vec<usize>>,
     /// Observed points, each with its observations.
     pub groups: Vec<PointGroup>,
     /// Used observations, grouped by point.
@@ -98,7 +99,7 @@ pub(crate) struct Layout {
 impl Layout {
     /// Numbers the unknowns of a validated problem.
     pub(crate) fn new(problem: &Problem, options: &Options) -> Self {
-        let free_intrinsics: Vec<usize> = [
+        let refined: Vec<usize> = [
             (options.refine_focal, 0),
             (options.refine_principal_point, 1),
             (options.refine_principal_point, 2),
@@ -108,6 +109,9 @@ impl Layout {
         .into_iter()
         .filter_map(|(refine, index)| refine.then_some(index))
         .collect();
+        let free_intrinsics: Vec<Vec<usize>> = (0..problem.cameras.len())
+            .map(|camera| refined.iter().copied().filter(|&index| !problem.held(camera).holds(index)).collect())
+            .collect();
 
         // Observations whose point is in front of the camera at the start.
         let frames: Vec<ImageFrame> = problem.images.iter().map(ImageFrame::new).collect();
@@ -145,9 +149,9 @@ impl Layout {
             .collect();
         let camera_node: Vec<Option<usize>> = (0..problem.cameras.len())
             .map(|camera| {
-                (camera_used[camera] && !free_intrinsics.is_empty()).then(|| {
+                (camera_used[camera] && !free_intrinsics[camera].is_empty()).then(|| {
                     node_kind.push(NodeKind::Camera(camera));
-                    node_size.push(free_intrinsics.len());
+                    node_size.push(free_intrinsics[camera].len());
                     node_kind.len() - 1
                 })
             })

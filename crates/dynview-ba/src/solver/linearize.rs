@@ -110,7 +110,6 @@ fn accumulate_group(
     partial: &mut Partial,
 ) {
     let pattern = &layout.pattern;
-    let free_intrinsics = &layout.free_intrinsics;
     let nodes = &layout.group_nodes[group.nodes.clone()];
     // Offsets of the group's coupling blocks in the partial buffer.
     let mut block_offsets = Vec::with_capacity(nodes.len());
@@ -127,6 +126,7 @@ fn accumulate_group(
     let mut x_camera = [0.0; INTRINSIC_COUNT * 2];
     for observation in &layout.observations[group.observations.clone()] {
         let camera = &parameters.cameras[observation.camera];
+        let free_intrinsics = &layout.free_intrinsics[observation.camera];
         let Some(jacobians) = residual_jacobians(camera, &frames[observation.image], &point_world, &observation.pixel) else {
             continue;
         };

@@ -18,7 +18,7 @@ mod step;
 #[cfg(test)]
 mod tests;
 
-pub use covariance::principal_point_std_px;
+pub use covariance::{IntrinsicsStd, intrinsics_std};
 
 use crate::error::BaError;
 use crate::options::{Options, Report, Termination};

@@ -54,7 +54,7 @@ impl Parameters {
                     }
                 }
                 NodeKind::Camera(camera) => {
-                    for (&index, &change) in layout.free_intrinsics.iter().zip(delta) {
+                    for (&index, &change) in layout.free_intrinsics[camera].iter().zip(delta) {
                         *intrinsic_mut(&mut next.cameras[camera], index) += change;
                     }
                 }
@@ -79,7 +79,7 @@ impl Parameters {
                 }
                 NodeKind::Camera(camera) => {
                     let mut copy = self.cameras[camera];
-                    sum += layout.free_intrinsics.iter().map(|&index| intrinsic_mut(&mut copy, index).powi(2)).sum::<f64>();
+                    sum += layout.free_intrinsics[camera].iter().map(|&index| intrinsic_mut(&mut copy, index).powi(2)).sum::<f64>();
                 }
             }
         }

@@ -62,7 +62,7 @@ fn small_problem() -> Problem {
         SmoothnessPrior { image_a: 3, image_b: 4, weight_center: 10.0, weight_rotation: 100.0 },
         SmoothnessPrior { image_a: 2, image_b: 2, weight_center: 10.0, weight_rotation: 100.0 },
     ];
-    Problem { cameras, images, image_camera, image_fixed, points_world, point_fixed, observations, priors }
+    Problem { cameras, images, image_camera, image_fixed, points_world, point_fixed, observations, priors, held_intrinsics: Vec::new() }
 }
 
 fn all_free_options(loss: Loss) -> Options {

@@ -184,5 +184,6 @@ fn problem_with_two_fixed_images(poses: Vec<ImagePose>, points_world: Vec<[f64; 
         points_world,
         observations,
         priors: Vec::new(),
+        held_intrinsics: Vec::new(),
     }
 }

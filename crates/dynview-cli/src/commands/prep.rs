@@ -32,8 +32,9 @@ pub struct Args {
     /// with a warning).
     #[arg(long)]
     strict_frame_counts: bool,
-    /// Known focal length in pixels: `PX` for every camera or `CAMERA=PX` for one (repeatable).
-    /// Focal lengths not given are estimated.
+    /// Known focal length in pixels: `PX` for every camera or `CAMERA=PX` for one (repeatable),
+    /// kept as given. Focal lengths not given are estimated; on an arc of cameras one given focal
+    /// also fixes the others' common scale.
     #[arg(long, value_name = "PX|CAMERA=PX")]
     focal: Vec<String>,
     /// Weight of the smoothness priors on camera paths (0: off).
@@ -194,8 +195,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if !report.keyframes_placed_from_pair.is_empty() {
             println!("  placed from a verified pair (too few shared points for PnP): {}", report.keyframes_placed_from_pair.join(", "));
         }
-        for (name, source) in report.focal_source.iter().enumerate() {
-            println!("  focal of camera {name}: {source}");
+        for (camera, source) in report.focal_source.iter().enumerate() {
+            let result = report.intrinsics_refined.get(camera).map_or(String::new(), |note| format!("; {note}"));
+            println!("  camera {camera}: focal from {source}{result}");
         }
     }
     for (camera, r) in report.refine.iter().enumerate() {
