@@ -15,7 +15,12 @@
 //!   largest centre error in percent of the scene size (the diagonal of the bounding box of the
 //!   ground-truth camera centres);
 //! - per camera folder with a registered image: the focal length's error in percent of the true
-//!   one, and the principal point's distance from the true one in pixels (median and largest).
+//!   one, and the principal point's distance from the true one in pixels (median and largest);
+//! - ours: the focal lengths' standard deviations its report gives (smallest and largest), to
+//!   read the errors against.
+//!
+//! `--prep-arg` passes options to ours (variants), and `--true-intrinsics` gives it each
+//! dataset's true intrinsics, which it keeps: what is left is the error of its poses alone.
 //!
 //! The table is printed and written to `target/bench/sfm/results.md`.
 
@@ -23,9 +28,10 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use crate::align::{PoseAccuracy, PoseEvalOptions, evaluate_poses};
-use anyhow::bail;
+use anyhow::{Context, bail};
 use dynview_core::Intrinsics;
 use dynview_interchange::colmap::ColmapModel;
+use dynview_interchange::poses::{CameraPoses, EventPoses, FramePose};
 
 use crate::paths::workspace_root;
 use crate::sfm_data::{mean_reprojection_error_px, poses_from_colmap, track_weighted_error_px};
@@ -65,6 +71,14 @@ pub struct Options {
     /// Fit the similarity on the 80% best-aligned cameras (after a first fit on all).
     #[arg(long)]
     pub robust: bool,
+    /// An extra `dynview prep` argument for ours (repeatable), e.g.
+    /// `--prep-arg=--centred-principal-point`.
+    #[arg(long = "prep-arg", value_name = "ARG", allow_hyphen_values = true)]
+    pub prep_args: Vec<String>,
+    /// Give ours each dataset's true intrinsics (`dynview prep --intrinsics`, kept as given):
+    /// its pose errors without the intrinsics'.
+    #[arg(long)]
+    pub true_intrinsics: bool,
 }
 
 /// What one method achieved on one dataset.
@@ -82,6 +96,8 @@ struct Figures {
     reprojection_px: Option<f64>,
     accuracy: Result<PoseAccuracy, String>,
     intrinsics: Option<IntrinsicsAccuracy>,
+    /// The reported focal standard deviations, %, smallest and largest.
+    focal_std_percent: Option<(f64, f64)>,
     notes: Vec<String>,
 }
 
@@ -143,7 +159,8 @@ pub fn run(options: Options) -> anyhow::Result<()> {
                 Method::Ours => {
                     let binary = dynview.get_or_insert_with(|| dynview_binary().map_err(|e| format!("{e:#}")));
                     match binary {
-                        Ok(binary) => run_ours(binary, &dataset.images_dir, &work_dir),
+                        Ok(binary) => ours_arguments(&options, &dataset, &bench_dir)
+                            .and_then(|args| run_ours(binary, &dataset.images_dir, &work_dir, &args)),
                         Err(e) => Err(anyhow::anyhow!("no dynview binary: {e}")),
                     }
                 }
@@ -155,7 +172,11 @@ pub fn run(options: Options) -> anyhow::Result<()> {
             rows.push(Row { dataset: dataset.name, method, result });
         }
     }
-    let report = table(&rows, eval);
+    let mut report = table(&rows, eval);
+    let variant = ours_variant(&options);
+    if !variant.is_empty() {
+        report = format!("Ours with `{variant}`.\n\n{report}");
+    }
     println!("\n{report}");
     let out = bench_dir.join("results.md");
     dynview_core::fsutil::write_atomic(&out, report.as_bytes())?;
@@ -165,6 +186,54 @@ pub fn run(options: Options) -> anyhow::Result<()> {
         bail!("{failed} of {} runs failed (see the notes above)", rows.len());
     }
     Ok(())
+}
+
+/// The extra arguments of ours as the table names them.
+fn ours_variant(options: &Options) -> String {
+    let mut shown = options.prep_args.clone();
+    if options.true_intrinsics {
+        shown.push("--intrinsics <true intrinsics>".into());
+    }
+    shown.join(" ")
+}
+
+/// The extra `dynview prep` arguments of ours on `dataset`: `--prep-arg`s, and with
+/// `--true-intrinsics` the dataset's intrinsics written as a `poses.json` without poses.
+fn ours_arguments(options: &Options, dataset: &Dataset, bench_dir: &std::path::Path) -> anyhow::Result<Vec<String>> {
+    let mut args = options.prep_args.clone();
+    if options.true_intrinsics {
+        let path = bench_dir.join(dataset.name).join("true_intrinsics.json");
+        true_intrinsics(dataset)?.write(&path)?;
+        args.extend(["--intrinsics".to_string(), path.display().to_string()]);
+    }
+    Ok(args)
+}
+
+/// The dataset's true intrinsics of every camera folder, its frames without poses.
+fn true_intrinsics(dataset: &Dataset) -> anyhow::Result<EventPoses> {
+    let mut cameras = Vec::new();
+    for (name, intrinsics) in &dataset.intrinsics {
+        let folder = dataset.images_dir.join(name);
+        let mut files: Vec<String> = std::fs::read_dir(&folder)
+            .with_context(|| format!("cannot list {}", folder.display()))?
+            .flatten()
+            .filter(|e| e.path().is_file())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        files.sort();
+        let first = files.first().with_context(|| format!("{}: no images", folder.display()))?;
+        let (width, height) =
+            image::image_dimensions(folder.join(first)).with_context(|| format!("cannot read {}/{first}", folder.display()))?;
+        cameras.push(CameraPoses {
+            name: name.clone(),
+            width,
+            height,
+            intrinsics: *intrinsics,
+            distortion: [0.0; 4],
+            frames: files.into_iter().map(|file| FramePose { file, camera_from_world: None }).collect(),
+        });
+    }
+    Ok(EventPoses { cameras })
 }
 
 fn figures(dataset: &Dataset, reconstruction: &Reconstruction, eval: PoseEvalOptions) -> Figures {
@@ -197,6 +266,9 @@ fn figures(dataset: &Dataset, reconstruction: &Reconstruction, eval: PoseEvalOpt
         }
     }
     let intrinsics = intrinsics_accuracy(dataset, model);
+    let stds = &reconstruction.focal_std_percent;
+    let focal_std_percent =
+        (!stds.is_empty()).then(|| (stds.iter().copied().fold(f64::INFINITY, f64::min), stds.iter().copied().fold(0.0, f64::max)));
     Figures {
         wall_secs: reconstruction.wall_secs,
         images: dataset.ground_truth.len(),
@@ -204,6 +276,7 @@ fn figures(dataset: &Dataset, reconstruction: &Reconstruction, eval: PoseEvalOpt
         reprojection_px,
         accuracy,
         intrinsics,
+        focal_std_percent,
         notes,
     }
 }
@@ -217,22 +290,23 @@ fn table(rows: &[Row], eval: PoseEvalOptions) -> String {
          similarity alignment to the ground truth (rotation from the camera orientations, scale and translation \
          from the centres: `crate::align`); centre errors in % of the scene size \
          (diagonal of the ground-truth camera centres' bounding box); reprojection error recomputed from each model; \
-         focal and principal-point errors per camera against its true intrinsics.\n",
+         focal and principal-point errors per camera against its true intrinsics; focal std: the standard deviations of \
+         the focal lengths our report gives (smallest-largest).\n",
         colmap_version().unwrap_or_else(|| "(version unknown)".into()),
         if eval.robust { "robust (best 80%)" } else { "least-squares" },
     );
     let _ = writeln!(
         s,
         "| dataset | method | wall s | registered | reproj. px | rot. median ° | rot. max ° | centre median % | centre max % \
-         | focal median % | focal max % | pp median px | pp max px |"
+         | focal median % | focal max % | focal std % | pp median px | pp max px |"
     );
-    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
+    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
     let mut notes = String::new();
     for row in rows {
         let label = row.method.label();
         match &row.result {
             Err(e) => {
-                let _ = writeln!(s, "| {} | {label} | failed | - | - | - | - | - | - | - | - | - | - |", row.dataset);
+                let _ = writeln!(s, "| {} | {label} | failed | - | - | - | - | - | - | - | - | - | - | - |", row.dataset);
                 let _ = writeln!(notes, "- {} / {label}: failed: {}", row.dataset, e.replace('\n', "\n  "));
             }
             Ok(f) => {
@@ -247,9 +321,10 @@ fn table(rows: &[Row], eval: PoseEvalOptions) -> String {
                     ),
                     Err(_) => "- | - | - | -".into(),
                 };
-                let intrinsics = f.intrinsics.as_ref().map_or("- | - | - | -".into(), |k| {
+                let focal_std = f.focal_std_percent.map_or("-".into(), |(low, high)| format!("{low:.2}-{high:.2}"));
+                let intrinsics = f.intrinsics.as_ref().map_or(format!("- | - | {focal_std} | - | -"), |k| {
                     format!(
-                        "{:.2} | {:.2} | {:.1} | {:.1}",
+                        "{:.2} | {:.2} | {focal_std} | {:.1} | {:.1}",
                         k.focal_error_median_pct, k.focal_error_max_pct, k.principal_point_error_median_px, k.principal_point_error_max_px
                     )
                 });
@@ -309,7 +384,8 @@ mod tests {
             let image = ColmapImage { camera_id: 1, camera_from_world: *pose, name: name.clone(), points2d: Vec::new() };
             model.images.insert(id as u32 + 1, image);
         }
-        let figures = figures(&dataset, &Reconstruction { wall_secs: 1.5, model, note: None }, PoseEvalOptions::default());
+        let reconstruction = Reconstruction { wall_secs: 1.5, model, note: None, focal_std_percent: vec![0.5, 0.25, 0.75] };
+        let figures = figures(&dataset, &reconstruction, PoseEvalOptions::default());
         assert_eq!((figures.registered, figures.images), (3, 4));
         let accuracy = figures.accuracy.as_ref().unwrap();
         assert!(accuracy.rotation_error_max_deg < 1e-9 && accuracy.center_error_max_fraction < 1e-12);
@@ -328,7 +404,30 @@ mod tests {
         ];
         let text = table(&rows, PoseEvalOptions::default());
         assert!(text.contains("| toy | ours | failed | - |"), "{text}");
-        assert!(text.contains("| toy | COLMAP | 1.5 | 3 / 4 | - | 0.000 | 0.000 | 0.000 | 0.000 | 0.00 | 0.00 | 2.0 | 2.0 |"), "{text}");
+        assert!(
+            text.contains("| toy | COLMAP | 1.5 | 3 / 4 | - | 0.000 | 0.000 | 0.000 | 0.000 | 0.00 | 0.00 | 0.25-0.75 | 2.0 | 2.0 |"),
+            "{text}"
+        );
         assert!(text.contains("- toy / ours: failed: no binary"), "{text}");
+    }
+
+    #[test]
+    fn the_true_intrinsics_are_written_for_every_camera_folder_with_its_frames_and_size() {
+        let dir = tempfile::tempdir().unwrap();
+        let folder = dir.path().join("cam");
+        std::fs::create_dir(&folder).unwrap();
+        for file in ["b.png", "a.png"] {
+            image::RgbImage::new(12, 8).save(folder.join(file)).unwrap();
+        }
+        let dataset = Dataset { images_dir: dir.path().to_path_buf(), ..dataset() };
+        let poses = true_intrinsics(&dataset).unwrap();
+        assert_eq!(poses.cameras.len(), 1);
+        let camera = &poses.cameras[0];
+        assert_eq!((camera.name.as_str(), camera.width, camera.height), ("cam", 12, 8));
+        assert_eq!(camera.intrinsics, dataset.intrinsics["cam"]);
+        let files: Vec<&str> = camera.frames.iter().map(|f| f.file.as_str()).collect();
+        assert_eq!(files, ["a.png", "b.png"]);
+        assert!(camera.frames.iter().all(|f| f.camera_from_world.is_none()));
+        poses.validate().unwrap();
     }
 }

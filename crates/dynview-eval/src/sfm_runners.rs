@@ -26,6 +26,9 @@ pub struct Reconstruction {
     pub model: ColmapModel,
     /// What the table should say about the run, if anything.
     pub note: Option<String>,
+    /// Per camera, the standard deviation of its refined focal length in %, as the method
+    /// reports it (ours: `report.json`'s `focal_std_percent`; empty when not reported).
+    pub focal_std_percent: Vec<f64>,
 }
 
 /// Where `dynview prep` writes its keyframe model, relative to `--out`.
@@ -112,7 +115,7 @@ pub fn run_colmap(images_dir: &Path, work_dir: &Path) -> anyhow::Result<Reconstr
         let tail = log_tail(&log);
         if tail.contains(COLMAP_NO_MODEL) {
             let note = format!("COLMAP's mapper made no model (\"{COLMAP_NO_MODEL}\"; see {})", log.display());
-            return Ok(Reconstruction { wall_secs, model: ColmapModel::default(), note: Some(note) });
+            return Ok(Reconstruction { wall_secs, model: ColmapModel::default(), note: Some(note), focal_std_percent: Vec::new() });
         }
         bail!("mapper failed ({status}) after {mapper_secs:.1} s; the end of {}:\n{tail}", log.display());
     }
@@ -134,7 +137,7 @@ pub fn run_colmap(images_dir: &Path, work_dir: &Path) -> anyhow::Result<Reconstr
         }
     }
     let model = best.with_context(|| format!("the mapper made no model (see {})", log.display()))?;
-    Ok(Reconstruction { wall_secs, model, note: None })
+    Ok(Reconstruction { wall_secs, model, note: None, focal_std_percent: Vec::new() })
 }
 
 /// The `dynview` binary: `$DYNVIEW_BIN` when set, else `dynview` beside this program (`cargo
@@ -153,18 +156,26 @@ pub fn dynview_binary() -> anyhow::Result<PathBuf> {
     Ok(path)
 }
 
-/// Runs `dynview prep` up to its keyframe model on `images_dir` in `work_dir` (emptied first).
-pub fn run_ours(dynview: &Path, images_dir: &Path, work_dir: &Path) -> anyhow::Result<Reconstruction> {
+/// Runs `dynview prep` up to its keyframe model on `images_dir` in `work_dir` (emptied first),
+/// with `extra_args` after the benchmark's own.
+pub fn run_ours(dynview: &Path, images_dir: &Path, work_dir: &Path, extra_args: &[String]) -> anyhow::Result<Reconstruction> {
     fresh_dir(work_dir)?;
     let out = work_dir.join("out");
     let log = work_dir.join("dynview.log");
     println!("  ours (log: {})", log.display());
     let mut prep = Command::new(dynview);
     prep.arg("prep").arg("--input").arg(images_dir).arg("--out").arg(&out).args(["--keyframe-interval", "1", "--stop-after", "keyframes"]);
+    prep.args(extra_args);
     let wall_secs = run_logged("dynview prep", prep, &log)
         .context("ours: the benchmark expects `dynview prep --input DIR --out DIR --keyframe-interval 1 --stop-after keyframes`")?;
     let model_dir = out.join(OURS_MODEL_DIR);
     let model = read_colmap_text(&model_dir)
         .with_context(|| format!("dynview prep finished but its keyframe model in {} is unreadable", model_dir.display()))?;
-    Ok(Reconstruction { wall_secs, model, note: None })
+    let report_path = out.join("report.json");
+    let report: serde_json::Value = std::fs::read_to_string(&report_path)
+        .ok()
+        .and_then(|text| serde_json::from_str(&text).ok())
+        .with_context(|| format!("dynview prep finished but {} is unreadable", report_path.display()))?;
+    let focal_std_percent = report["focal_std_percent"].as_array().map_or(Vec::new(), |v| v.iter().filter_map(|s| s.as_f64()).collect());
+    Ok(Reconstruction { wall_secs, model, note: None, focal_std_percent })
 }

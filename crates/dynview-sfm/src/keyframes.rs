@@ -239,12 +239,12 @@ pub const WEAK_FOCAL_FRACTION: f64 = 0.02;
 /// [`WEAK_FOCAL_FRACTION`] (one standard deviation), naming the camera and the `--focal`
 /// argument that would fix it.
 pub fn weak_focal_warnings(frames: &EventFrames, model: &KeyframeModel, known: &KnownCameras, options: &MapperOptions) -> Vec<String> {
-    let group = intrinsics_groups(frames, known, options.share_intrinsics);
     let r = &model.reconstruction;
-    (0..frames.cameras.len())
-        .filter_map(|c| {
-            let k = r.intrinsics.get(c)?;
-            let fraction = r.focal_std_px.get(group[c]).copied().flatten()? / k.focal_px;
+    focal_std_fractions(frames, model, known, options)
+        .into_iter()
+        .enumerate()
+        .filter_map(|(c, fraction)| {
+            let (k, fraction) = (r.intrinsics.get(c)?, fraction?);
             let name = &frames.cameras[c].name;
             (fraction > WEAK_FOCAL_FRACTION).then(|| {
                 format!(
@@ -258,6 +258,14 @@ pub fn weak_focal_warnings(frames: &EventFrames, model: &KeyframeModel, known: &
         .collect()
 }
 
+/// Per camera, the standard deviation of its refined focal length as a share of it; `None`
+/// where the focal was given or not measured.
+pub fn focal_std_fractions(frames: &EventFrames, model: &KeyframeModel, known: &KnownCameras, options: &MapperOptions) -> Vec<Option<f64>> {
+    let group = intrinsics_groups(frames, known, options.share_intrinsics);
+    let r = &model.reconstruction;
+    (0..frames.cameras.len()).map(|c| Some(r.focal_std_px.get(group[c]).copied().flatten()? / r.intrinsics.get(c)?.focal_px)).collect()
+}
+
 /// Per camera, which intrinsics the keyframe reconstruction refined and why (the report's
 /// `intrinsics_refined`), from the options it ran with.
 pub fn intrinsics_notes(frames: &EventFrames, model: &KeyframeModel, known: &KnownCameras, options: &MapperOptions) -> Vec<String> {
@@ -265,12 +273,12 @@ pub fn intrinsics_notes(frames: &EventFrames, model: &KeyframeModel, known: &Kno
     let r = &model.reconstruction;
     let std_of = |c: usize| r.principal_point_std_px.get(group[c]).copied().flatten();
     let worst = (0..frames.cameras.len()).filter_map(|c| std_of(c).map(|s| (s, c))).max_by(|a, b| a.0.total_cmp(&b.0));
+    let focal_std = focal_std_fractions(frames, model, known, options);
     (0..frames.cameras.len())
         .map(|c| {
             let g = group[c];
             let held = known.get(&frames.cameras[c].name).map(KnownIntrinsics::held).unwrap_or_default();
-            let focal_std = r.focal_std_px.get(g).copied().flatten().zip(r.intrinsics.get(c)).map(|(s, k)| 100.0 * s / k.focal_px);
-            let focal = match focal_std {
+            let focal = match focal_std[c].map(|fraction| 100.0 * fraction) {
                 _ if held.focal => "focal kept as given".to_string(),
                 _ if !options.refine_focal => "focal kept as estimated before bundle adjustment (as asked)".to_string(),
                 Some(percent) => format!("focal refined (known to {percent:.2}%)"),

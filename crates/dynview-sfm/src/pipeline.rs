@@ -22,8 +22,8 @@ use crate::geometry::Pose;
 use crate::incremental::MapperOptions;
 use crate::input::{EventFrames, decode_frames, discover, video_fps};
 use crate::keyframes::{
-    Keyframe, KeyframeModel, PRIOR_FOCAL_SOURCE, intrinsics_notes, keyframe_features, keyframes, match_all_pairs, reconstruct_keyframes,
-    to_colmap, weak_focal_warnings, write_colmap_text,
+    Keyframe, KeyframeModel, PRIOR_FOCAL_SOURCE, focal_std_fractions, intrinsics_notes, keyframe_features, keyframes, match_all_pairs,
+    reconstruct_keyframes, to_colmap, weak_focal_warnings, write_colmap_text,
 };
 use crate::matching::MatchOptions;
 use crate::refine::{CameraTrack, KeyframeView, RefineOptions, RefineReport, refine_camera};
@@ -185,6 +185,10 @@ pub struct PrepReport {
     /// Per camera, which intrinsics the keyframe reconstruction refined and why.
     #[serde(default)]
     pub intrinsics_refined: Vec<String>,
+    /// Per camera, the standard deviation of its refined focal length in % of it (`None`:
+    /// given, or not measured).
+    #[serde(default)]
+    pub focal_std_percent: Vec<Option<f64>>,
     /// Per camera refinement figures.
     pub refine: Vec<RefineReport>,
     /// Stages skipped because an earlier run had finished them.
@@ -400,6 +404,7 @@ fn pose_stages(
     report.keyframe_rms_px = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
     report.focal_source = model.focal_source.clone();
     report.intrinsics_refined = intrinsics_notes(&frames, &model, &known, &mapper);
+    report.focal_std_percent = focal_std_fractions(&frames, &model, &known, &mapper).iter().map(|f| f.map(|f| 100.0 * f)).collect();
     report.warnings.extend(weak_focal_warnings(&frames, &model, &known, &mapper));
     lap(report, "keyframe reconstruction");
     if options.stop_after == Stage::Keyframes {
