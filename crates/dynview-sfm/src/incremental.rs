@@ -62,6 +62,47 @@ impl Default for MapperOptions {
     }
 }
 
+/// What [`solve_final`] found.
+pub(crate) struct FinalSolve {
+    /// The solve's report.
+    pub report: dynview_ba::Report,
+    /// The kept solution's intrinsics' standard deviations, per camera.
+    pub std: Vec<dynview_ba::IntrinsicsStd>,
+    /// Per camera, the principal point's standard deviation (px) in the trial with it refined;
+    /// empty when there was no trial.
+    pub principal_point_std_px: Vec<Option<f64>>,
+    /// Whether the refined principal points were kept.
+    pub principal_point_refined: bool,
+}
+
+/// The final adjustment of `problem` under `options`: with `try_principal_points` it first
+/// solves with the principal points refined too, and keeps that solution only when every
+/// camera's principal point is fixed by the data to within its prior (`prior_px`, from
+/// [`PRINCIPAL_POINT_PRIOR_FRACTION`]): the estimate is then expected nearer the truth than
+/// where it started (the image centre). Otherwise it solves with them where they are.
+pub(crate) fn solve_final(
+    problem: &mut dynview_ba::Problem,
+    options: dynview_ba::Options,
+    try_principal_points: bool,
+    prior_px: &[f64],
+) -> SfmResult<FinalSolve> {
+    let mut principal_point_std_px = Vec::new();
+    if try_principal_points {
+        let trial_options = dynview_ba::Options { refine_principal_point: true, ..options };
+        let mut trial = problem.clone();
+        let report = dynview_ba::solve(&mut trial, &trial_options)?;
+        let std = dynview_ba::intrinsics_std(&trial, &trial_options, report.final_rms_px)?;
+        principal_point_std_px = std.iter().map(|s| s.principal_point_px).collect();
+        if principal_point_std_px.iter().zip(prior_px).all(|(s, prior)| s.is_none_or(|s| s <= *prior)) {
+            *problem = trial;
+            return Ok(FinalSolve { report, std, principal_point_std_px, principal_point_refined: true });
+        }
+    }
+    let report = dynview_ba::solve(problem, &options)?;
+    let std = dynview_ba::intrinsics_std(problem, &options, report.final_rms_px)?;
+    Ok(FinalSolve { report, std, principal_point_std_px, principal_point_refined: false })
+}
+
 /// Fewest of an image's 2D-3D correspondences that must agree on the translation's length
 /// when it is placed from a verified pair (`relative::place_along`); at least half of them
 /// must, too.
@@ -177,7 +218,7 @@ struct Mapper<'a> {
 
 /// The longer side of the image of a camera with intrinsics `k`, from its principal point (pixel
 /// centres at integers: a centred principal point is at (width - 1) / 2).
-fn longer_side_px(k: &Intrinsics) -> f64 {
+pub(crate) fn longer_side_px(k: &Intrinsics) -> f64 {
     2.0 * k.cx_px.max(k.cy_px) + 1.0
 }
 
@@ -406,34 +447,13 @@ impl Mapper<'_> {
             max_iterations: 50,
             ..Default::default()
         };
-        // The final adjustment refines the principal points only where the data fix them: it
-        // tries, and keeps the result when every camera's standard deviation is within its
-        // prior (PRINCIPAL_POINT_PRIOR_FRACTION); otherwise they stay where they were (the
-        // image centre).
-        let mut solved = None;
-        if last && self.options.refine_principal_point {
-            let trial_options = dynview_ba::Options { refine_principal_point: true, ..options };
-            let mut trial = problem.clone();
-            let report = dynview_ba::solve(&mut trial, &trial_options)?;
-            let std = dynview_ba::intrinsics_std(&trial, &trial_options, report.final_rms_px)?;
-            let std_px: Vec<Option<f64>> = std.iter().map(|s| s.principal_point_px).collect();
-            let fixed = std_px.iter().zip(&self.principal_prior_px).all(|(s, prior)| s.is_none_or(|s| s <= *prior));
-            self.principal_point_std_px = std_px;
-            self.principal_point_refined = fixed;
-            if fixed {
-                problem = trial;
-                solved = Some(std);
-            }
-        }
-        let std = match solved {
-            Some(std) => std,
-            None => {
-                let report = dynview_ba::solve(&mut problem, &options)?;
-                if last { dynview_ba::intrinsics_std(&problem, &options, report.final_rms_px)? } else { Vec::new() }
-            }
-        };
         if last {
-            self.focal_std_px = std.iter().map(|s| s.focal_px).collect();
+            let solved = solve_final(&mut problem, options, self.options.refine_principal_point, &self.principal_prior_px)?;
+            self.principal_point_std_px = solved.principal_point_std_px;
+            self.principal_point_refined = solved.principal_point_refined;
+            self.focal_std_px = solved.std.iter().map(|s| s.focal_px).collect();
+        } else {
+            dynview_ba::solve(&mut problem, &options)?;
         }
         for (s, &i) in image_ids.iter().enumerate() {
             let p = &problem.images[s];

@@ -236,22 +236,24 @@ pub fn reconstruct_keyframes(
 pub const WEAK_FOCAL_FRACTION: f64 = 0.02;
 
 /// A warning per camera whose refined focal length the views fix only to more than
-/// [`WEAK_FOCAL_FRACTION`] (one standard deviation), naming the camera and the `--focal`
-/// argument that would fix it.
-pub fn weak_focal_warnings(frames: &EventFrames, model: &KeyframeModel, known: &KnownCameras, options: &MapperOptions) -> Vec<String> {
-    let r = &model.reconstruction;
-    focal_std_fractions(frames, model, known, options)
-        .into_iter()
-        .enumerate()
-        .filter_map(|(c, fraction)| {
-            let (k, fraction) = (r.intrinsics.get(c)?, fraction?);
-            let name = &frames.cameras[c].name;
+/// [`WEAK_FOCAL_FRACTION`] (one standard deviation, `std_percent` per camera), naming the
+/// camera and the `--focal` argument that would fix it.
+pub fn weak_focal_warnings(frames: &EventFrames, intrinsics: &[Intrinsics], std_percent: &[Option<f64>]) -> Vec<String> {
+    frames
+        .cameras
+        .iter()
+        .zip(intrinsics)
+        .zip(std_percent)
+        .filter_map(|((camera, k), std)| {
+            let fraction = (*std)? / 100.0;
             (fraction > WEAK_FOCAL_FRACTION).then(|| {
                 format!(
-                    "camera {name}: its views fix its focal length ({:.0} px) only to {:.1}% (one standard deviation), which bends the model; if \
-                     it is known, give it with --focal {name}=PX",
+                    "camera {}: its views fix its focal length ({:.0} px) only to {:.1}% (one standard deviation), which bends the model; if \
+                     it is known, give it with --focal {}=PX",
+                    camera.name,
                     k.focal_px,
-                    100.0 * fraction
+                    100.0 * fraction,
+                    camera.name
                 )
             })
         })

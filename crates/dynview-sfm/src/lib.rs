@@ -38,6 +38,7 @@ pub mod points;
 pub mod refine;
 mod relative;
 pub mod static_cloud;
+pub mod step_adjust;
 pub mod still;
 pub mod timesteps;
 pub mod tracks;

@@ -18,15 +18,16 @@ use crate::error::{SfmError, SfmResult};
 use crate::export::{ExportReport, export_package, usable_poses};
 use crate::features::{FeatureOptions, Features};
 use crate::focal::PRIOR_FOCAL_FACTOR;
-use crate::geometry::Pose;
+use crate::geometry::{Intrinsics, Pose};
 use crate::incremental::MapperOptions;
 use crate::input::{EventFrames, decode_frames, discover, video_fps};
 use crate::keyframes::{
-    Keyframe, KeyframeModel, PRIOR_FOCAL_SOURCE, focal_std_fractions, intrinsics_notes, keyframe_features, keyframes, match_all_pairs,
-    reconstruct_keyframes, to_colmap, weak_focal_warnings, write_colmap_text,
+    Keyframe, KeyframeModel, PRIOR_FOCAL_SOURCE, focal_std_fractions, intrinsics_groups, intrinsics_notes, keyframe_features, keyframes,
+    match_all_pairs, reconstruct_keyframes, to_colmap, weak_focal_warnings, write_colmap_text,
 };
 use crate::matching::MatchOptions;
 use crate::refine::{CameraTrack, KeyframeView, RefineOptions, RefineReport, refine_camera};
+use crate::step_adjust::{StepAdjustOptions, StepAdjustReport, StepCameras, adjust_with_steps};
 use crate::timesteps::{StepOptions, StepSettings, StepsReport, run_steps};
 use crate::work::WorkDir;
 
@@ -89,6 +90,10 @@ pub struct PrepOptions {
     pub intrinsics: Option<PathBuf>,
     /// The per-timestep stage.
     pub steps: StepOptions,
+    /// The adjustment of intrinsics and poses over sampled time steps after the frame-to-frame
+    /// refinement.
+    #[serde(default)]
+    pub step_adjust: StepAdjustOptions,
     /// What the package holds and how: the static cloud, video or JPEG frames.
     #[serde(default)]
     pub package: crate::export::PackageOptions,
@@ -114,6 +119,7 @@ impl Default for PrepOptions {
             poses: None,
             intrinsics: None,
             steps: StepOptions::default(),
+            step_adjust: StepAdjustOptions::default(),
             package: crate::export::PackageOptions::default(),
             frames: None,
             fps: None,
@@ -191,6 +197,9 @@ pub struct PrepReport {
     pub focal_std_percent: Vec<Option<f64>>,
     /// Per camera refinement figures.
     pub refine: Vec<RefineReport>,
+    /// The adjustment over sampled time steps, when it ran.
+    #[serde(default)]
+    pub step_adjustment: Option<StepAdjustReport>,
     /// Stages skipped because an earlier run had finished them.
     pub skipped: Vec<String>,
     /// Seconds per stage run.
@@ -405,20 +414,91 @@ fn pose_stages(
     report.focal_source = model.focal_source.clone();
     report.intrinsics_refined = intrinsics_notes(&frames, &model, &known, &mapper);
     report.focal_std_percent = focal_std_fractions(&frames, &model, &known, &mapper).iter().map(|f| f.map(|f| 100.0 * f)).collect();
-    report.warnings.extend(weak_focal_warnings(&frames, &model, &known, &mapper));
     lap(report, "keyframe reconstruction");
     if options.stop_after == Stage::Keyframes {
+        report.warnings.extend(weak_focal_warnings(&frames, &model.reconstruction.intrinsics, &report.focal_std_percent));
         return Ok(None);
     }
 
-    let poses = refine_all(work, &frames, &model, &features, options, &key_stage, report, progress, interrupt)?;
+    let mut poses = refine_all(work, &frames, &model, &features, options, &key_stage, report, progress, interrupt)?;
+    lap(report, "poses");
+    let mut model = model;
+    adjust_steps(work, &frames, &mut model, &known, &mut poses, options, &key_stage, report, progress, interrupt)?;
+    report.warnings.extend(weak_focal_warnings(&frames, &model.reconstruction.intrinsics, &report.focal_std_percent));
     let event = event_poses(&frames, &model, &poses);
     event.validate()?;
     let path = out.join(POSES_FILE);
     event.write(&path)?;
     report.poses_file = Some(path);
-    lap(report, "poses");
+    lap(report, "time-step adjustment");
     Ok(Some((frames, event)))
+}
+
+/// Adjusts the intrinsics and `poses` over sampled time steps (`step_adjust`), or reads what an
+/// earlier run found; updates `model`'s intrinsics and the report's intrinsics figures.
+#[allow(clippy::too_many_arguments)]
+fn adjust_steps<K: Serialize>(
+    work: &WorkDir,
+    frames: &EventFrames,
+    model: &mut KeyframeModel,
+    known: &KnownCameras,
+    poses: &mut Vec<Vec<Pose>>,
+    options: &PrepOptions,
+    key_stage: &K,
+    report: &mut PrepReport,
+    progress: StageProgress,
+    interrupt: &AtomicBool,
+) -> SfmResult<()> {
+    const STAGE: &str = "step_adjust";
+    let key = (key_stage, &options.refine, &options.step_adjust);
+    let adjusted: Option<(Vec<Vec<Pose>>, Vec<Intrinsics>, StepAdjustReport)> = if work.is_done(STAGE, &key) {
+        report.skipped.push(STAGE.into());
+        work.read_json(&format!("{STAGE}.json"))?
+    } else {
+        let group = intrinsics_groups(frames, known, options.mapper.share_intrinsics);
+        let first_of = |g: usize| group.iter().position(|&x| x == g).unwrap_or(0);
+        let sets = group.iter().max().map_or(0, |g| g + 1);
+        let cameras = StepCameras {
+            frames,
+            group: &group,
+            intrinsics: (0..sets).map(|g| model.reconstruction.intrinsics[first_of(g)]).collect(),
+            held: (0..sets).map(|g| known.get(&frames.cameras[first_of(g)].name).map(KnownIntrinsics::held).unwrap_or_default()).collect(),
+            still: &model.still_cameras,
+            principal_points_fixed: model.reconstruction.principal_point_refined,
+        };
+        let mut adjusted_poses = poses.clone();
+        let result = adjust_with_steps(
+            &cameras,
+            &mut adjusted_poses,
+            &options.step_adjust,
+            &options.features,
+            &options.mapper,
+            progress,
+            interrupt,
+        )?
+        .map(|(sets, step_report)| (adjusted_poses, group.iter().map(|&g| sets[g]).collect(), step_report));
+        work.write_json(&format!("{STAGE}.json"), &result)?;
+        work.mark_done(STAGE, &key)?;
+        result
+    };
+    let Some((adjusted_poses, intrinsics, step_report)) = adjusted else { return Ok(()) };
+    *poses = adjusted_poses;
+    model.reconstruction.intrinsics = intrinsics;
+    report.focal_std_percent = step_report.focal_std_percent.clone();
+    for (c, note) in report.intrinsics_refined.iter_mut().enumerate() {
+        let focal = match step_report.focal_std_percent.get(c).copied().flatten() {
+            Some(std) => format!("focal {:+.2}% (known to {std:.2}%)", step_report.focal_change_percent[c]),
+            None => "focal kept".to_string(),
+        };
+        let principal = match step_report.principal_point_std_px.get(c).copied().flatten() {
+            Some(std) if step_report.principal_point_refined => format!("principal point refined (known to {std:.2} px)"),
+            Some(std) => format!("principal point kept (fixed only to {std:.2} px)"),
+            None => "principal point kept".to_string(),
+        };
+        note.push_str(&format!("; then over {} time steps: {focal}, {principal}", step_report.steps.len()));
+    }
+    report.step_adjustment = Some(step_report);
+    Ok(())
 }
 
 /// Refuses a model of two viewpoints whose focal lengths nothing measured. Two views fix their

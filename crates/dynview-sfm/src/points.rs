@@ -81,8 +81,12 @@ fn color_at(image: &Mat, pixel: Vector2<f64>) -> Option<[f64; 3]> {
     Some([f64::from(bgr[2]), f64::from(bgr[1]), f64::from(bgr[0])])
 }
 
-/// Triangulates the points of one time step from its views.
-pub fn timestep_points(views: &[TimestepView], features: &FeatureOptions, options: &PointOptions) -> SfmResult<TimestepCloud> {
+/// One point of a time step and the pixels that saw it: `(view, pixel)`.
+pub type StepTrack = (Vector3<f64>, Vec<(usize, Vector2<f64>)>);
+
+/// Matches the views of one time step across cameras only (guided by their poses) and
+/// triangulates the tracks; each point comes with the observations kept.
+pub fn timestep_tracks(views: &[TimestepView], features: &FeatureOptions, options: &PointOptions) -> SfmResult<Vec<StepTrack>> {
     let extracted: Vec<Features> = views
         .par_iter()
         .map(|v| {
@@ -113,20 +117,30 @@ pub fn timestep_points(views: &[TimestepView], features: &FeatureOptions, option
     }
     let counts: Vec<usize> = extracted.iter().map(Features::len).collect();
     let tracks = Tracks::build(&counts, &pairs);
+    Ok(tracks
+        .tracks
+        .iter()
+        .filter_map(|track| {
+            let rays: Vec<Ray> = track.iter().map(|&(v, f)| (views[v].intrinsics, views[v].pose, pixel(v, f))).collect();
+            let (xyz, kept) = triangulate_robust(&rays, options.max_reprojection_px, options.min_triangulation_angle_deg)?;
+            Some((xyz, kept.iter().map(|&k| (track[k].0, rays[k].2)).collect()))
+        })
+        .collect())
+}
+
+/// Triangulates the points of one time step from its views, coloured by the mean of the pixels
+/// that saw them.
+pub fn timestep_points(views: &[TimestepView], features: &FeatureOptions, options: &PointOptions) -> SfmResult<TimestepCloud> {
     let mut cloud = TimestepCloud::default();
-    for track in &tracks.tracks {
-        let rays: Vec<Ray> = track.iter().map(|&(v, f)| (views[v].intrinsics, views[v].pose, pixel(v, f))).collect();
-        let Some((xyz, kept)) = triangulate_robust(&rays, options.max_reprojection_px, options.min_triangulation_angle_deg) else {
-            continue;
-        };
-        let samples: Vec<[f64; 3]> = kept.iter().filter_map(|&k| color_at(views[track[k].0].image_bgr, rays[k].2)).collect();
+    for (xyz, observations) in timestep_tracks(views, features, options)? {
+        let samples: Vec<[f64; 3]> = observations.iter().filter_map(|&(v, pixel)| color_at(views[v].image_bgr, pixel)).collect();
         if samples.is_empty() {
             continue;
         }
         let mean = |c: usize| (samples.iter().map(|s| s[c]).sum::<f64>() / samples.len() as f64).round().clamp(0.0, 255.0) as u8;
         cloud.positions_world.push(xyz);
         cloud.colors.push([mean(0), mean(1), mean(2)]);
-        cloud.views.push(kept.len().min(255) as u8);
+        cloud.views.push(observations.len().min(255) as u8);
     }
     Ok(cloud)
 }

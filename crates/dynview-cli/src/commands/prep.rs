@@ -9,6 +9,7 @@ use anyhow::{Context, bail};
 use std::ops::Range;
 
 use dynview_sfm::densify::DensifyOptions;
+use dynview_sfm::step_adjust::StepAdjustOptions;
 use dynview_sfm::timesteps::StepOptions;
 use dynview_sfm::{PrepOptions, Stage};
 
@@ -72,6 +73,11 @@ pub struct Args {
     /// equal lenses or zoom.
     #[arg(long)]
     shared_intrinsics: bool,
+    /// Time steps, spread over the capture, whose own cross-camera points refine every camera's
+    /// intrinsics and the poses after the frame-to-frame refinement (0: the keyframes'
+    /// intrinsics are kept).
+    #[arg(long, default_value_t = StepAdjustOptions::default().samples)]
+    adjust_steps: usize,
     /// The last stage to run: frames, keyframes, poses, points or package.
     #[arg(long, default_value = "package")]
     stop_after: Stage,
@@ -164,6 +170,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         options.matching.exact_max_comparisons = usize::MAX;
     }
     options.refine.smoothness = args.smoothness;
+    options.step_adjust.samples = args.adjust_steps;
     options.features.max_features = args.max_features;
     let interrupt = Arc::new(AtomicBool::new(false));
     let flag = interrupt.clone();
@@ -208,6 +215,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!(
             "  refined: {} frames by PnP, {} from neighbours, {} observations, RMS {:.3} px",
             r.frames_with_pnp, r.frames_interpolated, r.observations, r.rms_px
+        );
+    }
+    if let Some(a) = &report.step_adjustment {
+        println!(
+            "adjusted over {} time steps: {} points, {} observations, RMS {:.3} -> {:.3} px; focal changes {}",
+            a.steps.len(),
+            a.points,
+            a.observations,
+            a.rms_px[0],
+            a.rms_px[1],
+            a.focal_change_percent.iter().map(|p| format!("{p:+.2}%")).collect::<Vec<_>>().join(" ")
         );
     }
     if let Some(steps) = &report.steps {
