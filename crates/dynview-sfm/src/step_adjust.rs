@@ -53,11 +53,11 @@ pub struct StepAdjustReport {
     pub observations: usize,
     /// RMS reprojection error before and after (px).
     pub rms_px: [f64; 2],
-    /// Iterations of the solve that was kept, and why it stopped.
+    /// Iterations of the solve that was kept.
     pub iterations: usize,
     /// Why the kept solve stopped (`dynview_ba::Termination`).
     pub termination: String,
-    /// Per camera, its focal length after the adjustment (px) and the change (% of before).
+    /// Per camera, its focal length after the adjustment (px).
     pub focal_px: Vec<f64>,
     /// Per camera, the change of its focal length, % of the keyframes' one.
     pub focal_change_percent: Vec<f64>,
@@ -97,7 +97,6 @@ pub struct StepCameras<'a> {
 /// what moves only, whose cross-camera timing real rigs do not guarantee (on the Panoptic arc,
 /// with 12 steps, they moved the principal points 5-12 px from the calibration's and the
 /// rotation median from 0.551 to 0.649 degrees).
-#[allow(clippy::too_many_arguments)]
 pub fn adjust_with_steps(
     cameras: &StepCameras,
     poses: &mut [Vec<Pose>],
