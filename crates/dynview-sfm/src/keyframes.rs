@@ -389,3 +389,21 @@ pub fn write_colmap_text(model: &ColmapModel, dir: &std::path::Path) -> SfmResul
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::CameraFrames;
+
+    #[test]
+    fn a_focal_the_views_hardly_fix_is_named_with_the_argument_that_fixes_it() {
+        let camera = |name: &str| CameraFrames { name: name.into(), width: 640, height: 360, files: Vec::new() };
+        let frames = EventFrames { cameras: vec![camera("left"), camera("middle"), camera("right")] };
+        let intrinsics = vec![Intrinsics::centred(500.0, 640, 360); 3];
+        // Known to 3%, to 0.5%, and given (no standard deviation).
+        let warnings = weak_focal_warnings(&frames, &intrinsics, &[Some(3.0), Some(0.5), None]);
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+        assert!(warnings[0].starts_with("camera left: ") && warnings[0].contains("only to 3.0%"), "{}", warnings[0]);
+        assert!(warnings[0].ends_with("--focal left=PX"), "{}", warnings[0]);
+    }
+}
