@@ -74,6 +74,11 @@ impl KnownIntrinsics {
 /// Known intrinsics by camera name, every one held as given.
 pub type KnownCameras = BTreeMap<String, KnownIntrinsics>;
 
+/// What bundle adjustment holds of camera `name`'s intrinsics (nothing when none were given).
+pub fn held_intrinsics(known: &KnownCameras, name: &str) -> HeldIntrinsics {
+    known.get(name).map(KnownIntrinsics::held).unwrap_or_default()
+}
+
 /// Known intrinsics by camera name from a calibration (undistorted: the frames are undistorted
 /// first).
 pub fn known_intrinsics(calibration: &[&CameraPoses]) -> KnownCameras {

@@ -632,7 +632,7 @@ pub fn reconstruct(
     let matches: Vec<(usize, usize, Vec<[u32; 2]>)> = pairs.iter().map(|(a, b, v)| (*a, *b, v.inliers.clone())).collect();
     let tracks = Tracks::build(&counts, &matches);
     // The initial principal points are the image centres: the longer side is twice the larger.
-    let principal_prior_px = intrinsics.iter().map(|k| PRINCIPAL_POINT_PRIOR_FRACTION * (2.0 * k.cx_px.max(k.cy_px) + 1.0)).collect();
+    let principal_prior_px = intrinsics.iter().map(|k| PRINCIPAL_POINT_PRIOR_FRACTION * longer_side_px(k)).collect();
     let mut mapper = Mapper {
         images,
         point_of_track: vec![None; tracks.tracks.len()],

@@ -12,7 +12,7 @@ use dynview_core::StageProgress;
 use dynview_core::fsutil::write_atomic;
 use dynview_interchange::colmap::{ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
 
-use crate::calibration::{KnownCameras, KnownIntrinsics};
+use crate::calibration::{KnownCameras, held_intrinsics};
 use crate::error::{SfmError, SfmResult};
 use crate::features::{FeatureOptions, Features};
 use crate::focal::{PRIOR_FOCAL_FACTOR, PairGeometry, estimate_focal_factor};
@@ -184,13 +184,7 @@ pub fn reconstruct_keyframes(
     let pooled = pool(keys, features, pairs, &pooled_cameras, match_options)?;
     let (intrinsics, mut focal_source) = initial_intrinsics(frames, &pooled.keys, &pooled.pairs, known, match_options);
     let group = intrinsics_groups(frames, known, mapper_options.share_intrinsics);
-    let group_count = group.iter().max().map_or(0, |g| g + 1);
-    let first_of_group = |g: usize| group.iter().position(|&x| x == g).unwrap_or(0);
-    let group_intrinsics: Vec<Intrinsics> = (0..group_count).map(|g| intrinsics[first_of_group(g)]).collect();
-    // Cameras of one group are all given alike or not at all (`intrinsics_groups`).
-    let group_held: Vec<HeldIntrinsics> = (0..group_count)
-        .map(|g| known.get(&frames.cameras[first_of_group(g)].name).map(KnownIntrinsics::held).unwrap_or_default())
-        .collect();
+    let (group_intrinsics, group_held) = per_group(frames, known, &group, &intrinsics);
     let images: Vec<MapImage> =
         pooled.keys.iter().zip(&pooled.features).map(|(k, f)| MapImage { camera: group[k.camera], xy: f.xy.clone() }).collect();
     let reconstruction = reconstruct(
@@ -279,7 +273,7 @@ pub fn intrinsics_notes(frames: &EventFrames, model: &KeyframeModel, known: &Kno
     (0..frames.cameras.len())
         .map(|c| {
             let g = group[c];
-            let held = known.get(&frames.cameras[c].name).map(KnownIntrinsics::held).unwrap_or_default();
+            let held = held_intrinsics(known, &frames.cameras[c].name);
             let focal = match focal_std[c].map(|fraction| 100.0 * fraction) {
                 _ if held.focal => "focal kept as given".to_string(),
                 _ if !options.refine_focal => "focal kept as estimated before bundle adjustment (as asked)".to_string(),
@@ -302,6 +296,20 @@ pub fn intrinsics_notes(frames: &EventFrames, model: &KeyframeModel, known: &Kno
             format!("{focal}, {principal}{shared}")
         })
         .collect()
+}
+
+/// Per intrinsics set (`group`, from [`intrinsics_groups`]): its intrinsics, taken from
+/// `per_camera` at the set's first camera, and what the user gave for it (the cameras of one set
+/// are all given alike or not at all).
+pub fn per_group(
+    frames: &EventFrames,
+    known: &KnownCameras,
+    group: &[usize],
+    per_camera: &[Intrinsics],
+) -> (Vec<Intrinsics>, Vec<HeldIntrinsics>) {
+    let sets = group.iter().max().map_or(0, |g| g + 1);
+    let first: Vec<usize> = (0..sets).map(|g| group.iter().position(|&x| x == g).unwrap_or(0)).collect();
+    (first.iter().map(|&c| per_camera[c]).collect(), first.iter().map(|&c| held_intrinsics(known, &frames.cameras[c].name)).collect())
 }
 
 /// Which intrinsics each camera uses: with `share`, cameras of equal image size without

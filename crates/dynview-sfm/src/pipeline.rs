@@ -23,7 +23,7 @@ use crate::incremental::MapperOptions;
 use crate::input::{EventFrames, decode_frames, discover, video_fps};
 use crate::keyframes::{
     Keyframe, KeyframeModel, PRIOR_FOCAL_SOURCE, focal_std_fractions, intrinsics_groups, intrinsics_notes, keyframe_features, keyframes,
-    match_all_pairs, reconstruct_keyframes, to_colmap, weak_focal_warnings, write_colmap_text,
+    match_all_pairs, per_group, reconstruct_keyframes, to_colmap, weak_focal_warnings, write_colmap_text,
 };
 use crate::matching::MatchOptions;
 use crate::refine::{CameraTrack, KeyframeView, RefineOptions, RefineReport, refine_camera};
@@ -456,13 +456,12 @@ fn adjust_steps<K: Serialize>(
         work.read_json(&format!("{STAGE}.json"))?
     } else {
         let group = intrinsics_groups(frames, known, options.mapper.share_intrinsics);
-        let first_of = |g: usize| group.iter().position(|&x| x == g).unwrap_or(0);
-        let sets = group.iter().max().map_or(0, |g| g + 1);
+        let (intrinsics, held) = per_group(frames, known, &group, &model.reconstruction.intrinsics);
         let cameras = StepCameras {
             frames,
             group: &group,
-            intrinsics: (0..sets).map(|g| model.reconstruction.intrinsics[first_of(g)]).collect(),
-            held: (0..sets).map(|g| known.get(&frames.cameras[first_of(g)].name).map(KnownIntrinsics::held).unwrap_or_default()).collect(),
+            intrinsics,
+            held,
             still: &model.still_cameras,
             principal_points_fixed: model.reconstruction.principal_point_refined,
         };
