@@ -25,13 +25,32 @@ pub struct FeatureOptions {
     /// OpenCV's SIFT contrast threshold (COLMAP's default peak threshold 0.02/3 equals 0.02
     /// here); lower finds more features in low-contrast video.
     pub contrast_threshold: f64,
+    /// Which revision of the extraction made the features ([`EXTRACTION_REVISION`] unless
+    /// set otherwise): part of every work-folder key that features feed, so a work folder
+    /// made by an earlier revision extracts again rather than mixing the two.
+    pub revision: u32,
 }
 
 impl Default for FeatureOptions {
     fn default() -> Self {
-        Self { max_features: 8192, max_image_size_px: 2000, contrast_threshold: 0.02 }
+        Self { max_features: 8192, max_image_size_px: 2000, contrast_threshold: 0.02, revision: EXTRACTION_REVISION }
     }
 }
+
+/// The revision of the extraction. 2: keypoints moved by [`OPENCV_SIFT_OFFSET_PX`] onto
+/// dynview's pixel convention (revision 1 reported them a quarter pixel right of and below
+/// where they are).
+pub const EXTRACTION_REVISION: u32 = 2;
+
+/// How far right and down of the true position OpenCV's SIFT reports a keypoint, in pixels of
+/// the image it was given. SIFT's first octave is the image doubled; OpenCV halves positions
+/// found there, but the doubled image's pixel centres sit at `2 x + 0.5`, so a position comes
+/// back a quarter pixel too far in both axes (OpenCV 4.8 added `enable_precise_upscale` for
+/// this; Debian 12 has 4.6). Measured on Gaussian blobs at known sub-pixel centres
+/// (`tests::keypoints_sit_on_the_blobs_they_find`): +0.250 px at sigma 1.5-4 px, +0.23 at 10.
+/// A constant shift, so it cost little where principal points were refined, but with a given
+/// or centred principal point it turned each camera by `0.25 / focal` radians.
+pub const OPENCV_SIFT_OFFSET_PX: f64 = 0.25;
 
 /// The features of one image: keypoint positions (pixels, centres at integers) and quantized
 /// RootSIFT descriptors.
@@ -142,8 +161,8 @@ pub fn extract_gray(gray: &Mat, options: &FeatureOptions) -> SfmResult<Features>
     let mut out = Features::default();
     for &i in &order {
         let k = keypoints.get(i).map_err(SfmError::cv("keypoint"))?;
-        // OpenCV's SIFT reports positions with pixel centres at integers, like dynview.
-        let (x, y) = (f64::from(k.pt().x), f64::from(k.pt().y));
+        // Pixel centres at integers, like dynview, once OpenCV's quarter pixel is taken off.
+        let (x, y) = (f64::from(k.pt().x) - OPENCV_SIFT_OFFSET_PX, f64::from(k.pt().y) - OPENCV_SIFT_OFFSET_PX);
         out.xy.push([((x + 0.5) * back - 0.5) as f32, ((y + 0.5) * back - 0.5) as f32]);
         let row = descriptors.at_row::<f32>(i as i32).map_err(SfmError::cv("descriptor row"))?;
         out.descriptors.extend(root_sift(row));
@@ -164,4 +183,78 @@ fn root_sift(descriptor: &[f32]) -> [u8; DESCRIPTOR_LEN] {
 /// Reads `path` and extracts its features.
 pub fn extract_file(path: &Path, options: &FeatureOptions) -> SfmResult<Features> {
     extract_gray(&read_gray(path)?, options)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A grey image of `width x height` with bright Gaussian blobs of `sigma_px` on a grid,
+    /// each at a sub-pixel centre (pixel centres at integers); returns it and the centres.
+    fn blobs(width: usize, height: usize, sigma_px: f64) -> (Mat, Vec<[f64; 2]>) {
+        let spacing = (8.0 * sigma_px).ceil() as usize + 8;
+        let mut centres = Vec::new();
+        let mut image = vec![60.0f64; width * height];
+        let (mut row, mut col) = (0usize, 0usize);
+        for cy in (spacing..height - spacing).step_by(spacing) {
+            row += 1;
+            for cx in (spacing..width - spacing).step_by(spacing) {
+                col += 1;
+                // Sub-pixel offsets spread over the pixel, repeatable.
+                let centre = [cx as f64 + ((col * 7) % 10) as f64 / 10.0 - 0.45, cy as f64 + ((row * 3 + col) % 10) as f64 / 10.0 - 0.45];
+                centres.push(centre);
+                let reach = (4.0 * sigma_px).ceil() as usize;
+                for y in cy - reach..=cy + reach {
+                    for x in cx - reach..=cx + reach {
+                        let r2 = (x as f64 - centre[0]).powi(2) + (y as f64 - centre[1]).powi(2);
+                        image[y * width + x] += 150.0 * (-r2 / (2.0 * sigma_px * sigma_px)).exp();
+                    }
+                }
+            }
+        }
+        let bytes: Vec<u8> = image.iter().map(|v| v.round().clamp(0.0, 255.0) as u8).collect();
+        let mat = Mat::new_rows_cols_with_data(height as i32, width as i32, &bytes).unwrap().try_clone().unwrap();
+        (mat, centres)
+    }
+
+    /// Mean offset (px) of the keypoints nearest to each centre, and how many centres have one
+    /// within half a pixel.
+    fn offsets(features: &Features, centres: &[[f64; 2]]) -> ([f64; 2], usize) {
+        let mut sum = [0.0; 2];
+        let mut found = 0;
+        for c in centres {
+            let nearest = features
+                .xy
+                .iter()
+                .map(|p| [f64::from(p[0]) - c[0], f64::from(p[1]) - c[1]])
+                .min_by(|a, b| (a[0].hypot(a[1])).total_cmp(&b[0].hypot(b[1])));
+            if let Some(d) = nearest.filter(|d| d[0].hypot(d[1]) < 0.5) {
+                sum = [sum[0] + d[0], sum[1] + d[1]];
+                found += 1;
+            }
+        }
+        ([sum[0] / found.max(1) as f64, sum[1] / found.max(1) as f64], found)
+    }
+
+    #[test]
+    fn keypoints_sit_on_the_blobs_they_find() {
+        for sigma_px in [1.5, 4.0] {
+            let (image, centres) = blobs(640, 480, sigma_px);
+            let features = extract_gray(&image, &FeatureOptions::default()).unwrap();
+            let (mean, found) = offsets(&features, &centres);
+            assert!(found * 10 >= centres.len() * 9, "sigma {sigma_px}: {found} of {} blobs found", centres.len());
+            // Uncorrected, OpenCV's positions are 0.25 px off in both axes.
+            assert!(mean[0].abs() < 0.03 && mean[1].abs() < 0.03, "sigma {sigma_px}: mean offset {mean:?} px");
+        }
+    }
+
+    #[test]
+    fn keypoints_of_a_downscaled_extraction_are_in_full_resolution_pixels() {
+        let (image, centres) = blobs(960, 720, 5.0);
+        let options = FeatureOptions { max_image_size_px: 480, ..FeatureOptions::default() };
+        let features = extract_gray(&image, &options).unwrap();
+        let (mean, found) = offsets(&features, &centres);
+        assert!(found * 10 >= centres.len() * 9, "{found} of {} blobs found", centres.len());
+        assert!(mean[0].abs() < 0.05 && mean[1].abs() < 0.05, "mean offset {mean:?} px");
+    }
 }
