@@ -64,8 +64,56 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", error_report(&err));
             std::process::ExitCode::FAILURE
         }
+    }
+}
+
+/// `err` and its causes joined by `: `, leaving out a cause whose text its error already
+/// ends with (library errors often show their source in their own message too).
+fn error_report(err: &anyhow::Error) -> String {
+    let mut report = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if report.ends_with(&text) {
+            continue;
+        }
+        if !report.is_empty() {
+            report.push_str(": ");
+        }
+        report.push_str(&text);
+    }
+    report
+}
+
+#[cfg(test)]
+mod tests {
+    use super::error_report;
+
+    /// An error that shows its source in its own message, as `#[error("...: {0}")]` with
+    /// `#[from]` does.
+    #[derive(Debug)]
+    struct Wrapping(std::io::Error);
+
+    impl std::fmt::Display for Wrapping {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "bundle adjustment: {}", self.0)
+        }
+    }
+
+    impl std::error::Error for Wrapping {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.0)
+        }
+    }
+
+    #[test]
+    fn an_error_report_names_each_cause_once() {
+        let inner = std::io::Error::other("the normal equations could not be factorised");
+        let err = anyhow::Error::new(Wrapping(inner)).context("dynview prep --input cams");
+        assert_eq!(error_report(&err), "dynview prep --input cams: bundle adjustment: the normal equations could not be factorised");
+        let plain = anyhow::anyhow!("outer").context("context");
+        assert_eq!(error_report(&plain), "context: outer");
     }
 }
