@@ -13,6 +13,10 @@ use crate::pnp::pnp_ransac;
 use crate::relative::{RelativePose, place_along, relative_pose};
 use crate::tracks::Tracks;
 
+mod focal_restart;
+
+pub use focal_restart::FocalRestart;
+
 /// How the keyframe reconstruction runs.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MapperOptions {
@@ -79,7 +83,11 @@ pub(crate) struct FinalSolve {
 /// solves with the principal points refined too, and keeps that solution only when every
 /// camera's principal point is fixed by the data to within its prior (`prior_px`, from
 /// [`PRINCIPAL_POINT_PRIOR_FRACTION`]): the estimate is then expected nearer the truth than
-/// where it started (the image centre). Otherwise it solves with them where they are.
+/// where it started (the image centre). Otherwise it solves with them where they are. Where
+/// the normal equations are singular beyond the gauge (some unknown the data do not fix at
+/// all), the trial's principal points count as not fixed (standard deviation infinite) and
+/// the kept solution's standard deviations as unknown (empty): the measure never fails a
+/// reconstruction that solved.
 pub(crate) fn solve_final(
     problem: &mut dynview_ba::Problem,
     options: dynview_ba::Options,
@@ -91,16 +99,34 @@ pub(crate) fn solve_final(
         let trial_options = dynview_ba::Options { refine_principal_point: true, ..options };
         let mut trial = problem.clone();
         let report = dynview_ba::solve(&mut trial, &trial_options)?;
-        let std = dynview_ba::intrinsics_std(&trial, &trial_options, report.final_rms_px)?;
-        principal_point_std_px = std.iter().map(|s| s.principal_point_px).collect();
-        if principal_point_std_px.iter().zip(prior_px).all(|(s, prior)| s.is_none_or(|s| s <= *prior)) {
-            *problem = trial;
-            return Ok(FinalSolve { report, std, principal_point_std_px, principal_point_refined: true });
+        match intrinsics_std_if_fixed(&trial, &trial_options, report.final_rms_px)? {
+            Some(std) => {
+                principal_point_std_px = std.iter().map(|s| s.principal_point_px).collect();
+                if principal_point_std_px.iter().zip(prior_px).all(|(s, prior)| s.is_none_or(|s| s <= *prior)) {
+                    *problem = trial;
+                    return Ok(FinalSolve { report, std, principal_point_std_px, principal_point_refined: true });
+                }
+            }
+            None => principal_point_std_px = vec![Some(f64::INFINITY); problem.cameras.len()],
         }
     }
     let report = dynview_ba::solve(problem, &options)?;
-    let std = dynview_ba::intrinsics_std(problem, &options, report.final_rms_px)?;
+    let std = intrinsics_std_if_fixed(problem, &options, report.final_rms_px)?.unwrap_or_default();
     Ok(FinalSolve { report, std, principal_point_std_px, principal_point_refined: false })
+}
+
+/// [`dynview_ba::intrinsics_std`], or `None` where the normal equations cannot be factorised
+/// (singular beyond the gauge: some unknown is not fixed by the data at all).
+fn intrinsics_std_if_fixed(
+    problem: &dynview_ba::Problem,
+    options: &dynview_ba::Options,
+    noise_px: f64,
+) -> SfmResult<Option<Vec<dynview_ba::IntrinsicsStd>>> {
+    match dynview_ba::intrinsics_std(problem, options, noise_px) {
+        Ok(std) => Ok(Some(std)),
+        Err(dynview_ba::BaError::Numerical { .. }) => Ok(None),
+        Err(other) => Err(other.into()),
+    }
 }
 
 /// Fewest of an image's 2D-3D correspondences that must agree on the translation's length
@@ -160,6 +186,10 @@ pub struct Reconstruction {
     /// for PnP), in order.
     #[serde(default)]
     pub placed_from_pair: Vec<usize>,
+    /// Focal lengths that had settled far from the other cameras' and fit the keyframes better
+    /// solved again from their median (`focal_restart`).
+    #[serde(default)]
+    pub focal_restarts: Vec<FocalRestart>,
 }
 
 impl Reconstruction {
@@ -214,6 +244,14 @@ struct Mapper<'a> {
     principal_prior_px: Vec<f64>,
     /// Images placed from a verified pair rather than by PnP, in order.
     placed_from_pair: Vec<usize>,
+    /// Focal lengths solved again from the other cameras' median and kept there.
+    focal_restarts: Vec<FocalRestart>,
+}
+
+/// Which map images and points a bundle adjustment problem's images and points are.
+struct ProblemIds {
+    images: Vec<usize>,
+    points: Vec<usize>,
 }
 
 /// The longer side of the image of a camera with intrinsics `k`, from its principal point (pixel
@@ -410,6 +448,35 @@ impl Mapper<'_> {
     /// Global bundle adjustment of every registered image and point, then outlier filtering.
     /// `last`: the final adjustment, which also refines what the options allow beyond focals.
     fn bundle_adjust(&mut self, refine_focal: bool, last: bool) -> SfmResult<()> {
+        let (mut problem, ids) = self.ba_problem();
+        let options = self.ba_options(refine_focal, last);
+        if last {
+            let solved = solve_final(&mut problem, options, self.options.refine_principal_point, &self.principal_prior_px)?;
+            self.principal_point_std_px = solved.principal_point_std_px;
+            self.principal_point_refined = solved.principal_point_refined;
+            self.focal_std_px = solved.std.iter().map(|s| s.focal_px).collect();
+        } else {
+            dynview_ba::solve(&mut problem, &options)?;
+        }
+        self.apply_solution(&problem, &ids);
+        Ok(())
+    }
+
+    /// The bundle adjustment options of [`Self::bundle_adjust`].
+    fn ba_options(&self, refine_focal: bool, last: bool) -> dynview_ba::Options {
+        dynview_ba::Options {
+            loss: dynview_ba::Loss::Cauchy { scale_px: self.options.loss_scale_px },
+            refine_focal: refine_focal && self.options.refine_focal,
+            refine_principal_point: false,
+            refine_distortion: last && self.options.refine_distortion,
+            max_iterations: 50,
+            ..Default::default()
+        }
+    }
+
+    /// Every registered image and point as a bundle adjustment problem, with the images' and
+    /// points' indices in the map of its images and points.
+    fn ba_problem(&self) -> (dynview_ba::Problem, ProblemIds) {
         let image_ids: Vec<usize> = (0..self.poses.len()).filter(|&i| self.poses[i].is_some()).collect();
         let mut slot = vec![usize::MAX; self.poses.len()];
         for (s, &i) in image_ids.iter().enumerate() {
@@ -439,27 +506,17 @@ impl Mapper<'_> {
                 problem.observations.push(dynview_ba::Observation { image: slot[i], point: s, pixel: self.observation(i, f).into() });
             }
         }
-        let options = dynview_ba::Options {
-            loss: dynview_ba::Loss::Cauchy { scale_px: self.options.loss_scale_px },
-            refine_focal: refine_focal && self.options.refine_focal,
-            refine_principal_point: false,
-            refine_distortion: last && self.options.refine_distortion,
-            max_iterations: 50,
-            ..Default::default()
-        };
-        if last {
-            let solved = solve_final(&mut problem, options, self.options.refine_principal_point, &self.principal_prior_px)?;
-            self.principal_point_std_px = solved.principal_point_std_px;
-            self.principal_point_refined = solved.principal_point_refined;
-            self.focal_std_px = solved.std.iter().map(|s| s.focal_px).collect();
-        } else {
-            dynview_ba::solve(&mut problem, &options)?;
-        }
-        for (s, &i) in image_ids.iter().enumerate() {
+        (problem, ProblemIds { images: image_ids, points: point_ids })
+    }
+
+    /// Takes the poses, points and intrinsics of a solved [`Self::ba_problem`], then drops the
+    /// outliers.
+    fn apply_solution(&mut self, problem: &dynview_ba::Problem, ids: &ProblemIds) {
+        for (s, &i) in ids.images.iter().enumerate() {
             let p = &problem.images[s];
             self.poses[i] = Some(Pose::from_angle_axis(p.angle_axis.into(), p.center_world.into()));
         }
-        for (s, &p) in point_ids.iter().enumerate() {
+        for (s, &p) in ids.points.iter().enumerate() {
             if let Some(point) = &mut self.points[p] {
                 point.xyz = problem.points_world[s].into();
             }
@@ -468,7 +525,6 @@ impl Mapper<'_> {
             self.intrinsics[c] = Intrinsics::from(*k);
         }
         self.filter_outliers();
-        Ok(())
     }
 
     /// Drops observations above the reprojection limit and points left with fewer than two.
@@ -648,6 +704,7 @@ pub fn reconstruct(
         principal_point_refined: false,
         principal_prior_px,
         placed_from_pair: Vec::new(),
+        focal_restarts: Vec::new(),
     };
     // Pairs of two physical cameras first (frames of one camera may have no baseline), then
     // the most matches; a pair is accepted only if enough points triangulate at a wide angle.
@@ -721,6 +778,7 @@ pub fn reconstruct(
     for t in 0..mapper.point_of_track.len() {
         mapper.triangulate_track(t);
     }
+    mapper.restart_outlying_focals()?;
     mapper.bundle_adjust(true, true)?;
     Ok(Reconstruction {
         intrinsics: mapper.intrinsics,
@@ -730,5 +788,6 @@ pub fn reconstruct(
         focal_std_px: mapper.focal_std_px,
         principal_point_refined: mapper.principal_point_refined,
         placed_from_pair: mapper.placed_from_pair,
+        focal_restarts: mapper.focal_restarts,
     })
 }

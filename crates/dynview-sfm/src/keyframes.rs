@@ -206,6 +206,15 @@ pub fn reconstruct_keyframes(
         e => e,
     })?;
     let mut reconstruction = unpool(&pooled, reconstruction);
+    for restart in &reconstruction.focal_restarts {
+        for (_, source) in focal_source.iter_mut().enumerate().filter(|(c, _)| group[*c] == restart.camera) {
+            source.push_str(&format!(
+                "; its focal length had settled at {:.1} px, {:+.0}% from the other cameras' median, and fits the keyframes better solved again from there",
+                restart.settled_px,
+                100.0 * (restart.settled_px / restart.restarted_px - 1.0)
+            ));
+        }
+    }
     reconstruction.intrinsics = group.iter().map(|&g| reconstruction.intrinsics[g]).collect();
     for (c, source) in focal_source.iter_mut().enumerate() {
         let sharing = group.iter().filter(|&&g| g == group[c]).count();
@@ -284,6 +293,9 @@ pub fn intrinsics_notes(frames: &EventFrames, model: &KeyframeModel, known: &Kno
                 _ if held.principal_point => "principal point kept as given".to_string(),
                 _ if !options.refine_principal_point => "principal point kept at the image centre (as asked)".to_string(),
                 (Some(s), _) if r.principal_point_refined => format!("principal point refined (known to {s:.2} px)"),
+                (Some(s), _) if s.is_infinite() => {
+                    "principal point kept at the image centre: the data do not fix it (the normal equations with it refined are singular)".to_string()
+                }
                 (Some(s), Some((w, worst_camera))) => format!(
                     "principal point kept at the image centre: the data fix it to {s:.2} px here and {w:.2} px at worst ({}), not better than principal points usually lie from the centre ({:.1}% of the longer side)",
                     frames.cameras[worst_camera].name,

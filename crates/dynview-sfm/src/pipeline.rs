@@ -491,6 +491,7 @@ fn adjust_steps<K: Serialize>(
         };
         let principal = match step_report.principal_point_std_px.get(c).copied().flatten() {
             Some(std) if step_report.principal_point_refined => format!("principal point refined (known to {std:.2} px)"),
+            Some(std) if std.is_infinite() => "principal point kept (not fixed by the data)".to_string(),
             Some(std) => format!("principal point kept (fixed only to {std:.2} px)"),
             None => "principal point kept".to_string(),
         };

@@ -320,6 +320,7 @@ mod tests {
             focal_std_px: vec![],
             principal_point_refined: false,
             placed_from_pair: vec![0],
+            focal_restarts: vec![],
         };
         let back = unpool(&pooled, r);
         assert_eq!(back.poses, vec![Some(pose), Some(pose)]);
