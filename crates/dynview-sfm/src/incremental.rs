@@ -187,7 +187,8 @@ pub struct Reconstruction {
     #[serde(default)]
     pub placed_from_pair: Vec<usize>,
     /// Focal lengths that had settled far from the other cameras' and fit the keyframes better
-    /// solved again from their median (`focal_restart`).
+    /// solved again from their median, ending more than 2% from where they had settled
+    /// (`focal_restart`).
     #[serde(default)]
     pub focal_restarts: Vec<FocalRestart>,
 }
@@ -244,7 +245,7 @@ struct Mapper<'a> {
     principal_prior_px: Vec<f64>,
     /// Images placed from a verified pair rather than by PnP, in order.
     placed_from_pair: Vec<usize>,
-    /// Focal lengths solved again from the other cameras' median and kept there.
+    /// Focal lengths solved again from the other cameras' median that moved (`focal_restart`).
     focal_restarts: Vec<FocalRestart>,
 }
 

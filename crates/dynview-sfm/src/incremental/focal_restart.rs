@@ -20,9 +20,10 @@ use crate::geometry::Intrinsics;
 /// -15% to +15% around their median, the synthetic arcs' by up to 33%), so this only chooses
 /// whom to try, and the cost decides; each try is a bundle adjustment of the whole model (at
 /// 10%, arc12x60's 36 keyframes took 14.2 s instead of 7.5 to come back to the same optimum).
-pub(super) const OUTLYING_FOCAL_FRACTION: f64 = 0.2;
+const OUTLYING_FOCAL_FRACTION: f64 = 0.2;
 
-/// A camera whose focal length was solved again from the others' median and kept there.
+/// A camera whose focal length, solved again from the others' median, fit better and ended
+/// more than 2% (`MOVED_FOCAL_FRACTION`) from where it had settled.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FocalRestart {
     /// The intrinsics set.
