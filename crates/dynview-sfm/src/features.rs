@@ -27,7 +27,9 @@ pub struct FeatureOptions {
     pub contrast_threshold: f64,
     /// Which revision of the extraction made the features ([`EXTRACTION_REVISION`] unless
     /// set otherwise): part of every work-folder key that features feed, so a work folder
-    /// made by an earlier revision extracts again rather than mixing the two.
+    /// made by an earlier revision extracts again rather than mixing the two. Settings saved
+    /// before it existed read as revision 1 (so `dynview merge` names them as different).
+    #[serde(default = "first_revision")]
     pub revision: u32,
 }
 
@@ -35,6 +37,11 @@ impl Default for FeatureOptions {
     fn default() -> Self {
         Self { max_features: 8192, max_image_size_px: 2000, contrast_threshold: 0.02, revision: EXTRACTION_REVISION }
     }
+}
+
+/// The revision of features saved before revisions were recorded.
+fn first_revision() -> u32 {
+    1
 }
 
 /// The revision of the extraction. 2: keypoints moved by [`OPENCV_SIFT_OFFSET_PX`] onto
@@ -234,6 +241,14 @@ mod tests {
             }
         }
         ([sum[0] / found.max(1) as f64, sum[1] / found.max(1) as f64], found)
+    }
+
+    #[test]
+    fn options_saved_before_revisions_read_as_the_first_revision() {
+        let old: FeatureOptions =
+            serde_json::from_str(r#"{"max_features":8192,"max_image_size_px":2000,"contrast_threshold":0.02}"#).unwrap();
+        assert_eq!(old.revision, 1);
+        assert_ne!(old, FeatureOptions::default());
     }
 
     #[test]
