@@ -85,6 +85,18 @@ pub struct Pose {
     pub center_world: Vector3<f64>,
 }
 
+impl From<Pose> for dynview_ba::ImagePose {
+    fn from(pose: Pose) -> Self {
+        Self { angle_axis: pose.angle_axis().into(), center_world: pose.center_world.into() }
+    }
+}
+
+impl From<dynview_ba::ImagePose> for Pose {
+    fn from(image: dynview_ba::ImagePose) -> Self {
+        Self::from_angle_axis(image.angle_axis.into(), image.center_world.into())
+    }
+}
+
 impl Pose {
     /// From OpenCV's `X_cam = R X_world + t`.
     pub fn from_rt(rotation: Matrix3<f64>, translation: Vector3<f64>) -> Self {

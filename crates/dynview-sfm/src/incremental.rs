@@ -261,6 +261,13 @@ pub(crate) fn longer_side_px(k: &Intrinsics) -> f64 {
     2.0 * k.cx_px.max(k.cy_px) + 1.0
 }
 
+/// The median of the intrinsics' focal lengths in longer sides of their images; `None` for none.
+fn median_focal_factor(intrinsics: impl Iterator<Item = Intrinsics>) -> Option<f64> {
+    let mut factors: Vec<f64> = intrinsics.map(|k| k.focal_px / longer_side_px(&k)).collect();
+    factors.sort_by(f64::total_cmp);
+    factors.get(factors.len() / 2).copied()
+}
+
 fn pixel(xy: [f32; 2]) -> Vector2<f64> {
     Vector2::new(f64::from(xy[0]), f64::from(xy[1]))
 }
@@ -375,9 +382,7 @@ impl Mapper<'_> {
     }
 
     fn register(&mut self, i: usize) -> SfmResult<bool> {
-        let correspondences = self.correspondences(i);
-        let object: Vector<Point3d> = correspondences.iter().map(|(x, _)| Point3d::new(x.x, x.y, x.z)).collect();
-        let image: Vector<Point2d> = correspondences.iter().map(|(_, p)| Point2d::new(p.x, p.y)).collect();
+        let (object, image) = self.pnp_correspondences(i);
         if object.len() < self.options.min_registration_inliers {
             return Ok(false);
         }
@@ -398,6 +403,15 @@ impl Mapper<'_> {
             }
         }
         Ok(false)
+    }
+
+    /// Image `i`'s 2D-3D correspondences as OpenCV's PnP takes them: world points, pixels.
+    fn pnp_correspondences(&self, i: usize) -> (Vector<Point3d>, Vector<Point2d>) {
+        let correspondences = self.correspondences(i);
+        (
+            correspondences.iter().map(|(x, _)| Point3d::new(x.x, x.y, x.z)).collect(),
+            correspondences.iter().map(|(_, p)| Point2d::new(p.x, p.y)).collect(),
+        )
     }
 
     /// The pose of an image under intrinsics `k` from its 2D-3D correspondences, by PnP and a
@@ -486,14 +500,7 @@ impl Mapper<'_> {
         let point_ids: Vec<usize> = (0..self.points.len()).filter(|&p| self.points[p].is_some()).collect();
         let mut problem = dynview_ba::Problem {
             cameras: self.intrinsics.iter().copied().map(dynview_ba::CameraIntrinsics::from).collect(),
-            images: image_ids
-                .iter()
-                .map(|&i| {
-                    let pose = self.poses[i].unwrap_or_else(|| unreachable!());
-                    let aa = pose.angle_axis();
-                    dynview_ba::ImagePose { angle_axis: [aa.x, aa.y, aa.z], center_world: pose.center_world.into() }
-                })
-                .collect(),
+            images: image_ids.iter().map(|&i| self.poses[i].unwrap_or_else(|| unreachable!()).into()).collect(),
             image_camera: image_ids.iter().map(|&i| self.images[i].camera).collect(),
             image_fixed: image_ids.iter().map(|&i| i == self.fixed_image).collect(),
             points_world: point_ids.iter().map(|&p| self.points[p].as_ref().map_or([0.0; 3], |q| q.xyz.into())).collect(),
@@ -514,8 +521,7 @@ impl Mapper<'_> {
     /// outliers.
     fn apply_solution(&mut self, problem: &dynview_ba::Problem, ids: &ProblemIds) {
         for (s, &i) in ids.images.iter().enumerate() {
-            let p = &problem.images[s];
-            self.poses[i] = Some(Pose::from_angle_axis(p.angle_axis.into(), p.center_world.into()));
+            self.poses[i] = Some(problem.images[s].into());
         }
         for (s, &p) in ids.points.iter().enumerate() {
             if let Some(point) = &mut self.points[p] {
@@ -623,13 +629,7 @@ impl Mapper<'_> {
 
     /// The median focal of the images placed so far, in longer sides of their camera's image.
     fn placed_focal_factor(&self) -> Option<f64> {
-        let mut factors: Vec<f64> = (0..self.images.len())
-            .filter(|&j| self.poses[j].is_some())
-            .map(|j| &self.intrinsics[self.images[j].camera])
-            .map(|k| k.focal_px / longer_side_px(k))
-            .collect();
-        factors.sort_by(f64::total_cmp);
-        factors.get(factors.len() / 2).copied()
+        median_focal_factor((0..self.images.len()).filter(|&j| self.poses[j].is_some()).map(|j| self.intrinsics[self.images[j].camera]))
     }
 
     fn next_image(&self, failed: &[bool]) -> Option<usize> {
@@ -647,10 +647,9 @@ impl Mapper<'_> {
 
 /// Refines one image's pose on fixed 3D points (robust loss).
 pub fn refine_pose(k: &Intrinsics, pose: Pose, correspondences: &[([f64; 3], [f64; 2])], loss_scale_px: f64) -> SfmResult<Pose> {
-    let aa = pose.angle_axis();
     let mut problem = dynview_ba::Problem {
         cameras: vec![dynview_ba::CameraIntrinsics::from(*k)],
-        images: vec![dynview_ba::ImagePose { angle_axis: aa.into(), center_world: pose.center_world.into() }],
+        images: vec![pose.into()],
         image_camera: vec![0],
         image_fixed: vec![false],
         points_world: correspondences.iter().map(|c| c.0).collect(),
@@ -669,7 +668,7 @@ pub fn refine_pose(k: &Intrinsics, pose: Pose, correspondences: &[([f64; 3], [f6
     };
     dynview_ba::solve(&mut problem, &options)?;
     let p = &problem.images[0];
-    Ok(Pose::from_angle_axis(p.angle_axis.into(), p.center_world.into()))
+    Ok((*p).into())
 }
 
 /// Reconstructs the keyframes `images` from verified `pairs` `(a, b, geometry)` with initial

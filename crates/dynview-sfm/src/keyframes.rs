@@ -207,7 +207,7 @@ pub fn reconstruct_keyframes(
     })?;
     let mut reconstruction = unpool(&pooled, reconstruction);
     for restart in &reconstruction.focal_restarts {
-        for (_, source) in focal_source.iter_mut().enumerate().filter(|(c, _)| group[*c] == restart.camera) {
+        for (source, _) in focal_source.iter_mut().zip(&group).filter(|(_, g)| **g == restart.camera) {
             source.push_str(&format!(
                 "; its focal length had settled at {:.1} px, {:+.0}% from the other cameras' median, and fits the keyframes better solved again from there",
                 restart.settled_px,

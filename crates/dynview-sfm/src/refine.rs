@@ -347,10 +347,7 @@ pub fn refine_camera(
         let slot = |p: u32| used_points.binary_search(&p).unwrap_or_else(|_| unreachable!());
         let mut problem = dynview_ba::Problem {
             cameras: vec![camera.intrinsics.into()],
-            images: poses
-                .iter()
-                .map(|p| dynview_ba::ImagePose { angle_axis: p.angle_axis().into(), center_world: p.center_world.into() })
-                .collect(),
+            images: poses.iter().map(|&p| p.into()).collect(),
             image_camera: vec![0; n],
             image_fixed: is_keyframe.clone(),
             points_world: used_points.iter().map(|&p| camera.points_world[p as usize].into()).collect(),
@@ -403,7 +400,7 @@ pub fn refine_camera(
         report.observations = problem.observations.len();
         report.rms_px = solved.final_rms_px;
         for (t, p) in problem.images.iter().enumerate() {
-            poses[t] = Pose::from_angle_axis(p.angle_axis.into(), p.center_world.into());
+            poses[t] = (*p).into();
         }
     }
     // A solve that exploded somewhere is not kept there: those frames are placed between their

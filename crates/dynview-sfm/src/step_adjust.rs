@@ -128,7 +128,7 @@ pub fn adjust_with_steps(
             }
             image_of[c][s] = problem.images.len();
             let p = poses[c][t];
-            problem.images.push(dynview_ba::ImagePose { angle_axis: p.angle_axis().into(), center_world: p.center_world.into() });
+            problem.images.push(p.into());
             problem.image_camera.push(cameras.group[c]);
             problem.image_fixed.push(false);
         }
@@ -176,7 +176,7 @@ pub fn adjust_with_steps(
             .enumerate()
             .map(|(s, &t)| {
                 let image = &problem.images[image_of[c][s]];
-                (t, Correction::between(&poses[c][t], &Pose::from_angle_axis(image.angle_axis.into(), image.center_world.into())))
+                (t, Correction::between(&poses[c][t], &Pose::from(*image)))
             })
             .collect();
         let line = CorrectionLine::fit(&corrections);

@@ -9,9 +9,7 @@
 //! other cameras, its images placed anew by PnP under it, and the solution whose cost is lower
 //! on the same observations is kept.
 
-use opencv::core::{Point2d, Point3d, Vector};
-
-use super::{Mapper, longer_side_px};
+use super::{Mapper, longer_side_px, median_focal_factor};
 use crate::error::SfmResult;
 use crate::geometry::Intrinsics;
 
@@ -69,12 +67,9 @@ impl Mapper<'_> {
                 if self.images[image].camera != camera {
                     continue;
                 }
-                let correspondences = self.correspondences(image);
-                let object: Vector<Point3d> = correspondences.iter().map(|(x, _)| Point3d::new(x.x, x.y, x.z)).collect();
-                let pixels: Vector<Point2d> = correspondences.iter().map(|(_, p)| Point2d::new(p.x, p.y)).collect();
+                let (object, pixels) = self.pnp_correspondences(image);
                 if let Some(pose) = self.pose_by_pnp(&k, &object, &pixels)? {
-                    let aa = pose.angle_axis();
-                    trial.images[slot] = dynview_ba::ImagePose { angle_axis: [aa.x, aa.y, aa.z], center_world: pose.center_world.into() };
+                    trial.images[slot] = pose.into();
                 }
             }
             let trial_cost = dynview_ba::solve(&mut trial, &options)?.final_cost;
@@ -103,10 +98,5 @@ impl Mapper<'_> {
 /// The median focal factor (focal / longer side) of the registered cameras other than
 /// `camera`; `None` when there are none.
 fn others_focal_factor(cameras: &[dynview_ba::CameraIntrinsics], registered: &[bool], camera: usize) -> Option<f64> {
-    let mut factors: Vec<f64> = (0..cameras.len())
-        .filter(|&c| c != camera && registered[c])
-        .map(|c| cameras[c].focal_px / longer_side_px(&Intrinsics::from(cameras[c])))
-        .collect();
-    factors.sort_by(f64::total_cmp);
-    factors.get(factors.len() / 2).copied()
+    median_focal_factor((0..cameras.len()).filter(|&c| c != camera && registered[c]).map(|c| cameras[c].into()))
 }
