@@ -68,6 +68,12 @@ pub struct Args {
     /// images.
     #[arg(long)]
     exact_matching: bool,
+    /// Cauchy loss scale of bundle adjustment, in pixels: observations much farther than this
+    /// from where their point projects weigh little. On sharp, lossless frames (keyframe RMS
+    /// error near 0.1 px) 0.25 gave better poses and intrinsics; on video frames it did not
+    /// (docs/results/sfm.md).
+    #[arg(long, value_name = "PX", default_value_t = PrepOptions::default().mapper.loss_scale_px, value_parser = parse_loss_scale)]
+    loss_scale: f64,
     /// Cameras of one image size share one set of intrinsics (one camera model filmed
     /// everything). By default every camera has its own: equal image sizes say nothing about
     /// equal lenses or zoom.
@@ -113,6 +119,13 @@ pub struct Args {
     /// Frames per second of the capture (default: the first video's, else 30).
     #[arg(long)]
     fps: Option<f64>,
+}
+
+fn parse_loss_scale(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(px) if px.is_finite() && (0.01..=100.0).contains(&px) => Ok(px),
+        _ => Err(format!("{text:?}: expected pixels between 0.01 and 100, e.g. 0.5")),
+    }
 }
 
 fn parse_range(text: &str) -> Result<Range<usize>, String> {
@@ -166,6 +179,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     options.mapper.refine_distortion = args.refine_distortion;
     options.mapper.refine_principal_point = !args.centred_principal_point;
     options.mapper.share_intrinsics = args.shared_intrinsics;
+    options.mapper.loss_scale_px = args.loss_scale;
     if args.exact_matching {
         options.matching.exact_max_comparisons = usize::MAX;
     }
@@ -275,4 +289,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     println!("total {:.1} s", started.elapsed().as_secs_f64());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_loss_scale;
+
+    #[test]
+    fn loss_scale_takes_positive_pixels_and_names_bad_values() {
+        assert_eq!(parse_loss_scale("0.25"), Ok(0.25));
+        assert_eq!(parse_loss_scale(" 1 "), Ok(1.0));
+        for bad in ["0", "-0.5", "NaN", "inf", "1e9", "quarter"] {
+            let error = parse_loss_scale(bad).expect_err(bad);
+            assert!(error.contains(bad), "{error}");
+        }
+    }
 }
