@@ -151,7 +151,8 @@ pub const PRINCIPAL_POINT_PRIOR_FRACTION: f64 = 0.015;
 /// medians go from 0.235 / 0.096 / 0.134 to 0.084 / 0.032 / 0.027 degrees, Panoptic's from
 /// 0.490 to 0.450. Not the default: from arc8x90's videos (keyframe RMS 0.30 px) the whole prep
 /// then has focal lengths up to 1.2% and principal points 11 px off, and the held-out camera
-/// renders 2.5 dB below the true poses' package instead of 0.4 (`docs/results/sfm.md`).
+/// renders 2.5 dB below the true poses' package instead of 0.4 (arc5x40 and arc12x60 improve
+/// end to end: -0.63 and -0.01 dB against -0.77 and -0.18; `docs/results/sfm.md`).
 pub const DEFAULT_LOSS_SCALE_PX: f64 = 1.0;
 
 /// A keyframe to reconstruct.
