@@ -70,8 +70,8 @@ pub struct Args {
     exact_matching: bool,
     /// Cauchy loss scale of bundle adjustment, in pixels: observations much farther than this
     /// from where their point projects weigh little. On sharp, lossless frames (keyframe RMS
-    /// error near 0.1 px) 0.25 gave better poses and intrinsics; on video frames it did not
-    /// (docs/results/sfm.md).
+    /// error near 0.1 px) 0.25 gave better poses and intrinsics; from videos it helped two of
+    /// three synthetic arcs and cost the third 2.5 dB (docs/results/sfm.md).
     #[arg(long, value_name = "PX", default_value_t = PrepOptions::default().mapper.loss_scale_px, value_parser = parse_loss_scale)]
     loss_scale: f64,
     /// Cameras of one image size share one set of intrinsics (one camera model filmed
