@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Packs what the GPU benchmark needs on the lent device machine (no Rust there): a stripped
+# release `dynview-eval` in `.device/` and the Vulkan loader's Debian packages in `.gl/`, both
+# ignored by git (`.git/info/exclude`) and carried by the device call. Run from anywhere:
+#   tools/device/pack.sh
+# then on the device, in one call (carry [".device", ".gl"], timeout_s 540):
+#   bash tools/device/gpu-bench.sh
+set -euo pipefail
+root="$(cd "$(dirname "$0")/../.." && pwd)"
+cd "$root"
+mkdir -p "$(git rev-parse --git-dir)/info"
+exclude="$(git rev-parse --git-dir)/info/exclude"
+for path in /.device/ /.gl/; do
+    grep -qxF "$path" "$exclude" 2>/dev/null || echo "$path" >>"$exclude"
+done
+
+echo "building dynview-eval (release)"
+cargo build --release -p dynview-eval
+mkdir -p .device
+strip -o .device/dynview-eval target/release/dynview-eval
+echo "packed .device/dynview-eval ($(du -h .device/dynview-eval | cut -f1))"
+
+if ! ls .gl/libvulkan1_*.deb >/dev/null 2>&1; then
+    echo "downloading the Vulkan loader (amd64) into .gl/"
+    mkdir -p .gl /tmp/dynview-amd64/partial
+    apt_options=(-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/dynview-amd64)
+    apt-get "${apt_options[@]}" update -qq
+    (cd .gl && apt-get "${apt_options[@]}" download libvulkan1)
+fi
+echo "packed .gl/ ($(du -sh .gl | cut -f1)): carry [\".device\", \".gl\"] and run: bash tools/device/gpu-bench.sh"
