@@ -32,7 +32,10 @@ pub struct MapperOptions {
     /// this (degrees); otherwise the pair with the widest median angle among the candidates.
     pub init_min_median_angle_deg: f64,
     /// Cauchy loss scale (px) of bundle adjustment and pose refinement: observations much
-    /// farther than this from their projection weigh little ([`DEFAULT_LOSS_SCALE_PX`]).
+    /// farther than this from their projection weigh little. Default
+    /// [`dynview_ba::DEFAULT_LOSS_SCALE_PX`] (1 px, COLMAP's): 0.25 px gives better keyframe
+    /// models on sharp, lossless frames, but not from videos across events
+    /// (`docs/results/sfm.md`, "The robust loss at a quarter pixel").
     pub loss_scale_px: f64,
     /// Cameras with the same image size share one set of intrinsics (one camera model filmed
     /// everything). Off by default: cameras at an event are different phones and zooms, and
@@ -58,7 +61,7 @@ impl Default for MapperOptions {
             min_registration_inliers: 20,
             min_initial_points: 50,
             init_min_median_angle_deg: 10.0,
-            loss_scale_px: DEFAULT_LOSS_SCALE_PX,
+            loss_scale_px: dynview_ba::DEFAULT_LOSS_SCALE_PX,
             share_intrinsics: false,
             refine_focal: true,
             refine_principal_point: true,
@@ -144,16 +147,6 @@ const MIN_PAIR_SCALE_INLIERS: usize = 5;
 /// the truth than the centre is. An arc of cameras hardly tells a principal point from a
 /// common turn of its images; a ring, or images at different rolls, does.
 pub const PRINCIPAL_POINT_PRIOR_FRACTION: f64 = 0.015;
-
-/// Default Cauchy loss scale of the keyframe reconstruction and the time-step adjustment (px),
-/// as COLMAP's robust adjustment. Smaller scales weigh the few percent of observations 0.5-2 px
-/// off (matches on occlusion edges and the like) less: at 0.25 px the arcs' keyframe rotation
-/// medians go from 0.235 / 0.096 / 0.134 to 0.084 / 0.032 / 0.027 degrees, Panoptic's from
-/// 0.490 to 0.450. Not the default: from arc8x90's videos (keyframe RMS 0.30 px) the whole prep
-/// then has focal lengths up to 1.2% and principal points 11 px off, and the held-out camera
-/// renders 2.5 dB below the true poses' package instead of 0.4 (arc5x40 and arc12x60 improve
-/// end to end: -0.63 and -0.01 dB against -0.77 and -0.18; `docs/results/sfm.md`).
-pub const DEFAULT_LOSS_SCALE_PX: f64 = 1.0;
 
 /// A keyframe to reconstruct.
 #[derive(Clone, Debug)]

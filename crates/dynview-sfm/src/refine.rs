@@ -37,7 +37,7 @@ pub struct RefineOptions {
 
 impl Default for RefineOptions {
     fn default() -> Self {
-        Self { smoothness: 0.001, window: 3, sigma_frames: 1.5, max_reprojection_px: 4.0, loss_scale_px: 1.0 }
+        Self { smoothness: 0.001, window: 3, sigma_frames: 1.5, max_reprojection_px: 4.0, loss_scale_px: dynview_ba::DEFAULT_LOSS_SCALE_PX }
     }
 }
 
