@@ -11,30 +11,17 @@ import sys
 
 import numpy as np
 
-
-def quaternion_matrix(w, x, y, z):
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+from colmap_text import read_cameras, read_images
 
 
 def main():
     truth_dir, poses_path = sys.argv[1], sys.argv[2]
-    cameras, rotations, camera_of = {}, {}, {}
-    for line in open(f"{truth_dir}/cameras.txt"):
-        if not line.startswith("#") and line.strip():
-            f = line.split()
-            cameras[f[0]] = [float(v) for v in f[4:8]]
-    for line in open(f"{truth_dir}/images.txt"):
-        f = line.split()
-        if len(f) >= 10 and f[0].isdigit():
-            camera, file = f[9].split("/")
-            rotations[(camera, file.split(".")[0])] = quaternion_matrix(*map(float, f[1:5]))
-            camera_of[camera] = f[8]
+    cameras = read_cameras(truth_dir)
+    rotations, camera_of = {}, {}
+    for image in read_images(truth_dir, False).values():
+        camera, file = image["name"].split("/")
+        rotations[(camera, file.split(".")[0])] = image["R"]
+        camera_of[camera] = image["camera"]
     estimate = json.load(open(poses_path))
     pairs = []
     for camera in estimate["cameras"]:
@@ -47,7 +34,7 @@ def main():
     errors = [np.degrees(np.arccos(np.clip((np.trace(e @ align @ t.T) - 1) / 2, -1, 1))) for e, t in pairs]
     print(f"{len(errors)} frames: rotation error median {np.median(errors):.3f} deg, max {np.max(errors):.3f}")
     for camera in estimate["cameras"]:
-        fx, _, cx, cy = cameras[camera_of[camera["name"]]]
+        fx, cx, cy = cameras[camera_of[camera["name"]]]
         k = camera["intrinsics"]
         # COLMAP's pixel centres are at +0.5, dynview's at 0.
         print(f"  {camera['name']}: focal {100 * (k['fx'] / fx - 1):+.2f}%, principal point {k['cx'] - (cx - 0.5):+.1f}, {k['cy'] - (cy - 0.5):+.1f} px from the truth")

@@ -23,36 +23,7 @@ from scipy.sparse import lil_matrix
 from scipy.sparse.linalg import splu
 from scipy.spatial.transform import Rotation
 
-
-def quaternion_matrix(w, x, y, z):
-    return Rotation.from_quat([x, y, z, w]).as_matrix()
-
-
-def read_cameras(folder):
-    """camera id -> (focal, cx, cy), COLMAP's pixel convention."""
-    cameras = {}
-    for line in open(f"{folder}/cameras.txt"):
-        if line.startswith("#") or not line.strip():
-            continue
-        f = line.split()
-        v = list(map(float, f[4:]))
-        cameras[f[0]] = (v[0], v[1], v[2]) if f[1] in ("SIMPLE_PINHOLE", "SIMPLE_RADIAL", "RADIAL") else (v[0], v[2], v[3])
-    return cameras
-
-
-def read_images(folder, with_points):
-    """image id -> dict(name, R, t, camera, points: (N, 3) x, y, point id)."""
-    lines = [l for l in open(f"{folder}/images.txt") if not l.startswith("#")]
-    images, i = {}, 0
-    while i < len(lines):
-        f = lines[i].split()
-        if len(f) >= 10 and f[0].isdigit():
-            points = np.array(list(map(float, lines[i + 1].split()))).reshape(-1, 3) if with_points else None
-            images[f[0]] = dict(name=f[9], R=quaternion_matrix(*map(float, f[1:5])), t=np.array(list(map(float, f[5:8]))), camera=f[8], points=points)
-            i += 2
-        else:
-            i += 1
-    return images
+from colmap_text import read_cameras, read_images
 
 
 def projection(k, R, t):
