@@ -20,45 +20,38 @@
 //! cached, so a streaming frame creates none ([`GpuContext::counters`]). [`FrameDisplay`] draws a frame into
 //! a canvas (or any texture) straight from those buffers. [`GpuContext::start_profile`] times
 //! every compute pass with timestamp queries, summed per level and stage ([`StageTime`]).
+//!
+//! The source is in three layers, each importing only from those below it: `device/` (the
+//! context, recording, kernels, read-back, profiling, images and the composed WGSL), `passes/`
+//! (the compute passes, which use the device layer and each other without circles) and
+//! `render/` (the frame loop, streaming and the display, on top of both).
 
-mod assemble;
-mod blend;
-mod consistency;
-mod context;
-mod display;
-mod image;
-mod kernel;
-mod profile;
-mod rank;
-mod readback;
-mod recorder;
-mod renderer;
-mod shaders;
-mod solver;
-mod splat;
-mod streaming;
-mod temporal;
-mod views;
-mod warp;
+mod device;
+#[cfg(test)]
+mod layout_tests;
+mod passes;
+mod render;
 
-pub use assemble::{AssembleKernels, GpuSystem};
-pub use blend::{BlendKernel, MAX_VIEWS};
-pub use consistency::ConsistencyKernels;
-pub use context::{FrameGuard, GpuContext, GpuError};
-pub use display::FrameDisplay;
-pub use image::{GpuImage, ImageKernels};
-pub use profile::StageTime;
-pub use rank::RankKernels;
-pub use readback::{read_bytes, read_floats};
-pub use recorder::GpuCounters;
-pub use renderer::{GpuFrame, GpuInputs, GpuRenderer};
-pub use shaders::SHADERS;
-pub use solver::{GridSolver, SweepKernel};
-pub use splat::{GpuCloud, GpuSplat, SplatKernels};
-pub use streaming::{GpuStreamingRenderer, StreamRequest};
-pub use temporal::TemporalKernels;
-pub use views::{ViewChunks, ViewStack};
-pub use warp::{GpuWarps, WarpKernels};
+pub use device::context::{FrameGuard, GpuContext};
+pub use device::error::GpuError;
+pub use device::image::GpuImage;
+pub use device::readback::{read_bytes, read_floats};
+pub use device::recorder::GpuCounters;
+pub use device::shaders::SHADERS;
+pub use device::timestamps::StageTime;
+pub use passes::assemble::{AssembleKernels, GpuSystem};
+pub use passes::blend::{BlendKernel, MAX_VIEWS};
+pub use passes::consistency::ConsistencyKernels;
+pub use passes::pyramid::ImageKernels;
+pub use passes::rank::RankKernels;
+pub use passes::solver::{GridSolver, SweepKernel};
+pub use passes::splat::{GpuCloud, GpuSplat, SplatKernels};
+pub use passes::temporal::TemporalKernels;
+pub use passes::views::{ViewChunks, ViewStack};
+pub use passes::warp::{GpuWarps, WarpKernels};
+pub use render::display::FrameDisplay;
+pub use render::renderer::{GpuFrame, GpuInputs, GpuRenderer};
+pub use render::streaming::{GpuStreamingRenderer, StreamRequest};
 
 /// wgpu, as this crate uses it (for targets to draw into).
 pub use wgpu;

@@ -1,11 +1,12 @@
 //! The sparse consistency filter on the GPU (`shaders/consistency.wgsl`), as dynview-core's
 //! `SplatMaps::drop_inconsistent`.
 
-use crate::context::{GpuContext, GpuError};
-use crate::image::GpuImage;
-use crate::kernel::Kernel;
-use crate::shaders;
-use crate::splat::GpuSplat;
+use crate::device::context::GpuContext;
+use crate::device::error::GpuError;
+use crate::device::image::GpuImage;
+use crate::device::kernel::Kernel;
+use crate::device::shaders;
+use crate::passes::splat::GpuSplat;
 
 /// `consistency.wgsl`'s uniform block.
 #[repr(C)]
@@ -29,13 +30,13 @@ pub struct ConsistencyKernels {
 impl ConsistencyKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
-        let module = shaders::module(ctx, shaders::CONSISTENCY);
+        let module = shaders::module(&ctx.device, shaders::CONSISTENCY);
         let bindings = [false, false, false, false];
         Self {
-            count: Kernel::new(ctx, &module, "count", &bindings, 8),
-            isolated: Kernel::new(ctx, &module, "isolated", &bindings, 8),
-            occluded: Kernel::new(ctx, &module, "occluded", &bindings, 8),
-            apply: Kernel::new(ctx, &module, "apply", &bindings, 8),
+            count: Kernel::new(&ctx.device, &module, "count", &bindings, 8),
+            isolated: Kernel::new(&ctx.device, &module, "isolated", &bindings, 8),
+            occluded: Kernel::new(&ctx.device, &module, "occluded", &bindings, 8),
+            apply: Kernel::new(&ctx.device, &module, "apply", &bindings, 8),
         }
     }
 
@@ -59,9 +60,9 @@ impl ConsistencyKernels {
     }
 }
 
-/// The uniform block's mirror, checked against the WGSL (`shaders/layout_tests.rs`).
+/// The uniform block's mirror, checked against the WGSL (`src/layout_tests.rs`).
 #[cfg(test)]
-pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
-    use crate::shaders::layout_tests::mirror;
+pub(crate) fn wgsl_mirrors() -> Vec<crate::device::shader_layout::Mirror> {
+    use crate::device::shader_layout::mirror;
     vec![mirror!(shaders::CONSISTENCY, "Params", ConsistencyParams { width, height, ratio, _pad })]
 }

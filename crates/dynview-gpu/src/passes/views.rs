@@ -6,8 +6,9 @@
 
 use std::ops::Range;
 
-use crate::context::{GpuContext, GpuError};
-use crate::image::GpuImage;
+use crate::device::context::GpuContext;
+use crate::device::error::GpuError;
+use crate::device::image::GpuImage;
 
 /// Chunk flag (`common/chunk.wgsl`): the first chunk of the views; sums start from zero.
 pub(crate) const FIRST_CHUNK: u32 = 1;

@@ -1,12 +1,13 @@
 //! The color initial guess on the GPU (`shaders/blend.wgsl`), as dynview-core's
 //! `LevelViews::blend`: the visible warps blended with per-view weights.
 
-use crate::context::{GpuContext, GpuError};
-use crate::image::GpuImage;
-use crate::kernel::Kernel;
-use crate::shaders;
-use crate::views::{partial_binding, partial_sums};
-use crate::warp::GpuWarps;
+use crate::device::context::GpuContext;
+use crate::device::error::GpuError;
+use crate::device::image::GpuImage;
+use crate::device::kernel::Kernel;
+use crate::device::shaders;
+use crate::passes::views::{partial_binding, partial_sums};
+use crate::passes::warp::GpuWarps;
 
 /// Most views the blend takes (its uniform block holds 8 weights).
 pub const MAX_VIEWS: usize = 8;
@@ -31,8 +32,8 @@ pub struct BlendKernel {
 impl BlendKernel {
     /// Compiles the kernel on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
-        let module = shaders::module(ctx, shaders::BLEND);
-        Self { blend: Kernel::new(ctx, &module, "blend", &[true, true, true, false, false], 8) }
+        let module = shaders::module(&ctx.device, shaders::BLEND);
+        Self { blend: Kernel::new(&ctx.device, &module, "blend", &[true, true, true, false, false], 8) }
     }
 
     /// The visibility-tested blend of the warps weighted by `view_weights` (one per view, as
@@ -66,9 +67,9 @@ impl BlendKernel {
     }
 }
 
-/// The uniform block's mirror, checked against the WGSL (`shaders/layout_tests.rs`).
+/// The uniform block's mirror, checked against the WGSL (`src/layout_tests.rs`).
 #[cfg(test)]
-pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
-    use crate::shaders::layout_tests::mirror;
+pub(crate) fn wgsl_mirrors() -> Vec<crate::device::shader_layout::Mirror> {
+    use crate::device::shader_layout::mirror;
     vec![mirror!(shaders::BLEND, "Params", BlendParams { width, height, views, chunk, view_weights })]
 }

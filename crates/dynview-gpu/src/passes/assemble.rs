@@ -4,12 +4,13 @@
 use dynview_core::render::RenderParams;
 use dynview_core::render::plane::{PixelPlane, support_radius_px};
 
-use crate::context::{GpuContext, GpuError};
-use crate::image::GpuImage;
-use crate::kernel::Kernel;
-use crate::shaders;
-use crate::views::{FIRST_CHUNK, LAST_CHUNK, ViewStack};
-use crate::warp::GpuWarps;
+use crate::device::context::GpuContext;
+use crate::device::error::GpuError;
+use crate::device::image::GpuImage;
+use crate::device::kernel::Kernel;
+use crate::device::shaders;
+use crate::passes::views::{FIRST_CHUNK, LAST_CHUNK, ViewStack};
+use crate::passes::warp::GpuWarps;
 
 /// A grid system on the GPU, as dynview-core's `GridSystem`: couplings to the right and down
 /// neighbours, `1 / diag`, and the right-hand side (`channels` per pixel).
@@ -95,10 +96,11 @@ fn check(image: &GpuImage, what: &str, width: usize, height: usize, channels: us
 impl AssembleKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
+        let device = &ctx.device;
         // Read-only inputs, then the outputs.
         let kernel = |shader: shaders::Shader, entry, inputs: usize, outputs: usize| {
             let bindings: Vec<bool> = (0..inputs + outputs).map(|i| i < inputs).collect();
-            Kernel::new(ctx, &shaders::module(ctx, shader), entry, &bindings, 8)
+            Kernel::new(device, &shaders::module(device, shader), entry, &bindings, 8)
         };
         Self {
             projection_weights: kernel(shaders::PROJECTION_WEIGHTS, "projection_weights", 4, 1),
@@ -106,7 +108,7 @@ impl AssembleKernels {
             depth_system: kernel(shaders::DEPTH_SYSTEM, "depth_system", 4, 4),
             support_rows: kernel(shaders::PLANE_SUPPORT, "support_rows", 1, 1),
             // Row sums in, prior out, temporal terms in.
-            plane_prior: Kernel::new(ctx, &shaders::module(ctx, shaders::PLANE_SUPPORT), "plane_prior", &[true, false, true], 8),
+            plane_prior: Kernel::new(device, &shaders::module(device, shaders::PLANE_SUPPORT), "plane_prior", &[true, false, true], 8),
             color_system: kernel(shaders::COLOR_SYSTEM, "color_system", 3, 4),
             view_weight: kernel(shaders::VIEW_WEIGHT, "view_weight", 1, 1),
         }
@@ -296,10 +298,10 @@ impl AssembleKernels {
 }
 
 /// The uniform block's mirror in each shader, checked against the WGSL
-/// (`shaders/layout_tests.rs`).
+/// (`src/layout_tests.rs`).
 #[cfg(test)]
-pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
-    use crate::shaders::layout_tests::mirror;
+pub(crate) fn wgsl_mirrors() -> Vec<crate::device::shader_layout::Mirror> {
+    use crate::device::shader_layout::mirror;
     [shaders::PROJECTION_WEIGHTS, shaders::DEPTH_WEIGHTS, shaders::DEPTH_SYSTEM, shaders::COLOR_SYSTEM, shaders::VIEW_WEIGHT]
         .into_iter()
         .map(|shader| {

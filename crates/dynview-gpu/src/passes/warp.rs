@@ -4,11 +4,12 @@
 use dynview_core::camera::Camera;
 use dynview_core::render::transfer::PixelTransfer;
 
-use crate::context::{GpuContext, GpuError};
-use crate::image::GpuImage;
-use crate::kernel::Kernel;
-use crate::shaders;
-use crate::views::{ViewChunks, ViewStack};
+use crate::device::context::GpuContext;
+use crate::device::error::GpuError;
+use crate::device::image::GpuImage;
+use crate::device::kernel::Kernel;
+use crate::device::shaders;
+use crate::passes::views::{ViewChunks, ViewStack};
 
 /// The chosen input views warped into the novel view, each stacked view after view in the
 /// buffers of one split.
@@ -58,12 +59,12 @@ pub struct WarpKernels {
 impl WarpKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
-        let module = shaders::module(ctx, shaders::WARP);
+        let module = shaders::module(&ctx.device, shaders::WARP);
         let bindings = [true, true, false, false, false, false, false, false];
         Self {
-            clear_zbuf: Kernel::new(ctx, &module, "clear_zbuf", &bindings, 64),
-            warp: Kernel::new(ctx, &module, "warp", &bindings, 8),
-            visible: Kernel::new(ctx, &module, "visible", &bindings, 8),
+            clear_zbuf: Kernel::new(&ctx.device, &module, "clear_zbuf", &bindings, 64),
+            warp: Kernel::new(&ctx.device, &module, "warp", &bindings, 8),
+            visible: Kernel::new(&ctx.device, &module, "visible", &bindings, 8),
         }
     }
 
@@ -141,10 +142,10 @@ impl WarpKernels {
     }
 }
 
-/// The uniform block's mirror, checked against the WGSL (`shaders/layout_tests.rs`).
+/// The uniform block's mirror, checked against the WGSL (`src/layout_tests.rs`).
 #[cfg(test)]
-pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
-    use crate::shaders::layout_tests::mirror;
+pub(crate) fn wgsl_mirrors() -> Vec<crate::device::shader_layout::Mirror> {
+    use crate::device::shader_layout::mirror;
     vec![mirror!(
         shaders::WARP,
         "Params",

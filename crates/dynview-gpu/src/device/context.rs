@@ -1,45 +1,15 @@
-//! Adapter and device acquisition, and recording work on the device.
+//! The GPU context: adapter and device acquisition, the buffer pool, and recording work on the
+//! device through its [`Recorder`] (frames, dispatches, commands, queue writes, waiting).
+//! Profiling is in `profile.rs`, reading back in `readback.rs`, both on top of this.
 
 use std::sync::{Mutex, MutexGuard, PoisonError};
 
-use crate::kernel::Kernel;
-use crate::recorder::{DispatchTarget, GpuCounters, Recorder};
-
-/// Errors of the GPU path.
-#[derive(Debug, thiserror::Error)]
-pub enum GpuError {
-    /// No adapter (no GPU driver, no lavapipe, no WebGPU).
-    #[error("no GPU adapter: {0} (natively, install a Vulkan driver; on Debian `mesa-vulkan-drivers` provides lavapipe)")]
-    NoAdapter(String),
-    /// The adapter refused a device.
-    #[error("the GPU adapter refused a device: {0}")]
-    NoDevice(String),
-    /// A read-back failed (device lost, timeout).
-    #[error("reading GPU results back failed: {0}")]
-    ReadBack(String),
-    /// The inputs do not fit (sizes disagree, or beyond the device's limits).
-    #[error("{0}")]
-    Size(String),
-    /// A parameter or input is invalid for the GPU path (out of range, unsupported, or
-    /// missing), whatever the sizes.
-    #[error("invalid {field}: {reason}")]
-    InvalidParams {
-        /// The parameter or input, by name (a `RenderParams` field where it is one).
-        field: &'static str,
-        /// What is wrong with it.
-        reason: String,
-    },
-}
-
-/// Storage buffers no longer in use, by size in bytes: images of the sizes a frame needs are
-/// allocated once and reused by every later frame of the same resolution. Each size's idle
-/// buffers are ordered (by wgpu's identity) and the first is taken: which buffer a frame gets
-/// depends on which are idle, not on the order they came back, so frames that begin with the
-/// same idle buffers use the same buffers in the same roles, and their bind groups are reused.
-pub(crate) type BufferPool = std::sync::Arc<std::sync::Mutex<std::collections::HashMap<u64, std::collections::BTreeSet<wgpu::Buffer>>>>;
-
-/// Most idle buffers kept per size.
-pub(crate) const POOL_BUFFERS_PER_SIZE: usize = 64;
+use crate::device::error::GpuError;
+use crate::device::kernel::{Kernel, LINEAR_WORKGROUP};
+use crate::device::pool::BufferPool;
+use crate::device::recorder::{DispatchTarget, GpuCounters, Recorder};
+use crate::device::shaders;
+use crate::device::signal::Signal;
 
 /// A device and its queue, with what the adapter is.
 #[derive(Debug)]
@@ -135,9 +105,8 @@ impl GpuContext {
 
     /// The zero-fill kernel.
     pub(crate) fn zero_kernel(&self) -> &Kernel {
-        self.zero.get_or_init(|| {
-            Kernel::new(self, &crate::shaders::module(self, crate::shaders::ZERO), "zero", &[false], crate::kernel::LINEAR_WORKGROUP)
-        })
+        self.zero
+            .get_or_init(|| Kernel::new(&self.device, &shaders::module(&self.device, shaders::ZERO), "zero", &[false], LINEAR_WORKGROUP))
     }
 
     /// A 16-byte storage buffer for a binding the dispatch does not use (a kernel's partial
@@ -153,7 +122,8 @@ impl GpuContext {
         })
     }
 
-    fn recorder(&self) -> MutexGuard<'_, Recorder> {
+    /// The recorder, locked (a poisoned lock is taken over: the recorder stays consistent).
+    pub(super) fn recorder(&self) -> MutexGuard<'_, Recorder> {
         self.recorder.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
@@ -224,38 +194,6 @@ impl GpuContext {
         self.queue.write_buffer(buffer, offset, data);
     }
 
-    /// Starts timing every compute pass (timestamp queries) until [`Self::finish_profile`];
-    /// false when the device has no timestamp queries. While profiling, every dispatch call
-    /// gets its own pass.
-    pub fn start_profile(&self) -> bool {
-        if !self.device.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
-            return false;
-        }
-        let mut recorder = self.recorder();
-        recorder.end_pass();
-        recorder.profiler = Some(crate::profile::Profiler::new());
-        true
-    }
-
-    /// Stops timing and returns GPU milliseconds per level and stage since
-    /// [`Self::start_profile`] (empty when it was not started). Blocks until the GPU is done.
-    #[cfg(not(target_family = "wasm"))]
-    pub fn finish_profile(&self) -> Result<Vec<crate::profile::StageTime>, GpuError> {
-        let profiler = {
-            let mut recorder = self.recorder();
-            recorder.flush();
-            recorder.profiler.take()
-        };
-        profiler.map_or(Ok(Vec::new()), |p| p.finish(self))
-    }
-
-    /// Labels the compute passes that follow (while profiling).
-    pub(crate) fn set_stage(&self, level: usize, stage: &'static str) {
-        if let Some(p) = self.recorder().profiler.as_mut() {
-            p.set_stage(level, stage);
-        }
-    }
-
     /// Idle pooled buffers and their bytes (images dropped since, kept for reuse).
     pub fn pooled(&self) -> (usize, u64) {
         let pool = self.pool.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -272,7 +210,7 @@ impl GpuContext {
     /// for it; in the browser from the event loop, without blocking).
     pub async fn finished(&self) -> Result<(), GpuError> {
         self.flush();
-        let signal = crate::readback::Signal::default();
+        let signal = Signal::default();
         let callback = signal.clone();
         self.queue.on_submitted_work_done(move || callback.fire(Ok(())));
         #[cfg(not(target_family = "wasm"))]

@@ -6,11 +6,12 @@
 use dynview_core::display::DisplayMode;
 use wgpu::util::DeviceExt;
 
-use crate::context::{GpuContext, GpuError};
-use crate::image::GpuImage;
-use crate::kernel::Kernel;
-use crate::renderer::GpuFrame;
-use crate::shaders;
+use crate::device::context::GpuContext;
+use crate::device::error::GpuError;
+use crate::device::image::GpuImage;
+use crate::device::kernel::Kernel;
+use crate::device::shaders;
+use crate::render::renderer::GpuFrame;
 
 /// `depth_range.wgsl`'s uniform block.
 #[repr(C)]
@@ -59,8 +60,8 @@ impl FrameDisplay {
     /// not).
     pub fn new(ctx: &GpuContext, format: wgpu::TextureFormat) -> Self {
         let device = &ctx.device;
-        let range_module = shaders::module(ctx, shaders::DEPTH_RANGE);
-        let display_module = shaders::module(ctx, shaders::DISPLAY);
+        let range_module = shaders::module(&ctx.device, shaders::DEPTH_RANGE);
+        let display_module = shaders::module(&ctx.device, shaders::DISPLAY);
         let r = [true, false, false, false];
         let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
             binding,
@@ -108,9 +109,9 @@ impl FrameDisplay {
             })
         };
         Self {
-            bounds_of: Kernel::new(ctx, &range_module, "bounds_of", &r, 8),
-            histogram_of: Kernel::new(ctx, &range_module, "histogram_of", &r, 8),
-            percentiles: Kernel::new(ctx, &range_module, "percentiles", &r, 1),
+            bounds_of: Kernel::new(&ctx.device, &range_module, "bounds_of", &r, 8),
+            histogram_of: Kernel::new(&ctx.device, &range_module, "histogram_of", &r, 8),
+            percentiles: Kernel::new(&ctx.device, &range_module, "percentiles", &r, 1),
             pipeline,
             layout,
             format,
@@ -260,7 +261,7 @@ impl FrameDisplay {
                 wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
             )
         });
-        let padded = crate::readback::read_bytes(ctx, &buffer, size).await?;
+        let padded = crate::device::readback::read_bytes(ctx, &buffer, size).await?;
         let bgra = matches!(self.format, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb);
         let mut rgba = Vec::with_capacity((row_bytes * height) as usize);
         for row in padded.chunks(padded_row_bytes as usize) {
@@ -276,10 +277,10 @@ impl FrameDisplay {
     }
 }
 
-/// The uniform blocks' mirrors, checked against the WGSL (`shaders/layout_tests.rs`).
+/// The uniform blocks' mirrors, checked against the WGSL (`src/layout_tests.rs`).
 #[cfg(test)]
-pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
-    use crate::shaders::layout_tests::mirror;
+pub(crate) fn wgsl_mirrors() -> Vec<crate::device::shader_layout::Mirror> {
+    use crate::device::shader_layout::mirror;
     vec![
         mirror!(shaders::DEPTH_RANGE, "Params", RangeParams { width, height, _pad }),
         mirror!(shaders::DISPLAY, "Params", DisplayParams { src_width, src_height, dst_width, dst_height, mode, views, srgb_target, _pad }),

@@ -8,8 +8,9 @@ use std::rc::Rc;
 use dynview_core::camera::Camera;
 use dynview_core::render::{Method, RenderParams, TimeStepInputs};
 
-use crate::context::{GpuContext, GpuError};
-use crate::renderer::{GpuFrame, GpuInputs, GpuRenderer};
+use crate::device::context::GpuContext;
+use crate::device::error::GpuError;
+use crate::render::renderer::{GpuFrame, GpuInputs, GpuRenderer};
 
 /// What to render: a camera at a time step, whether it follows the previous frame, and
 /// whether it is kept as the next frame's previous one.

@@ -11,10 +11,14 @@ use dynview_core::render::solve::GridSystem;
 #[cfg(not(target_family = "wasm"))]
 use wgpu::util::DeviceExt;
 
-use crate::context::{GpuContext, GpuError};
-use crate::image::GpuImage;
-use crate::kernel::Kernel;
-use crate::shaders;
+use crate::device::context::GpuContext;
+use crate::device::error::GpuError;
+use crate::device::image::GpuImage;
+use crate::device::kernel::Kernel;
+#[cfg(not(target_family = "wasm"))]
+use crate::device::readback::read_floats_blocking;
+use crate::device::shaders;
+use crate::passes::assemble::GpuSystem;
 
 /// `red_black.wgsl`'s uniform block.
 #[repr(C)]
@@ -100,13 +104,18 @@ impl GridSolver {
 
     /// Compiles the sweep kernel `kind`.
     pub fn with_kernel(ctx: &GpuContext, kind: SweepKernel) -> Self {
+        let device = &ctx.device;
         let sweep = match kind {
             SweepKernel::PerColour => {
-                Kernel::new(ctx, &shaders::module(ctx, shaders::RED_BLACK), "sweep", &[true, true, true, true, false], WORKGROUP)
+                Kernel::new(device, &shaders::module(device, shaders::RED_BLACK), "sweep", &[true, true, true, true, false], WORKGROUP)
             }
-            SweepKernel::Tiled => {
-                Kernel::new(ctx, &shaders::module(ctx, shaders::RED_BLACK_TILED), "sweeps", &[true, true, true, true, true, false], TILE)
-            }
+            SweepKernel::Tiled => Kernel::new(
+                device,
+                &shaders::module(device, shaders::RED_BLACK_TILED),
+                "sweeps",
+                &[true, true, true, true, true, false],
+                TILE,
+            ),
         };
         Self { sweep, kind }
     }
@@ -118,7 +127,7 @@ impl GridSolver {
 
     /// `sweeps` red-black sweeps of a system already on the GPU, on `u` (in place; `u`'s
     /// channels share the system).
-    pub fn solve_on_gpu(&self, ctx: &GpuContext, sys: &crate::GpuSystem, u: &GpuImage, sweeps: usize, omega: f32) -> Result<(), GpuError> {
+    pub fn solve_on_gpu(&self, ctx: &GpuContext, sys: &GpuSystem, u: &GpuImage, sweeps: usize, omega: f32) -> Result<(), GpuError> {
         let (w, h) = (u.width, u.height);
         for (name, image, channels) in
             [("right", &sys.right, 1), ("down", &sys.down, 1), ("inv_diag", &sys.inv_diag, 1), ("rhs", &sys.rhs, u.channels)]
@@ -221,23 +230,14 @@ impl GridSolver {
         let scratch = (self.kind == SweepKernel::Tiled).then(|| storage("u scratch", u, read));
         let buffers = [&right, &down, &inv_diag, &rhs, &unknowns, scratch.as_ref().unwrap_or(&unknowns)];
         self.record(ctx, buffers, sys.width, sys.height, channels, sweeps, omega);
-        read_buffer(ctx, &unknowns, u)
+        read_floats_blocking(ctx, &unknowns, u)
     }
 }
 
-/// Reads `buffer` (which must have `COPY_SRC`) into `out`; blocks until the GPU is done
-/// (native only).
-#[cfg(not(target_family = "wasm"))]
-pub(crate) fn read_buffer(ctx: &GpuContext, buffer: &wgpu::Buffer, out: &mut [f32]) -> Result<(), GpuError> {
-    let floats = pollster::block_on(crate::readback::read_floats(ctx, buffer, out.len()))?;
-    out.copy_from_slice(&floats);
-    Ok(())
-}
-
-/// The uniform block's mirror, checked against the WGSL (`shaders/layout_tests.rs`).
+/// The uniform block's mirror, checked against the WGSL (`src/layout_tests.rs`).
 #[cfg(test)]
-pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
-    use crate::shaders::layout_tests::mirror;
+pub(crate) fn wgsl_mirrors() -> Vec<crate::device::shader_layout::Mirror> {
+    use crate::device::shader_layout::mirror;
     vec![
         mirror!(shaders::RED_BLACK, "Params", SweepParams { width, height, parity, channels, omega, _pad0, _pad1, _pad2 }),
         mirror!(shaders::RED_BLACK_TILED, "Params", TiledSweepParams { width, height, parity, channels, omega, half_sweeps, _pad0, _pad1 }),

@@ -9,10 +9,11 @@ use dynview_core::render::transfer::PixelTransfer;
 use dynview_core::scene::PointCloud;
 use wgpu::util::DeviceExt;
 
-use crate::context::{GpuContext, GpuError};
-use crate::image::GpuImage;
-use crate::kernel::Kernel;
-use crate::shaders;
+use crate::device::context::GpuContext;
+use crate::device::error::GpuError;
+use crate::device::image::GpuImage;
+use crate::device::kernel::Kernel;
+use crate::device::shaders;
 
 /// Splat maps on the GPU: depth (infinite where nothing landed), RGB color and mask.
 #[derive(Debug)]
@@ -139,23 +140,23 @@ struct FootprintParams {
 impl SplatKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
-        let points = shaders::module(ctx, shaders::SPLAT_POINTS);
-        let pixels = shaders::module(ctx, shaders::SPLAT_PIXELS);
-        let resolve = shaders::module(ctx, shaders::SPLAT_RESOLVE);
-        let pack = shaders::module(ctx, shaders::SPLAT_PACK);
+        let points = shaders::module(&ctx.device, shaders::SPLAT_POINTS);
+        let pixels = shaders::module(&ctx.device, shaders::SPLAT_PIXELS);
+        let resolve = shaders::module(&ctx.device, shaders::SPLAT_RESOLVE);
+        let pack = shaders::module(&ctx.device, shaders::SPLAT_PACK);
         let p = [true, true, false, false, false];
         let r = [true, true, true, false, false, false, false, false];
         Self {
-            project_points: Kernel::new(ctx, &points, "project_points", &p, 64),
-            project_pixels: Kernel::new(ctx, &pixels, "project_pixels", &p, 64),
-            clear: Kernel::new(ctx, &resolve, "clear", &r, 64),
-            nearest_depth: Kernel::new(ctx, &resolve, "nearest_depth", &r, 64),
-            first_index: Kernel::new(ctx, &resolve, "first_index", &r, 64),
-            write: Kernel::new(ctx, &resolve, "write", &r, 64),
-            pack_color_mask: Kernel::new(ctx, &pack, "pack_color_mask", &[true, true, false], 8),
+            project_points: Kernel::new(&ctx.device, &points, "project_points", &p, 64),
+            project_pixels: Kernel::new(&ctx.device, &pixels, "project_pixels", &p, 64),
+            clear: Kernel::new(&ctx.device, &resolve, "clear", &r, 64),
+            nearest_depth: Kernel::new(&ctx.device, &resolve, "nearest_depth", &r, 64),
+            first_index: Kernel::new(&ctx.device, &resolve, "first_index", &r, 64),
+            write: Kernel::new(&ctx.device, &resolve, "write", &r, 64),
+            pack_color_mask: Kernel::new(&ctx.device, &pack, "pack_color_mask", &[true, true, false], 8),
             footprint: Kernel::new(
-                ctx,
-                &shaders::module(ctx, shaders::SPLAT_FOOTPRINT),
+                &ctx.device,
+                &shaders::module(&ctx.device, shaders::SPLAT_FOOTPRINT),
                 "footprint",
                 &[true, true, true, false, false, false, false],
                 8,
@@ -297,10 +298,10 @@ struct Projection<'a> {
     count: usize,
 }
 
-/// The uniform blocks' mirrors, checked against the WGSL (`shaders/layout_tests.rs`).
+/// The uniform blocks' mirrors, checked against the WGSL (`src/layout_tests.rs`).
 #[cfg(test)]
-pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
-    use crate::shaders::layout_tests::mirror;
+pub(crate) fn wgsl_mirrors() -> Vec<crate::device::shader_layout::Mirror> {
+    use crate::device::shader_layout::mirror;
     vec![
         mirror!(
             shaders::SPLAT_POINTS,

@@ -1,8 +1,8 @@
 //! A compute pipeline with its bind group layout: a uniform block at binding 0 (at a dynamic
-//! offset into the context's shared uniform buffer), then storage buffers.
+//! offset into the context's shared uniform buffer), then storage buffers; and the workgroups
+//! a dispatch over a size takes. Recording its dispatches on a context is in `dispatch.rs`.
 
-use crate::context::GpuContext;
-use crate::recorder::{DispatchTarget, next_kernel_id};
+use crate::device::recorder::{DispatchTarget, next_kernel_id};
 
 /// Workgroup size of the linear kernels (`@workgroup_size(64)`, dispatched over `n x 1`):
 /// their index comes from `common/linear.wgsl`.
@@ -19,8 +19,7 @@ pub(crate) struct Kernel {
 
 impl Kernel {
     /// `storage[i]` is true for a read-only binding `i + 1`.
-    pub(crate) fn new(ctx: &GpuContext, module: &wgpu::ShaderModule, entry: &str, storage_read_only: &[bool], workgroup: u32) -> Self {
-        let device = &ctx.device;
+    pub(crate) fn new(device: &wgpu::Device, module: &wgpu::ShaderModule, entry: &str, storage_read_only: &[bool], workgroup: u32) -> Self {
         let buffer_entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::COMPUTE,
@@ -48,33 +47,22 @@ impl Kernel {
         Self { pipeline, layout, workgroup, id: next_kernel_id() }
     }
 
-    /// Records one dispatch covering `width x height` invocations (`ceil(n / workgroup)`
-    /// groups per axis) with `uniform` and `buffers`.
-    pub(crate) fn dispatch(&self, ctx: &GpuContext, uniform: &[u8], buffers: &[&wgpu::Buffer], width: usize, height: usize) {
-        self.dispatch_sequence(ctx, &[uniform], &[0], buffers, width, height);
-    }
-
-    /// Records one dispatch per entry of `sequence`, each with uniform block
-    /// `uniforms[sequence[i]]` (blocks of one layout), over the same buffers and size.
-    pub(crate) fn dispatch_sequence(
-        &self,
-        ctx: &GpuContext,
-        uniforms: &[&[u8]],
-        sequence: &[usize],
-        buffers: &[&wgpu::Buffer],
-        width: usize,
-        height: usize,
-    ) {
-        let groups = if self.workgroup == LINEAR_WORKGROUP {
+    /// The workgroups covering `width x height` invocations on `device`: `ceil(n / workgroup)`
+    /// per axis, a linear kernel's folded into rows of at most the device's groups per dimension.
+    pub(crate) fn workgroups(&self, device: &wgpu::Device, width: usize, height: usize) -> (u32, u32, u32) {
+        if self.workgroup == LINEAR_WORKGROUP {
             // A linear kernel over `width` elements, folded into rows (`common/linear.wgsl`).
             debug_assert_eq!(height, 1, "a linear kernel covers width x 1");
             let total = (width as u32).div_ceil(LINEAR_WORKGROUP).max(1);
-            let row = ctx.device.limits().max_compute_workgroups_per_dimension.max(1);
+            let row = device.limits().max_compute_workgroups_per_dimension.max(1);
             if total <= row { (total, 1, 1) } else { (row, total.div_ceil(row), 1) }
         } else {
             ((width as u32).div_ceil(self.workgroup), (height as u32).div_ceil(self.workgroup), 1)
-        };
-        let target = DispatchTarget { id: self.id, pipeline: &self.pipeline, layout: &self.layout };
-        ctx.dispatch(&target, uniforms, sequence, buffers, groups);
+        }
+    }
+
+    /// What the recorder needs of the kernel for a dispatch.
+    pub(crate) fn target(&self) -> DispatchTarget<'_> {
+        DispatchTarget { id: self.id, pipeline: &self.pipeline, layout: &self.layout }
     }
 }

@@ -1,10 +1,11 @@
-//! The Rust mirrors of the WGSL uniform blocks against naga's reflection of the WGSL: struct
-//! size and every member's offset and size, matched by name. Members named `_...` are padding:
-//! only the size checks them.
+//! Checking a Rust mirror of a WGSL struct against naga's reflection of the WGSL (tests only):
+//! struct size and every member's offset and size, matched by name. Members named `_...` are
+//! padding: only the size checks them. Each mirror is declared beside its Rust struct
+//! (`wgsl_mirrors` of the modules) and all are checked in `src/layout_tests.rs`.
 
-use naga::{AddressSpace, Module, TypeInner};
+use naga::{Module, TypeInner};
 
-use super::{SHADERS, Shader};
+use crate::device::shaders::Shader;
 
 /// A Rust `Pod` struct that mirrors a WGSL struct of a shader.
 pub(crate) struct Mirror {
@@ -26,7 +27,7 @@ macro_rules! mirror {
     ($shader:expr, $wgsl_struct:literal, $ty:ident { $($field:ident),* $(,)? }) => {{
         let zeroed: $ty = bytemuck::Zeroable::zeroed();
         let $ty { $($field: _),* } = zeroed;
-        $crate::shaders::layout_tests::Mirror {
+        $crate::device::shader_layout::Mirror {
             shader: $shader,
             wgsl_struct: $wgsl_struct,
             rust_struct: stringify!($ty),
@@ -37,7 +38,8 @@ macro_rules! mirror {
 }
 pub(crate) use mirror;
 
-fn parse((name, source): Shader) -> Module {
+/// `shader`'s WGSL parsed by naga (a panic naming the shader where it does not parse).
+pub(crate) fn parse((name, source): Shader) -> Module {
     naga::front::wgsl::parse_str(source).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)))
 }
 
@@ -47,7 +49,7 @@ fn is_padding(field: &str) -> bool {
 
 /// What differs between `mirror` and its WGSL struct, one line each, naming the shader, the
 /// struct and the field.
-fn mismatches(mirror: &Mirror) -> Vec<String> {
+pub(crate) fn mismatches(mirror: &Mirror) -> Vec<String> {
     let module = parse(mirror.shader);
     let at = |what: &str| format!("{}: struct {} (Rust {}): {what}", mirror.shader.0, mirror.wgsl_struct, mirror.rust_struct);
     let Some((members, span)) = module.types.iter().find_map(|(_, ty)| match &ty.inner {
@@ -83,63 +85,4 @@ fn mismatches(mirror: &Mirror) -> Vec<String> {
         }
     }
     out
-}
-
-/// Every mirror of the crate, declared beside its Rust struct.
-fn all_mirrors() -> Vec<Mirror> {
-    [
-        crate::assemble::wgsl_mirrors(),
-        crate::blend::wgsl_mirrors(),
-        crate::rank::wgsl_mirrors(),
-        crate::consistency::wgsl_mirrors(),
-        crate::display::wgsl_mirrors(),
-        crate::image::wgsl_mirrors(),
-        crate::solver::wgsl_mirrors(),
-        crate::splat::wgsl_mirrors(),
-        crate::temporal::wgsl_mirrors(),
-        crate::warp::wgsl_mirrors(),
-    ]
-    .into_iter()
-    .flatten()
-    .collect()
-}
-
-#[test]
-fn rust_mirrors_match_the_wgsl_structs() {
-    let failures: Vec<String> = all_mirrors().iter().flat_map(mismatches).collect();
-    assert!(failures.is_empty(), "Rust mirrors disagree with the WGSL:\n{}", failures.join("\n"));
-}
-
-#[test]
-fn every_uniform_and_storage_struct_has_a_rust_mirror() {
-    let mirrors = all_mirrors();
-    for &shader in SHADERS {
-        let module = parse(shader);
-        for (_, global) in module.global_variables.iter() {
-            if !matches!(global.space, AddressSpace::Uniform | AddressSpace::Storage { .. }) {
-                continue;
-            }
-            let mut ty = &module.types[global.ty];
-            if let TypeInner::Array { base, .. } = ty.inner {
-                ty = &module.types[base];
-            }
-            if let (TypeInner::Struct { .. }, Some(name)) = (&ty.inner, ty.name.as_deref()) {
-                let mirrored = mirrors.iter().any(|m| m.shader.0 == shader.0 && m.wgsl_struct == name);
-                assert!(mirrored, "{}: struct {name} (bound as {:?}) has no Rust mirror checked here", shader.0, global.name);
-            }
-        }
-    }
-}
-
-#[test]
-fn a_wrong_offset_or_size_is_reported_by_shader_struct_and_field() {
-    let mut mirror = crate::assemble::wgsl_mirrors().remove(0);
-    let field = mirror.fields.iter_mut().find(|(name, ..)| *name == "lambda_p").unwrap_or_else(|| panic!("no lambda_p"));
-    field.1 += 4;
-    mirror.size += 16;
-    let failures = mismatches(&mirror);
-    assert_eq!(failures.len(), 2, "{failures:?}");
-    assert!(failures[0].contains("size is 64 bytes in the WGSL, 80 in Rust"), "{}", failures[0]);
-    let offset = &failures[1];
-    assert!(offset.contains(mirror.shader.0) && offset.contains("struct Params") && offset.contains("field lambda_p"), "{offset}");
 }

@@ -9,7 +9,7 @@
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::profile::Profiler;
+use crate::device::timestamps::Profiler;
 
 /// Work recorded since the context was made; the difference of two snapshots gives a frame's.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -2,13 +2,14 @@
 //! `shaders/temporal_terms.wgsl`): `w_T` as dynview-core's `render::weights::temporal_weights`,
 //! and the terms `(lambda_T w_T, previous)` the depth and color systems take.
 
-use crate::context::{GpuContext, GpuError};
-use crate::image::GpuImage;
-use crate::kernel::Kernel;
-use crate::shaders;
-use crate::splat::GpuSplat;
-use crate::views::{partial_binding, partial_sums};
-use crate::warp::GpuWarps;
+use crate::device::context::GpuContext;
+use crate::device::error::GpuError;
+use crate::device::image::GpuImage;
+use crate::device::kernel::Kernel;
+use crate::device::shaders;
+use crate::passes::splat::GpuSplat;
+use crate::passes::views::{partial_binding, partial_sums};
+use crate::passes::warp::GpuWarps;
 
 /// `temporal_weights.wgsl`'s uniform block.
 #[repr(C)]
@@ -44,11 +45,11 @@ pub struct TemporalKernels {
 impl TemporalKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
-        let weights = shaders::module(ctx, shaders::TEMPORAL_WEIGHTS);
-        let terms = shaders::module(ctx, shaders::TEMPORAL_TERMS);
+        let weights = shaders::module(&ctx.device, shaders::TEMPORAL_WEIGHTS);
+        let terms = shaders::module(&ctx.device, shaders::TEMPORAL_TERMS);
         Self {
-            weights: Kernel::new(ctx, &weights, "temporal_weights", &[true, true, true, true, false, false], 8),
-            terms: Kernel::new(ctx, &terms, "temporal_terms", &[true, true, true, true, false, false], 8),
+            weights: Kernel::new(&ctx.device, &weights, "temporal_weights", &[true, true, true, true, false, false], 8),
+            terms: Kernel::new(&ctx.device, &terms, "temporal_terms", &[true, true, true, true, false, false], 8),
         }
     }
 
@@ -95,10 +96,10 @@ impl TemporalKernels {
     }
 }
 
-/// The uniform blocks' mirrors, checked against the WGSL (`shaders/layout_tests.rs`).
+/// The uniform blocks' mirrors, checked against the WGSL (`src/layout_tests.rs`).
 #[cfg(test)]
-pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
-    use crate::shaders::layout_tests::mirror;
+pub(crate) fn wgsl_mirrors() -> Vec<crate::device::shader_layout::Mirror> {
+    use crate::device::shader_layout::mirror;
     vec![
         mirror!(shaders::TEMPORAL_WEIGHTS, "Params", WeightsParams { width, height, views, sigma, chunk, _pad0, _pad1, _pad2 }),
         mirror!(shaders::TEMPORAL_TERMS, "Params", TermsParams { width, height, coverage_scaling, lambda_t }),

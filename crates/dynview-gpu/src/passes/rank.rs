@@ -4,12 +4,13 @@
 
 use dynview_core::render::plane::support_radius_px;
 
-use crate::blend::MAX_VIEWS;
-use crate::context::{GpuContext, GpuError};
-use crate::image::GpuImage;
-use crate::kernel::Kernel;
-use crate::shaders;
-use crate::views::ViewStack;
+use crate::device::context::GpuContext;
+use crate::device::error::GpuError;
+use crate::device::image::GpuImage;
+use crate::device::kernel::Kernel;
+use crate::device::shaders;
+use crate::passes::blend::MAX_VIEWS;
+use crate::passes::views::ViewStack;
 
 /// `rank_preference.wgsl`'s uniform block.
 #[repr(C)]
@@ -32,10 +33,11 @@ pub struct RankKernels {
 impl RankKernels {
     /// Compiles the kernels on `ctx`'s device.
     pub fn new(ctx: &GpuContext) -> Self {
-        let support = shaders::module(ctx, shaders::PLANE_SUPPORT);
+        let device = &ctx.device;
+        let support = shaders::module(device, shaders::PLANE_SUPPORT);
         Self {
-            unsupported: Kernel::new(ctx, &support, "unsupported", &[true, false], 8),
-            rank_preference: Kernel::new(ctx, &shaders::module(ctx, shaders::RANK_PREFERENCE), "rank_preference", &[true, false], 8),
+            unsupported: Kernel::new(device, &support, "unsupported", &[true, false], 8),
+            rank_preference: Kernel::new(device, &shaders::module(device, shaders::RANK_PREFERENCE), "rank_preference", &[true, false], 8),
         }
     }
 
@@ -49,7 +51,7 @@ impl RankKernels {
             return Err(GpuError::Size(format!("support rows have {} channels, expected 1", rows.channels)));
         }
         // plane_support.wgsl's uniform block, with only the support fields used.
-        let uniform = crate::assemble::SupportParams::support_only(w, h, support_radius_px(level), support);
+        let uniform = crate::passes::assemble::SupportParams::support_only(w, h, support_radius_px(level), support);
         let out = GpuImage::zeroed(ctx, w, h, 1)?;
         self.unsupported.dispatch(ctx, bytemuck::bytes_of(&uniform), &[&rows.buffer, &out.buffer], w, h);
         Ok(out)
@@ -78,9 +80,9 @@ impl RankKernels {
     }
 }
 
-/// The uniform block's mirror, checked against the WGSL (`shaders/layout_tests.rs`).
+/// The uniform block's mirror, checked against the WGSL (`src/layout_tests.rs`).
 #[cfg(test)]
-pub(crate) fn wgsl_mirrors() -> Vec<crate::shaders::layout_tests::Mirror> {
-    use crate::shaders::layout_tests::mirror;
+pub(crate) fn wgsl_mirrors() -> Vec<crate::device::shader_layout::Mirror> {
+    use crate::device::shader_layout::mirror;
     vec![mirror!(shaders::RANK_PREFERENCE, "RankParams", RankParams { width, height, views, _pad0, preferences })]
 }

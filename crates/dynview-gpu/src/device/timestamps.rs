@@ -1,12 +1,10 @@
 //! GPU time per stage from timestamp queries: while profiling is on, every compute pass writes a
-//! timestamp at its start and end, labelled with the renderer's current level and stage; the
-//! sums per label are read back at the end of the frame.
+//! timestamp at its start and end, labelled with the renderer's current level and stage
+//! ([`Profiler`], kept by the recorder); the sums per label ([`StageTime`]) are made from the
+//! ticks read back at the end of the frame (`profile.rs`).
 
 #[cfg(not(target_family = "wasm"))]
 use std::collections::BTreeMap;
-
-#[cfg(not(target_family = "wasm"))]
-use crate::context::{GpuContext, GpuError};
 
 /// Queries per query set (wgpu allows at most 4096 per set; a frame takes a few sets).
 const QUERIES_PER_SET: u32 = 4096;
@@ -72,28 +70,24 @@ impl Profiler {
         }
     }
 
-    /// Resolves the queries and sums them per label (blocks until the GPU is done; native).
+    /// Each query set with the number of its queries that passes wrote (from the first).
     #[cfg(not(target_family = "wasm"))]
-    pub(crate) fn finish(self, ctx: &GpuContext) -> Result<Vec<StageTime>, GpuError> {
-        let period_ns = f64::from(ctx.queue.get_timestamp_period());
-        let mut ticks: Vec<u64> = Vec::with_capacity(self.labels.len() * 2);
+    pub(crate) fn written_queries(&self) -> Vec<(&wgpu::QuerySet, u32)> {
         let mut remaining = self.labels.len() as u32 * 2;
-        for set in &self.sets {
-            let count = remaining.min(QUERIES_PER_SET);
-            remaining -= count;
-            let size = u64::from(count) * 8;
-            let resolved = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("resolved timestamps"),
-                size,
-                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("resolve timestamps") });
-            encoder.resolve_query_set(set, 0..count, &resolved, 0);
-            ctx.queue.submit([encoder.finish()]);
-            let bytes = pollster::block_on(crate::readback::read_bytes(ctx, &resolved, size))?;
-            ticks.extend(bytes.chunks_exact(8).map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default())));
-        }
+        self.sets
+            .iter()
+            .map(|set| {
+                let count = remaining.min(QUERIES_PER_SET);
+                remaining -= count;
+                (set, count)
+            })
+            .collect()
+    }
+
+    /// Sums the passes' times per label from their `ticks` (two per pass, start and end, in
+    /// the order of [`Self::written_queries`]) at `period_ns` nanoseconds per tick.
+    #[cfg(not(target_family = "wasm"))]
+    pub(crate) fn stage_times(self, ticks: &[u64], period_ns: f64) -> Vec<StageTime> {
         let mut sums: BTreeMap<(usize, &'static str), (f64, usize, u64)> = BTreeMap::new();
         for (pass, label) in self.labels.iter().enumerate() {
             let (start, end) = (ticks[2 * pass], ticks[2 * pass + 1]);
@@ -102,9 +96,6 @@ impl Profiler {
             entry.1 += 1;
             entry.2 += self.bytes[pass];
         }
-        Ok(sums
-            .into_iter()
-            .map(|((level, stage), (ms, passes, bytes_bound))| StageTime { level, stage, ms, passes, bytes_bound })
-            .collect())
+        sums.into_iter().map(|((level, stage), (ms, passes, bytes_bound))| StageTime { level, stage, ms, passes, bytes_bound }).collect()
     }
 }

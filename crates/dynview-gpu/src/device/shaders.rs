@@ -1,17 +1,15 @@
-//! The crate's WGSL, composed: a shader is its own file in `shaders/` after the shared code it
-//! needs from `shaders/common/`, joined at compile time. The WGSL is the single source of truth
-//! for the uniform blocks; the Rust mirrors are checked against naga's reflection of it
-//! (`shaders/layout_tests.rs`).
-
-use crate::context::GpuContext;
+//! The crate's WGSL, composed, and compiling it on a device: a shader is its own file in
+//! `src/shaders/` after the shared code it needs from `src/shaders/common/`, joined at compile
+//! time. The WGSL is the single source of truth for the uniform blocks; the Rust mirrors are
+//! checked against naga's reflection of it (`shader_layout.rs`, `src/layout_tests.rs`).
 
 /// A shader: its name (its own file under `shaders/`) and its composed source.
 pub(crate) type Shader = (&'static str, &'static str);
 
-/// The sources of `shaders/` files, joined in order (shared code first).
+/// The sources of `src/shaders/` files, joined in order (shared code first).
 macro_rules! wgsl {
     ($($file:literal),+ $(,)?) => {
-        concat!($(include_str!(concat!("shaders/", $file))),+)
+        concat!($(include_str!(concat!("../shaders/", $file))),+)
     };
 }
 
@@ -105,10 +103,7 @@ pub const SHADERS: &[(&str, &str)] = &[
     DISPLAY,
 ];
 
-/// Compiles `shader` on `ctx`'s device.
-pub(crate) fn module(ctx: &GpuContext, (name, source): Shader) -> wgpu::ShaderModule {
-    ctx.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(source.into()) })
+/// Compiles `shader` on `device`.
+pub(crate) fn module(device: &wgpu::Device, (name, source): Shader) -> wgpu::ShaderModule {
+    device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(source.into()) })
 }
-
-#[cfg(test)]
-pub(crate) mod layout_tests;

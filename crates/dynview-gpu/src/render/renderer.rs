@@ -8,16 +8,18 @@ use dynview_core::render::weights;
 use dynview_core::render::{FALLBACK_COLOR, FALLBACK_DEPTH, Method, RenderParams, TimeStepInputs};
 use dynview_core::view_ranking::{ChosenViews, choose_views};
 
-use crate::assemble::AssembleKernels;
-use crate::blend::BlendKernel;
-use crate::consistency::ConsistencyKernels;
-use crate::context::{GpuContext, GpuError};
-use crate::image::{GpuImage, ImageKernels};
-use crate::rank::RankKernels;
-use crate::solver::{GridSolver, SweepKernel};
-use crate::splat::{GpuCloud, GpuSplat, SplatKernels};
-use crate::temporal::TemporalKernels;
-use crate::warp::WarpKernels;
+use crate::device::context::GpuContext;
+use crate::device::error::GpuError;
+use crate::device::image::GpuImage;
+use crate::passes::assemble::AssembleKernels;
+use crate::passes::blend::BlendKernel;
+use crate::passes::consistency::ConsistencyKernels;
+use crate::passes::pyramid::ImageKernels;
+use crate::passes::rank::RankKernels;
+use crate::passes::solver::{GridSolver, SweepKernel};
+use crate::passes::splat::{GpuCloud, GpuSplat, SplatKernels};
+use crate::passes::temporal::TemporalKernels;
+use crate::passes::warp::WarpKernels;
 
 /// A time step's inputs on the GPU: the cloud and every view's pyramid.
 #[derive(Debug)]
