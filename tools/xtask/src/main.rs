@@ -3,6 +3,7 @@
 //! `crates/dynview-eval` (the `dynview-eval` binary, run here in release mode).
 
 mod bench_web;
+mod circles;
 mod demo;
 mod demo_real;
 mod fixtures;
@@ -35,6 +36,8 @@ enum Task {
     Test,
     /// Only the page's end-to-end tests (Playwright, headless Chromium).
     E2e,
+    /// Check that no crate (and not the page) has an import circle between its files.
+    Circles,
     /// Install what is missing, build, make the sample event (target/demo/event), run dynview
     /// prep on its videos (target/demo/prep) and serve the viewer on 127.0.0.1 with the prepared
     /// scene (`demo`) and the event's ground-truth package (`demo-truth`).
@@ -74,6 +77,7 @@ fn main() -> std::process::ExitCode {
     let result = match Cli::parse().command {
         Task::Test => test::run(),
         Task::E2e => test::run_end_to_end(),
+        Task::Circles => circles::run().map(|_| ()),
         Task::Demo(args) => demo::run(args),
         Task::Serve(args) => demo::serve_scene(args),
         Task::Eval { args } => {

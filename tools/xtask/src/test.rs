@@ -7,7 +7,7 @@ use std::process::Command;
 use crate::fixtures::{BrowserFixture, browser_fixture};
 use crate::serve::{self, Site};
 use crate::util::{cargo, run_step, workspace_root};
-use crate::{setup, web};
+use crate::{circles, setup, web};
 
 /// Size of the browser-test event: small enough for a fast CI, large enough to be a real scene.
 const FIXTURE: (u32, u32, u32) = (4, 320, 180);
@@ -31,6 +31,7 @@ pub fn run() -> anyhow::Result<()> {
     timings.push(("clippy", run_step("clippy, warnings denied", clippy)?));
 
     timings.push(("dependency rules", dependency_rules()?));
+    timings.push(("no import circles", circles::run()?));
 
     let mut tests = cargo();
     tests.args(["test", "--workspace"]);
