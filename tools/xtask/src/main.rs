@@ -5,6 +5,7 @@
 mod bench_web;
 mod demo;
 mod demo_real;
+mod dynview_prep;
 mod fixtures;
 mod serve;
 mod setup;
