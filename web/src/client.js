@@ -1,5 +1,16 @@
 // The page's side of the renderer worker: opening scenes, render requests (the newest one
-// wins), small queries, and which renderer backs the view.
+// wins), small queries, and which renderer backs the view. The messages are protocol.js's.
+
+import {
+  FROM_WORKER,
+  callMessage,
+  canvasMessage,
+  isFromWorker,
+  openFilesMessage,
+  openUrlMessage,
+  prefetchMessage,
+  renderMessage,
+} from "./protocol.js";
 
 /** Renderers the page knows; a worker reports which it has (`backends`). */
 export const RENDERERS = {
@@ -42,30 +53,31 @@ export class RendererClient {
   }
 
   receive(msg) {
+    if (!isFromWorker(msg)) return;
     switch (msg.type) {
-      case "opened":
+      case FROM_WORKER.OPENED:
         this.openWaiter?.resolve(msg);
         this.openWaiter = null;
         break;
-      case "frame":
+      case FROM_WORKER.FRAME:
         this.handlers.onFrame(msg);
         break;
-      case "progress":
+      case FROM_WORKER.PROGRESS:
         this.handlers.onProgress(msg);
         break;
-      case "idle":
+      case FROM_WORKER.IDLE:
         this.handlers.onIdle?.();
         break;
-      case "gpu-lost":
+      case FROM_WORKER.GPU_LOST:
         this.handlers.onGpuLost?.(msg.message);
         break;
-      case "reply": {
+      case FROM_WORKER.REPLY: {
         const waiter = this.replies.get(msg.id);
         this.replies.delete(msg.id);
         waiter?.resolve(msg.value);
         break;
       }
-      case "error": {
+      case FROM_WORKER.ERROR: {
         if (msg.open && this.openWaiter) {
           this.openWaiter.reject(new Error(msg.message));
           this.openWaiter = null;
@@ -82,7 +94,7 @@ export class RendererClient {
 
   /** Hands the GPU path its canvas (an OffscreenCanvas); once, before opening. */
   setCanvas(canvas) {
-    this.worker.postMessage({ type: "canvas", canvas }, [canvas]);
+    this.worker.postMessage(canvasMessage(canvas), [canvas]);
   }
 
   /** Opens a scene by URL or files; resolves with `{info, backends, gpu, choice}`. */
@@ -97,11 +109,11 @@ export class RendererClient {
    * faster renderer (it times a small frame on each when the GPU is a real one, or always
    * with `trial`). */
   openUrl(url, gpu = false, { choose = false, trial = false } = {}) {
-    return this.open({ type: "open", url, gpu, choose, trial });
+    return this.open(openUrlMessage(url, gpu, { choose, trial }));
   }
 
   openFiles(files, paths, gpu = false, { choose = false, trial = false } = {}) {
-    return this.open({ type: "open-files", files, paths, gpu, choose, trial });
+    return this.open(openFilesMessage(files, paths, gpu, { choose, trial }));
   }
 
   /** Calls a Viewer query in the worker; resolves with its value. */
@@ -109,19 +121,19 @@ export class RendererClient {
     const id = this.nextId++;
     return new Promise((resolve, reject) => {
       this.replies.set(id, { resolve, reject });
-      this.worker.postMessage({ type: "call", id, method, args });
+      this.worker.postMessage(callMessage(id, method, args));
     });
   }
 
   /** Asks for a frame; returns its id. A newer request replaces an older one. */
   render(request) {
     const id = this.nextId++;
-    this.worker.postMessage({ type: "render", request: { ...request, id } });
+    this.worker.postMessage(renderMessage(request, id));
     return id;
   }
 
   /** Starts loading a time step in the background (playback look-ahead). */
   prefetch(timeStep) {
-    this.worker.postMessage({ type: "prefetch", time_step: timeStep });
+    this.worker.postMessage(prefetchMessage(timeStep));
   }
 }

@@ -5,24 +5,22 @@
 // with "canvas"); the worker waits for the GPU without blocking and then takes the newest
 // request. The page never waits on either.
 //
-// Messages in:  {type: "canvas", canvas}         the OffscreenCanvas the GPU path draws into
-//               | {type: "open", url, gpu, choose, trial} | {type: "open-files", files, paths, gpu, choose, trial}
-//                                                 gpu: whether to set up the GPU path;
-//                                                 choose: whether to pick the renderer;
-//                                                 trial: time both even on a software GPU
-//               | {type: "render", request}      request: {id, renderer, view, time_step,
-//                                                 width, height, streaming, max_level, mode}
-//               | {type: "call", id, method, args}   (small synchronous queries)
-//               | {type: "prefetch", time_step}
-// Messages out: {type: "opened", info, backends, gpu: {name, presents, software} | {error},
-//                 choice: {renderer, reason}}
-//               | {type: "error", id, message} | {type: "gpu-lost", message}
-//               | {type: "progress", time_step, stats, done, total}
-//               | {type: "frame", id, level, done, image, elapsed_ms, temporal_used, last}
-//               | {type: "frame", id, gpu: true, level, done, width, height, elapsed_ms, ...}
-//               | {type: "reply", id, value} | {type: "idle"}
+// The messages in and out are protocol.js's.
 
 import init, { Viewer } from "../pkg/dynview_web.js";
+import {
+  TO_WORKER,
+  cpuFrameMessage,
+  errorMessage,
+  gpuFrameMessage,
+  gpuLostMessage,
+  idleMessage,
+  isOpening,
+  openedMessage,
+  progressMessage,
+  replyMessage,
+  requestId,
+} from "./protocol.js";
 import { VideoFrames } from "./video.js";
 
 let viewer = null;
@@ -46,26 +44,12 @@ function sameFrame(a, b) {
 
 function postPicture(request, report) {
   const image = viewer.picture(request.mode || "color");
-  post(
-    {
-      type: "frame",
-      id: request.id,
-      level: report.level,
-      done: report.done,
-      width: image.width,
-      height: image.height,
-      image,
-      elapsed_ms: report.elapsed_ms,
-      temporal_used: report.temporal_used,
-      last: report.done ? viewer.lastFrame() : null,
-    },
-    [image.data.buffer],
-  );
+  post(cpuFrameMessage(request.id, report, image, report.done ? viewer.lastFrame() : null), [image.data.buffer]);
 }
 
 async function ensureLoaded(t) {
   if (viewer.isLoaded(t)) return;
-  const progress = (stats, done, total) => post({ type: "progress", time_step: t, stats, done, total });
+  const progress = (stats, done, total) => post(progressMessage(t, stats, done, total));
   await (video ? video.load(t, progress) : viewer.loadStep(t, progress));
 }
 
@@ -82,10 +66,10 @@ async function runGpu(request) {
     // The browser reports a lost device asynchronously: give it a moment.
     const lost = viewer.gpuLost() || (await new Promise((resolve) => setTimeout(resolve, 100)), viewer.gpuLost());
     if (!lost) throw e;
-    post({ type: "gpu-lost", message: lost });
+    post(gpuLostMessage(lost));
     return;
   }
-  post({ type: "frame", id: request.id, gpu: true, ...report, last: null }, report.image ? [report.image.data.buffer] : []);
+  post(gpuFrameMessage(request.id, report), report.image ? [report.image.data.buffer] : []);
 }
 
 // Renders `request` until it is done or reaches its `max_level` (a preview while the camera
@@ -127,12 +111,12 @@ async function pump() {
         await (request.renderer === "gpu" ? runGpu(request) : run(request));
       } catch (e) {
         current = null;
-        post({ type: "error", id: request.id, message: message(e) });
+        post(errorMessage(request.id, message(e)));
       }
     }
   } finally {
     running = false;
-    post({ type: "idle" });
+    post(idleMessage());
   }
 }
 
@@ -256,30 +240,30 @@ self.onmessage = async (event) => {
   const msg = event.data;
   try {
     await ready;
-    if (msg.type === "canvas") {
+    if (msg.type === TO_WORKER.CANVAS) {
       canvas = msg.canvas;
-    } else if (msg.type === "open" || msg.type === "open-files") {
+    } else if (isOpening(msg)) {
       viewer = null;
-      viewer = msg.type === "open" ? await Viewer.openUrl(msg.url) : await Viewer.openFiles(msg.files, msg.paths);
+      viewer = msg.type === TO_WORKER.OPEN ? await Viewer.openUrl(msg.url) : await Viewer.openFiles(msg.files, msg.paths);
       const info = viewer.info();
       video = info.video_codec ? new VideoFrames(viewer, info) : null;
       const gpu = msg.gpu ? await enableGpu() : { error: "not requested" };
       const choice = msg.choose ? await pickRenderer(gpu, Boolean(msg.trial)) : { renderer: null, reason: "" };
-      post({ type: "opened", info: viewer.info(), backends: gpu.name ? ["cpu", "gpu"] : ["cpu"], gpu, choice });
+      post(openedMessage(viewer.info(), gpu.name ? ["cpu", "gpu"] : ["cpu"], gpu, choice));
     } else if (!viewer) {
       throw new Error("no scene is open");
-    } else if (msg.type === "render") {
+    } else if (msg.type === TO_WORKER.RENDER) {
       if (viewer.isRendering() && !sameFrame(current, msg.request) && !running) viewer.cancel();
       pending = msg.request;
       pump();
-    } else if (msg.type === "prefetch") {
+    } else if (msg.type === TO_WORKER.PREFETCH) {
       if (!running) ensureLoaded(msg.time_step).catch(() => {});
-    } else if (msg.type === "call") {
+    } else if (msg.type === TO_WORKER.CALL) {
       const value = await calls[msg.method](...(msg.args || []));
       const transfer = value instanceof ImageData ? [value.data.buffer] : [];
-      post({ type: "reply", id: msg.id, value }, transfer);
+      post(replyMessage(msg.id, value), transfer);
     }
   } catch (e) {
-    post({ type: "error", id: msg.id ?? (msg.request && msg.request.id), message: message(e), open: msg.type.startsWith("open") });
+    post(errorMessage(requestId(msg), message(e), isOpening(msg)));
   }
 };

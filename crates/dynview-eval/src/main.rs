@@ -2,7 +2,7 @@
 //! `cargo xtask bench`, which build it and `dynview` in release mode first).
 
 use clap::{Parser, Subcommand};
-use dynview_eval::{bench_prep, bench_render, bench_sfm, eval, eval_real};
+use dynview_eval::{bench, eval};
 
 /// dynview's evaluations and benchmarks; results go to `docs/results/` or `target/bench/`.
 #[derive(Parser)]
@@ -16,28 +16,28 @@ struct Cli {
 enum Command {
     /// Quality of the renderer and its baselines on the synthetic event's held-out cameras,
     /// from the ground-truth package and through the full pipeline (`docs/results/eval.md`).
-    Eval(eval::Options),
+    Eval(eval::scoring::Options),
     /// Leave-one-camera-out on the real captures, Panoptic's arc and Pose2Sim's lab
     /// (`docs/results/real.md`).
-    EvalReal(eval_real::Options),
+    EvalReal(eval::real::Options),
     /// Milliseconds per frame of the full method (at 480x270, 960x540 and 1920x1080 unless
     /// told), per level and stage, on the CPU and on the GPU wgpu finds.
-    Bench(bench_render::Options),
+    Bench(bench::render::Options),
     /// The whole `dynview prep` on a 6-camera, 100-frame, 960x540 hand-held event
     /// (`docs/results/prep.md`).
-    BenchPrep(bench_prep::Options),
+    BenchPrep(bench::prep::Options),
     /// Our keyframe SfM against COLMAP on synthetic events (four layouts), the temple ring,
     /// Pose2Sim and the Panoptic arc (`target/bench/sfm/results.md`).
-    BenchSfm(bench_sfm::Options),
+    BenchSfm(bench::sfm::Options),
 }
 
 fn main() -> std::process::ExitCode {
     let result = match Cli::parse().command {
-        Command::Eval(options) => eval::run(options),
-        Command::EvalReal(options) => eval_real::run(options),
-        Command::Bench(options) => bench_render::run(options),
-        Command::BenchPrep(options) => bench_prep::run(options),
-        Command::BenchSfm(options) => bench_sfm::run(options),
+        Command::Eval(options) => eval::synthetic::run(options),
+        Command::EvalReal(options) => eval::real::run(options),
+        Command::Bench(options) => bench::render::run(options),
+        Command::BenchPrep(options) => bench::prep::run(options),
+        Command::BenchSfm(options) => bench::sfm::run(options),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

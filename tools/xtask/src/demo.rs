@@ -2,11 +2,12 @@
 //! on its videos and serve the viewer with the result (and the event's ground-truth package
 //! beside it). `--real` prepares and serves the Pose2Sim capture instead (see `demo_real`).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 
-use anyhow::{Context, bail};
+use anyhow::bail;
 
+use crate::dynview_prep::run_prep;
 use crate::serve::{self, Site};
 use crate::setup;
 use crate::util::{cargo, run_step, workspace_root};
@@ -124,17 +125,4 @@ pub fn serve_scene(args: ServeArgs) -> anyhow::Result<()> {
     web::build_package()?;
     let site = Site { web_dir: web::web_dir(), scenes: vec![("scene".into(), args.scene)] };
     serve::serve_forever(&site, args.port, |addr| println!("\n==> http://{addr}/?scene=scenes/scene/  (Ctrl-C stops)"))
-}
-
-/// Runs `dynview prep --input INPUT --out OUT EXTRA...` (with `fresh`, `OUT` is removed first;
-/// otherwise prep itself skips the stages an earlier run finished) and returns the package
-/// folder it wrote.
-pub fn run_prep(dynview: &Path, input: &Path, out: &Path, extra: &[String], fresh: bool, label: &str) -> anyhow::Result<PathBuf> {
-    if fresh && out.exists() {
-        std::fs::remove_dir_all(out).with_context(|| format!("cannot remove {}", out.display()))?;
-    }
-    let mut prep = Command::new(dynview);
-    prep.arg("prep").arg("--input").arg(input).arg("--out").arg(out).args(extra);
-    run_step(label, prep)?;
-    Ok(out.join("scene"))
 }

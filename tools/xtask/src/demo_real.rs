@@ -9,7 +9,7 @@ use std::process::Command;
 
 use anyhow::bail;
 
-use crate::demo::run_prep;
+use crate::dynview_prep::run_prep;
 use crate::util::{run_step, workspace_root};
 
 /// Working width of prep's frames for the portrait 1088x1920 videos (540x953 frames).

@@ -6,6 +6,7 @@ mod bench_web;
 mod circles;
 mod demo;
 mod demo_real;
+mod dynview_prep;
 mod fixtures;
 mod serve;
 mod setup;

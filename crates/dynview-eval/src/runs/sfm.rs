@@ -9,14 +9,13 @@
 //!   the wall time covers the whole command.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitStatus, Stdio};
-use std::time::Instant;
+use std::process::Command;
 
 use anyhow::{Context, bail};
 use dynview_interchange::colmap::ColmapModel;
 
-use crate::paths::command_line as describe;
-use crate::sfm_data::read_colmap_text;
+use crate::datasets::colmap_models::read_colmap_text;
+use crate::runs::programs::{log_tail, run_logged, run_logged_status};
 
 /// A finished reconstruction.
 pub struct Reconstruction {
@@ -37,43 +36,12 @@ pub const OURS_MODEL_DIR: &str = "work/keyframes/model";
 /// What COLMAP's mapper logs when it cannot start any model.
 const COLMAP_NO_MODEL: &str = "failed to create sparse model";
 
-/// Lines of a failed step's log shown in the error.
-const LOG_TAIL_LINES: usize = 15;
-
 /// Empties `dir` (removing what an earlier run left) and creates it.
 fn fresh_dir(dir: &Path) -> anyhow::Result<()> {
     if dir.exists() {
         std::fs::remove_dir_all(dir).with_context(|| format!("cannot remove {}", dir.display()))?;
     }
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))
-}
-
-/// Runs `cmd` with its output in `log` (appended); returns the wall seconds and the status.
-fn run_logged_status(label: &str, mut cmd: Command, log: &Path) -> anyhow::Result<(f64, ExitStatus)> {
-    println!("    {label}: {}", describe(&cmd));
-    let file = std::fs::OpenOptions::new().create(true).append(true).open(log).with_context(|| format!("cannot open {}", log.display()))?;
-    cmd.stdin(Stdio::null()).stdout(file.try_clone()?).stderr(file);
-    let start = Instant::now();
-    let status = cmd.status().with_context(|| format!("cannot start {}", describe(&cmd)))?;
-    let secs = start.elapsed().as_secs_f64();
-    println!("      {} in {secs:.1} s", if status.success() { "ok" } else { "failed" });
-    Ok((secs, status))
-}
-
-/// The last lines of `log`.
-pub fn log_tail(log: &Path) -> String {
-    let text = std::fs::read_to_string(log).unwrap_or_default();
-    let lines: Vec<&str> = text.lines().collect();
-    lines[lines.len().saturating_sub(LOG_TAIL_LINES)..].join("\n")
-}
-
-/// [`run_logged_status`], failing when the command fails; the error quotes the log's tail.
-pub fn run_logged(label: &str, cmd: Command, log: &Path) -> anyhow::Result<f64> {
-    let (secs, status) = run_logged_status(label, cmd, log)?;
-    if !status.success() {
-        bail!("{label} failed ({status}) after {secs:.1} s; the end of {}:\n{}", log.display(), log_tail(log));
-    }
-    Ok(secs)
 }
 
 /// A `colmap` command; Qt is told to need no display (harmless where none is needed).
@@ -138,22 +106,6 @@ pub fn run_colmap(images_dir: &Path, work_dir: &Path) -> anyhow::Result<Reconstr
     }
     let model = best.with_context(|| format!("the mapper made no model (see {})", log.display()))?;
     Ok(Reconstruction { wall_secs, model, note: None, focal_std_percent: Vec::new() })
-}
-
-/// The `dynview` binary: `$DYNVIEW_BIN` when set, else `dynview` beside this program (`cargo
-/// xtask eval` and `bench` build both into `target/release/`).
-pub fn dynview_binary() -> anyhow::Result<PathBuf> {
-    let path = match std::env::var_os("DYNVIEW_BIN") {
-        Some(path) => PathBuf::from(path),
-        None => {
-            let exe = std::env::current_exe().context("cannot locate this program")?;
-            exe.with_file_name(format!("dynview{}", std::env::consts::EXE_SUFFIX))
-        }
-    };
-    if !path.is_file() {
-        bail!("no dynview binary at {} (build it with `cargo build --release -p dynview-cli`, or set DYNVIEW_BIN)", path.display());
-    }
-    Ok(path)
 }
 
 /// Runs `dynview prep` up to its keyframe model on `images_dir` in `work_dir` (emptied first),

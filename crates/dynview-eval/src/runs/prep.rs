@@ -9,7 +9,7 @@ use anyhow::Context;
 use dynview_core::Rigid3;
 use dynview_core::scene::ScenePackage;
 
-use crate::sfm_runners::run_logged;
+use crate::runs::programs::run_logged;
 
 /// The package folder `dynview prep` writes inside `--out`.
 pub const SCENE_DIR: &str = "scene";

@@ -13,8 +13,8 @@ use dynview_core::scene::ScenePackage;
 use dynview_synth::SynthConfig;
 
 use crate::paths::{results_dir, workspace_root};
-use crate::prep_runs::{cloud_point_counts, package_poses, run_prep, stage_seconds, stage_table};
-use crate::sfm_runners::dynview_binary;
+use crate::runs::prep::{cloud_point_counts, package_poses, run_prep, stage_seconds, stage_table};
+use crate::runs::programs::dynview_binary;
 
 /// The event of the benchmark.
 fn event_config() -> SynthConfig {

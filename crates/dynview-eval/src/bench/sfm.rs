@@ -1,10 +1,10 @@
 //! `cargo xtask bench sfm`: our keyframe structure-from-motion (`dynview prep ... --stop-after
 //! keyframes`) and COLMAP side by side on the synthetic event and three other synthetic
 //! layouts, Middlebury's temple ring, Pose2Sim's lab capture and the Panoptic arc (see
-//! `sfm_datasets`), against ground-truth poses and intrinsics.
+//! [`crate::datasets::sfm`]), against ground-truth poses and intrinsics.
 //!
 //! Metrics per method and dataset:
-//! - wall time of the reconstruction (see `sfm_runners` for what is timed);
+//! - wall time of the reconstruction (see [`crate::runs::sfm`] for what is timed);
 //! - registered images out of the dataset's images;
 //! - mean reprojection error in pixels, *recomputed* from the model (every observation of
 //!   every 3D point projected with its image's pose and camera model, distortion included),
@@ -33,10 +33,11 @@ use dynview_core::Intrinsics;
 use dynview_interchange::colmap::ColmapModel;
 use dynview_interchange::poses::{CameraPoses, EventPoses, FramePose};
 
+use crate::datasets::colmap_models::{mean_reprojection_error_px, poses_from_colmap, track_weighted_error_px};
+use crate::datasets::sfm::{DATASETS, Dataset, prepare};
 use crate::paths::workspace_root;
-use crate::sfm_data::{mean_reprojection_error_px, poses_from_colmap, track_weighted_error_px};
-use crate::sfm_datasets::{DATASETS, Dataset, prepare};
-use crate::sfm_runners::{Reconstruction, dynview_binary, run_colmap, run_ours};
+use crate::runs::programs::dynview_binary;
+use crate::runs::sfm::{Reconstruction, run_colmap, run_ours};
 
 /// Relative gap between the recomputed and the model's own mean error that earns a note.
 const ERROR_FIELD_MISMATCH: f64 = 0.1;

@@ -27,8 +27,8 @@ use dynview_synth::SynthConfig;
 use dynview_interchange::middlebury::parse_middlebury_par;
 use dynview_interchange::qualisys::parse_qualisys_calibration;
 
+use crate::datasets::colmap_models::{Poses, poses_from_colmap, read_colmap_text};
 use crate::paths::{command_line as describe, shared_data};
-use crate::sfm_data::{Poses, poses_from_colmap, read_colmap_text};
 
 /// Names of the datasets, in the order the benchmark runs them.
 pub const DATASETS: [&str; 7] = ["synthetic", "temple", "pose2sim", "panoptic", "arc5x40", "arc8x90", "arc12x60"];
@@ -267,8 +267,8 @@ fn pose2sim(images_dir: &Path) -> anyhow::Result<(Poses, CameraIntrinsics)> {
 }
 
 fn panoptic(images_dir: &Path) -> anyhow::Result<(Poses, CameraIntrinsics)> {
-    let calibration = crate::panoptic::calibration(None)?;
-    let source = crate::panoptic::source_dir().join("cams");
+    let calibration = crate::datasets::panoptic::calibration(None)?;
+    let source = crate::datasets::panoptic::source_dir().join("cams");
     make_once(images_dir, |out| {
         for camera in &calibration.cameras {
             for frame in PANOPTIC_FRAMES {

@@ -21,11 +21,12 @@ use dynview_core::scene::ScenePackage;
 use dynview_core::view_ranking::rank_views;
 use dynview_core::{RgbRaster, ScalarRaster};
 
+use crate::align::median;
+use crate::datasets::real_captures::RealCapture;
+use crate::eval::plane_view::plane_view;
 use crate::paths::{results_dir, workspace_root};
-use crate::plane_view::plane_view;
-use crate::prep_runs::{PrepRun, prep_once, stage_seconds};
-use crate::real_captures::RealCapture;
-use crate::sfm_runners::dynview_binary;
+use crate::runs::prep::{PrepRun, cloud_point_counts, prep_args_suffix, prep_once, stage_seconds};
+use crate::runs::programs::dynview_binary;
 
 /// Frames of each camera used by default (the captures have 75 and 100).
 const DEFAULT_FRAMES: u32 = 20;
@@ -33,7 +34,7 @@ const DEFAULT_FRAMES: u32 = 20;
 const METHODS: [Method; 4] = [Method::Full, Method::NoTemporal, Method::Blend, Method::BestView];
 /// The floor's label: the nearest input camera's frame shown as is.
 const FLOOR: &str = "nearest input as is";
-/// The experimental fallback's label ([`crate::plane_view`]).
+/// The experimental fallback's label ([`crate::eval::plane_view`]).
 const PLANE_VIEW: &str = "plane view";
 /// Largest strip PNG wanted, bytes.
 const STRIP_MAX_BYTES: usize = 600_000;
@@ -145,7 +146,7 @@ pub fn run(options: Options) -> anyhow::Result<()> {
 /// The work folder under the workspace: `target/eval/real`, or one named after the extra prep
 /// arguments (so that runs with different arguments keep their own prepared steps).
 fn work_folder(prep_args: &[String]) -> String {
-    format!("target/eval/real{}", crate::prep_runs::prep_args_suffix(prep_args))
+    format!("target/eval/real{}", prep_args_suffix(prep_args))
 }
 
 fn section_path(work: &Path, capture: RealCapture) -> PathBuf {
@@ -321,8 +322,8 @@ fn evaluate_camera(
     }
     let n = f64::from(steps.max(1));
     let prep_secs = stage_seconds(&run.out)?.iter().map(|(_, s)| s).sum();
-    let points_per_step = crate::prep_runs::cloud_point_counts(package).0 as f64 / n;
-    let depth_error_pct = depth_errors.map(|e| crate::align::median(&e) * 100.0);
+    let points_per_step = cloud_point_counts(package).0 as f64 / n;
+    let depth_error_pct = depth_errors.map(|e| median(&e) * 100.0);
     let result = CameraResult {
         name: held_out.to_string(),
         scores,

@@ -20,10 +20,10 @@ use dynview_core::render::{Method, TimeStepInputs};
 use dynview_core::scene::ScenePackage;
 use dynview_interchange::camera_path::PathFrame;
 
-use crate::eval::{Options, Row, Sequence, VIDEOS_DIR, evaluate_method};
+use crate::eval::scoring::{Options, Row, Sequence, VIDEOS_DIR, evaluate_method};
 use crate::paths::workspace_root;
-use crate::prep_runs::{PrepRun, cloud_point_counts, package_poses, prep_args_suffix, prep_once, stage_seconds};
-use crate::sfm_runners::dynview_binary;
+use crate::runs::prep::{PrepRun, cloud_point_counts, package_poses, prep_args_suffix, prep_once, stage_seconds};
+use crate::runs::programs::dynview_binary;
 
 /// Largest PSNR drop of the full pipeline's (e) row below the ground-truth package's that
 /// issue 7 accepts, in dB.

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use anyhow::Context;
 
-use crate::{panoptic, pose2sim};
+use crate::datasets::{panoptic, pose2sim};
 
 /// A real capture of `../shared/data`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
