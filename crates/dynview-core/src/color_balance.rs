@@ -11,9 +11,9 @@
 //! on the wrong surface).
 
 use crate::camera::Camera;
+use crate::points::PointCloud;
 use crate::raster::{Rgb, RgbRaster};
 use crate::render::sparse::project_cloud;
-use crate::scene::PointCloud;
 
 /// `balanced = gain * color + offset` per channel, colors in `[0, 1]`.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -2,8 +2,10 @@
 //!
 //! - [`camera`]: the OpenCV pinhole model, rigid transforms, project / unproject with z-depth;
 //! - [`rotation`]: quaternion and angle-axis conversions;
+//! - [`look_at`]: virtual cameras as eye, target, up and field of view (the viewer's form);
 //! - [`view_ranking`]: the paper's input-view score `r_F`;
 //! - [`raster`]: pixel grids and 8-bit conversions;
+//! - [`points`]: colored point clouds (a time step's sparse points);
 //! - [`scene`]: the scene package (format v1: `scene.json`, `clouds.bin`, frames);
 //! - [`depth_io`]: 16-bit depth images with a scale;
 //! - [`display`]: render outputs as pictures (false-color depth, view weights, RGBA);
@@ -22,8 +24,10 @@ pub mod depth_io;
 pub mod display;
 #[cfg(not(target_family = "wasm"))]
 pub mod fsutil;
+pub mod look_at;
 pub mod metrics;
 pub mod par;
+pub mod points;
 pub mod raster;
 pub mod render;
 pub mod rotation;

@@ -12,7 +12,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 
 use dynview_core::camera::Camera;
 use dynview_core::display::DisplayMode;
-use dynview_core::render::pyramid::camera_at;
+use dynview_core::render::pyramid::preview_camera;
 use dynview_core::render::{RenderParams, TimeStepInputs};
 use dynview_gpu::{FrameDisplay, GpuContext, GpuFrame, GpuStreamingRenderer, StreamRequest, wgpu};
 
@@ -147,14 +147,7 @@ impl GpuView {
         if let Some(reason) = self.lost() {
             return Err(reason);
         }
-        let camera = match request.preview_level {
-            Some(level) if level > 0 => {
-                let shrink = 1usize << level.min(4);
-                let (w, h) = (request.camera.width_px as usize, request.camera.height_px as usize);
-                camera_at(&request.camera, w.div_ceil(shrink).max(16), h.div_ceil(shrink).max(9))
-            }
-            _ => request.camera,
-        };
+        let camera = preview_camera(&request.camera, request.preview_level.unwrap_or(0));
         // The render and its drawing in one submit.
         let _frame = self.ctx.frame();
         let stream = StreamRequest {

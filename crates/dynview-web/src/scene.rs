@@ -5,13 +5,14 @@
 use std::cell::{Cell, RefCell};
 use std::rc::Rc;
 
+use dynview_core::points::PointCloud;
 use dynview_core::render::TimeStepInputs;
 use dynview_core::scene::cloud::{self, CloudIndex};
 use dynview_core::scene::limits::{MAX_FRAME_FILE_BYTES, MAX_MANIFEST_BYTES};
 use dynview_core::scene::manifest::MANIFEST_FILE;
 use dynview_core::scene::video::{FrameIndex, index_byte_length};
 use dynview_core::scene::yuv::{PlaneLayout, Yuv420};
-use dynview_core::scene::{Manifest, PointCloud, decode_frame};
+use dynview_core::scene::{Manifest, decode_frame};
 
 use crate::source::{ReadError, Source};
 
@@ -42,7 +43,7 @@ impl StepCache {
 
     fn insert(&mut self, t: u32, inputs: Rc<TimeStepInputs>) {
         self.steps.retain(|s| s.t != t);
-        self.steps.push(CachedStep { t, bytes: inputs_bytes(&inputs), inputs });
+        self.steps.push(CachedStep { t, bytes: inputs.decoded_bytes(), inputs });
         // Evict the least recently used steps, always keeping the newest one.
         while self.steps.len() > 1 && self.used_bytes() > self.budget_bytes {
             self.steps.remove(0);
@@ -52,12 +53,6 @@ impl StepCache {
     fn used_bytes(&self) -> usize {
         self.steps.iter().map(|s| s.bytes).sum()
     }
-}
-
-/// Bytes held by decoded inputs (pyramids of f32 RGB, cloud).
-fn inputs_bytes(inputs: &TimeStepInputs) -> usize {
-    let pixels: usize = inputs.views.iter().flat_map(|v| v.levels.iter()).map(|l| l.data.len()).sum();
-    pixels * std::mem::size_of::<[f32; 3]>() + inputs.cloud.len() * 15
 }
 
 /// Counters of what was read, for loading bars.

@@ -4,10 +4,9 @@
 use std::cell::RefCell;
 use std::rc::Rc;
 
-use dynview_core::camera::Camera;
 use dynview_core::display::{self, DisplayMode};
-use dynview_core::raster::{RgbRaster, ScalarRaster};
-use dynview_core::render::{FrameJob, JobStep, PreviousFrame, RenderHooks, RenderParams, TimeStepInputs, Timings};
+use dynview_core::look_at::pivot_distance;
+use dynview_core::render::{CpuStreamRequest, CpuStreamingRenderer, RenderHooks, RenderParams, Timings};
 use dynview_core::scene::yuv::PlaneLayout;
 use dynview_interchange::camera_path::{NerfstudioPath, parse_path};
 use js_sys::{Function, Promise};
@@ -17,7 +16,7 @@ use wasm_bindgen::prelude::*;
 use crate::gpu::{GpuRequest, GpuView};
 use crate::scene::{LoadStats, RemoteScene};
 use crate::source::{ReadError, Source};
-use crate::view::{PathView, SceneInfo, View};
+use crate::view::{PathView, SceneInfo, View, view_camera};
 
 #[wasm_bindgen]
 extern "C" {
@@ -49,27 +48,6 @@ fn parse_mode(mode: &str) -> Result<DisplayMode, JsError> {
 
 fn to_js<T: Serialize>(value: &T) -> Result<JsValue, JsError> {
     value.serialize(&serde_wasm_bindgen::Serializer::json_compatible()).map_err(error)
-}
-
-/// A frame in the making: the job and what it renders.
-struct Active {
-    job: FrameJob<Rc<TimeStepInputs>, Rc<PreviousFrame>>,
-    camera: Camera,
-    time_step: u32,
-    started_ms: f64,
-    /// Level shown by [`Viewer::picture`] (the last finished).
-    level: Option<usize>,
-}
-
-/// The last finished frame.
-struct Finished {
-    frame: Rc<PreviousFrame>,
-    view_weight: ScalarRaster,
-    views_used: usize,
-    time_step: u32,
-    timings: Timings,
-    wall_ms: f64,
-    temporal_used: bool,
 }
 
 /// The state of a render after [`Viewer::step`].
@@ -107,14 +85,19 @@ struct Request {
     mode: Option<DisplayMode>,
 }
 
-/// The viewer: an opened scene, render parameters, the frame in progress and the last finished
-/// frame (the previous frame of streaming playback). All math is dynview-core's.
+/// The viewer: an opened scene, render parameters, and the CPU and GPU paths, each with its
+/// frame in progress and its last finished frame (the previous frame of streaming playback).
+/// All math and rendering state are dynview-core's and dynview-gpu's.
 #[wasm_bindgen]
 pub struct Viewer {
     scene: Rc<RemoteScene>,
     params: RenderParams,
-    active: Option<Active>,
-    finished: Option<Finished>,
+    /// The CPU path: the frame in progress, a level per [`Viewer::step`], and the last finished.
+    cpu: CpuStreamingRenderer,
+    /// When the CPU render in progress began (`performance.now()`, milliseconds).
+    cpu_started_ms: f64,
+    /// Wall time of the CPU path's last finished frame, in milliseconds.
+    cpu_wall_ms: f64,
     /// The GPU path, once [`Viewer::enable_gpu`] has set it up.
     gpu: Rc<RefCell<Option<Rc<GpuView>>>>,
 }
@@ -140,7 +123,14 @@ impl Viewer {
     }
 
     fn new(scene: RemoteScene) -> Self {
-        Self { scene: Rc::new(scene), params: RenderParams::default(), active: None, finished: None, gpu: Rc::default() }
+        Self {
+            scene: Rc::new(scene),
+            params: RenderParams::default(),
+            cpu: CpuStreamingRenderer::new(),
+            cpu_started_ms: 0.0,
+            cpu_wall_ms: 0.0,
+            gpu: Rc::default(),
+        }
     }
 
     /// The scene: name, fps, time steps, cameras, bounds, start view.
@@ -156,7 +146,7 @@ impl Viewer {
             return Err(error(format!("camera {camera} at time step {time_step} is not in the scene")));
         }
         let cam = manifest.camera_at(camera, time_step);
-        to_js(&View::of_camera(&cam, crate::view::pivot_distance(manifest, &cam)))
+        to_js(&View::of_camera(&cam, pivot_distance(&manifest.bounds, &cam)))
     }
 
     /// The render parameters (`RenderParams` as JSON-like object).
@@ -174,7 +164,7 @@ impl Viewer {
         if params.levels != self.params.levels {
             // Cached pyramids were built for the old depth; the previous frame too.
             self.scene.clear_cache();
-            self.finished = None;
+            self.cpu.jump();
             if let Some(gpu) = self.gpu.borrow().as_ref() {
                 gpu.clear();
             }
@@ -277,32 +267,32 @@ impl Viewer {
     /// the temporal terms (playback); without, none does (a jump).
     pub fn begin(&mut self, request: JsValue) -> Result<(), JsError> {
         let request: Request = serde_wasm_bindgen::from_value(request).map_err(|e| error(format!("render request: {e}")))?;
-        let camera = request.view.camera(request.width, request.height).map_err(error)?;
-        self.active = None;
+        let camera = view_camera(&request.view, request.width, request.height).map_err(error)?;
+        self.cpu.cancel();
         let inputs = self
             .scene
             .cached(request.time_step)
             .ok_or_else(|| error(format!("time step {} is not loaded: call loadStep({}) first", request.time_step, request.time_step)))?;
-        let previous = self.finished.as_ref().filter(|_| request.streaming).map(|f| f.frame.clone());
-        let job = FrameJob::new(self.params.clone(), camera, inputs, previous).map_err(error)?;
-        self.active = Some(Active { job, camera, time_step: request.time_step, started_ms: performance_now(), level: None });
+        let stream = CpuStreamRequest { camera, time_step: request.time_step, inputs, streaming: request.streaming };
+        self.cpu.begin(&self.params, stream).map_err(error)?;
+        self.cpu_started_ms = performance_now();
         Ok(())
     }
 
     /// True while a render is in progress.
     #[wasm_bindgen(js_name = isRendering)]
     pub fn is_rendering(&self) -> bool {
-        self.active.is_some()
+        self.cpu.is_rendering()
     }
 
     /// Drops the render in progress.
     pub fn cancel(&mut self) {
-        self.active = None;
+        self.cpu.cancel();
     }
 
     /// Forgets the last finished frame: the next streaming render has no temporal terms.
     pub fn jump(&mut self) {
-        self.finished = None;
+        self.cpu.jump();
         if let Some(gpu) = self.gpu.borrow().as_ref() {
             gpu.jump();
         }
@@ -311,44 +301,24 @@ impl Viewer {
     /// Solves the next pyramid level of the render in progress. Returns `{level, done, width,
     /// height, elapsed_ms, temporal_used}`.
     pub fn step(&mut self) -> Result<JsValue, JsError> {
-        let active = self.active.as_mut().ok_or_else(|| error("no render in progress: call begin() first"))?;
+        if !self.cpu.is_rendering() {
+            return Err(error("no render in progress: call begin() first"));
+        }
         let clock = performance_now;
         let mut hooks = RenderHooks { clock: Some(&clock), ..RenderHooks::default() };
-        let progress = active.job.step(&mut hooks).map_err(error)?;
-        let elapsed_ms = performance_now() - active.started_ms;
-        let report = match progress {
-            JobStep::Level(level) => {
-                active.level = Some(level);
-                let preview = active.job.preview(level);
-                StepReport {
-                    level,
-                    done: false,
-                    width: preview.color.width,
-                    height: preview.color.height,
-                    elapsed_ms,
-                    temporal_used: false,
-                }
-            }
-            JobStep::Done(output) => {
-                let Some(active) = self.active.take() else { return Err(error("no render in progress")) };
-                let output = *output;
-                let (width, height, temporal_used) = (output.color.width, output.color.height, output.temporal_used);
-                let views_used = output.views_used.len();
-                let view_weight = output.view_weight.clone();
-                let timings = output.timings.clone();
-                self.finished = Some(Finished {
-                    frame: Rc::new(output.into_previous(active.camera)),
-                    view_weight,
-                    views_used,
-                    time_step: active.time_step,
-                    timings,
-                    wall_ms: elapsed_ms,
-                    temporal_used,
-                });
-                StepReport { level: 0, done: true, width, height, elapsed_ms, temporal_used }
-            }
-        };
-        to_js(&report)
+        let progress = self.cpu.step(&mut hooks).map_err(error)?;
+        let elapsed_ms = performance_now() - self.cpu_started_ms;
+        if progress.done {
+            self.cpu_wall_ms = elapsed_ms;
+        }
+        to_js(&StepReport {
+            level: progress.level,
+            done: progress.done,
+            width: progress.width_px,
+            height: progress.height_px,
+            elapsed_ms,
+            temporal_used: progress.temporal_used,
+        })
     }
 
     /// Renders `request` to completion (loading nothing: the step must be loaded) and returns
@@ -358,7 +328,7 @@ impl Viewer {
         self.begin(request)?;
         loop {
             let report = self.step()?;
-            if self.active.is_none() {
+            if !self.cpu.is_rendering() {
                 break;
             }
             if let Some(f) = on_level.as_ref() {
@@ -371,17 +341,7 @@ impl Viewer {
     /// The picture of the render in progress (its last finished level) or else of the last
     /// finished frame, as `mode` = `color`, `depth` or `weights`, at that level's resolution.
     pub fn picture(&self, mode: &str) -> Result<web_sys::ImageData, JsError> {
-        let mode = parse_mode(mode)?;
-        let (color, depth, weights, views): (&RgbRaster, &ScalarRaster, Option<&ScalarRaster>, usize) =
-            match (self.active.as_ref().and_then(|a| a.level.map(|l| (a, l))), self.finished.as_ref()) {
-                (Some((active, level)), _) => {
-                    let p = active.job.preview(level);
-                    (p.color, p.depth, None, self.params.views)
-                }
-                (None, Some(f)) => (&f.frame.levels[0].color, &f.frame.levels[0].depth, Some(&f.view_weight), f.views_used),
-                (None, None) => return Err(error("nothing rendered yet")),
-            };
-        let picture = display::picture(mode, color, depth, weights, views);
+        let picture = self.cpu.picture(parse_mode(mode)?).ok_or_else(|| error("nothing rendered yet"))?;
         image_data(&display::to_rgba8(&picture), picture.width as u32, picture.height as u32)
             .map_err(|e| error(format!("ImageData: {e:?}")))
     }
@@ -410,7 +370,7 @@ impl Viewer {
     pub fn render_gpu(&mut self, request: JsValue) -> Result<Promise, JsError> {
         let gpu = self.gpu.borrow().clone().ok_or_else(|| error("the GPU path is not set up: call enableGpu() first"))?;
         let request: Request = serde_wasm_bindgen::from_value(request).map_err(|e| error(format!("render request: {e}")))?;
-        let camera = request.view.camera(request.width, request.height).map_err(error)?;
+        let camera = view_camera(&request.view, request.width, request.height).map_err(error)?;
         let inputs = self
             .scene
             .cached(request.time_step)
@@ -490,8 +450,10 @@ impl Viewer {
             temporal_used: bool,
             timings: &'a Timings,
         }
-        match &self.finished {
-            Some(f) => to_js(&Report { time_step: f.time_step, wall_ms: f.wall_ms, temporal_used: f.temporal_used, timings: &f.timings }),
+        match self.cpu.finished() {
+            Some(f) => {
+                to_js(&Report { time_step: f.time_step, wall_ms: self.cpu_wall_ms, temporal_used: f.temporal_used, timings: &f.timings })
+            }
             None => Ok(JsValue::NULL),
         }
     }
@@ -517,7 +479,7 @@ impl Viewer {
             .iter()
             .enumerate()
             .map(|(i, k)| {
-                let camera = k.view.camera(width, height).map_err(|e| error(format!("keyframes[{i}]: {e}")))?;
+                let camera = view_camera(&k.view, width, height).map_err(|e| error(format!("keyframes[{i}]: {e}")))?;
                 Ok((camera, f64::from(k.time_step.min(last)) / f64::from(last)))
             })
             .collect::<Result<Vec<_>, JsError>>()?;

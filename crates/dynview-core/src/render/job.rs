@@ -5,10 +5,11 @@
 
 use std::borrow::Borrow;
 
-use super::frame::{
-    FALLBACK_COLOR, FALLBACK_DEPTH, LevelPreview, LevelSolution, LevelViews, PreviousFrame, RenderError, RenderHooks, RenderOutput,
-    SolveKind, SolveTrace, TimeStepInputs, check_inputs, color_terms, depth_terms, filled, previous_camera, sparse_maps,
-};
+use super::error::RenderError;
+use super::hooks::{RenderHooks, SolveKind, SolveTrace};
+use super::inputs::{TimeStepInputs, check_inputs};
+use super::levels::{FALLBACK_COLOR, FALLBACK_DEPTH, LevelViews, color_terms, depth_terms, filled, sparse_maps};
+use super::outputs::{LevelPreview, LevelSolution, PreviousFrame, RenderOutput, previous_camera};
 use super::params::{Method, RenderParams};
 use super::plane::{InverseDepthPlane, faded_weights, support_coverage};
 use super::pushpull;

@@ -2,66 +2,49 @@
 //! coarse-to-fine alternation of two variational diffusions, with temporal consistency when
 //! streaming. Also the baselines it is compared with (see [`Method`]).
 //!
-//! - [`render_frame`] renders one frame, optionally with a previous frame for the temporal terms;
-//! - [`FrameJob`] renders one frame a pyramid level at a time (progressive display, cancel);
-//! - [`StreamingRenderer`] carries the previous frame from call to call (playback), and drops it
-//!   on [`StreamingRenderer::jump`] (the viewer jumped in time: no temporal terms).
+//! The stages, from what goes in to what comes out:
+//!
+//! - `inputs`: a time step's input views (frame pyramids) and sparse cloud, [`TimeStepInputs`];
+//! - `params`: the method and its weights, [`RenderParams`];
+//! - the building blocks of one pyramid level: [`pyramid`], [`transfer`], [`warp`], [`sparse`],
+//!   [`pushpull`], [`plane`], [`weights`], [`solve`], assembled per level by `levels`;
+//! - `job`: [`FrameJob`] renders one frame a pyramid level at a time (progressive display,
+//!   cancel); `frame`: [`render_frame`] runs one to completion;
+//! - `outputs`: the frame and its levels ([`RenderOutput`], [`PreviousFrame`]); `hooks`:
+//!   clock, per-level callback and solve traces; `error`: [`RenderError`];
+//! - `streaming`: sequences, each frame feeding the next one's temporal terms:
+//!   [`StreamingRenderer`] whole frames at a time, [`CpuStreamingRenderer`] a level at a time
+//!   (the viewer's CPU path), both dropping the previous frame on `jump` (no temporal terms).
 
+mod error;
 mod frame;
+mod hooks;
+mod inputs;
 mod job;
+mod levels;
+mod outputs;
 mod params;
 pub mod plane;
 pub mod pushpull;
 pub mod pyramid;
 pub mod solve;
 pub mod sparse;
+mod streaming;
 mod timing;
 pub mod transfer;
 pub mod warp;
 pub mod weights;
 
-pub use frame::{
-    FALLBACK_COLOR, FALLBACK_DEPTH, InputView, LevelPreview, LevelSolution, PreviousFrame, RenderError, RenderHooks, RenderOutput,
-    SolveKind, SolveTrace, TimeStepInputs, render_frame,
-};
+pub use error::RenderError;
+pub use frame::render_frame;
+pub use hooks::{RenderHooks, SolveKind, SolveTrace};
+pub use inputs::{InputView, TimeStepInputs};
 pub use job::{FrameJob, JobStep};
+pub use levels::{FALLBACK_COLOR, FALLBACK_DEPTH};
+pub use outputs::{LevelPreview, LevelSolution, PreviousFrame, RenderOutput};
 pub use params::{Method, ParamsError, RenderParams};
+pub use streaming::{CpuStreamRequest, CpuStreamingRenderer, FinishedFrame, StreamProgress, StreamingRenderer};
 pub use timing::{LevelTimings, Stage, Timings};
 
-use crate::camera::Camera;
-
-/// Renders a sequence, carrying each output into the next frame's temporal terms.
-#[derive(Debug, Default)]
-pub struct StreamingRenderer {
-    previous: Option<PreviousFrame>,
-}
-
-impl StreamingRenderer {
-    /// A renderer without a previous frame.
-    pub fn new() -> Self {
-        Self::default()
-    }
-
-    /// Forgets the previous frame: the next render has no temporal terms (`w_T = 0`).
-    pub fn jump(&mut self) {
-        self.previous = None;
-    }
-
-    /// True when the next render will use the temporal terms (with the full method).
-    pub fn has_previous(&self) -> bool {
-        self.previous.is_some()
-    }
-
-    /// Renders the next frame and keeps it as the previous one.
-    pub fn render(
-        &mut self,
-        params: &RenderParams,
-        camera: &Camera,
-        inputs: &TimeStepInputs,
-        hooks: &mut RenderHooks,
-    ) -> Result<RenderOutput, RenderError> {
-        let output = render_frame(params, camera, inputs, self.previous.as_ref(), hooks)?;
-        self.previous = Some(output.clone().into_previous(*camera));
-        Ok(output)
-    }
-}
+#[cfg(test)]
+mod streaming_tests;

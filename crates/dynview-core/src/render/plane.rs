@@ -9,8 +9,8 @@
 //! a view as a homography, so where it is wrong the picture is displaced, not torn.
 
 use crate::camera::Camera;
+use crate::points::PointCloud;
 use crate::raster::ScalarRaster;
-use crate::scene::PointCloud;
 use glam::{DMat3, DVec3};
 
 /// RANSAC hypotheses of the fit.

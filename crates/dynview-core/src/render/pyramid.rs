@@ -23,6 +23,17 @@ pub fn camera_at(camera: &Camera, width: usize, height: usize) -> Camera {
     camera.resized(width as u32, height as u32)
 }
 
+/// The camera of a quick preview at pyramid `level`: `1 / 2^level` of the camera's size per
+/// side (levels beyond 4 count as 4), at least 16x9 pixels; level 0 is the camera itself.
+pub fn preview_camera(camera: &Camera, level: usize) -> Camera {
+    if level == 0 {
+        return *camera;
+    }
+    let shrink = 1usize << level.min(4);
+    let (w, h) = (camera.width_px as usize, camera.height_px as usize);
+    camera_at(camera, w.div_ceil(shrink).max(16), h.div_ceil(shrink).max(9))
+}
+
 /// Values that can be averaged and interpolated.
 pub trait Pixel: Copy + Send + Sync + Default {
     /// `self * s`.

@@ -3,8 +3,8 @@
 
 use super::transfer::PixelTransfer;
 use crate::camera::Camera;
+use crate::points::PointCloud;
 use crate::raster::{Raster, Rgb, RgbRaster, ScalarRaster, unit_from_u8};
-use crate::scene::PointCloud;
 
 /// Splatted depth and color with a coverage mask.
 #[derive(Clone, Debug)]

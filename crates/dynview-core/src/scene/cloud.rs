@@ -14,7 +14,9 @@
 //! | 48 | 16 x step_count | offset table: per step `offset` (u64), `point_count` (u32), `crc32` (u32) of its block |
 //! | ... | 9 x point_count | per step, contiguous and in order: per point `x, y, z` (u16, quantised in the bounds) then `r, g, b` (u8) |
 //!
-//! A reader fetches the header and table once, then any step's block alone.
+//! A reader fetches the header and table once, then any step's block alone. Positions are cells
+//! of the file's quantisation grid ([`super::cloud_grid`]); [`super::cloud_encode`] writes
+//! the file.
 //!
 //! Version 2 (format v2 packages) stores the event's static cloud once, as the first block, and
 //! per step a coded block of the step's own points and the indices of the static points it
@@ -23,8 +25,10 @@
 //! static block's first.
 
 use super::cloud_coding::decode_block;
+use super::cloud_grid::Grid;
 use super::error::{SceneError, SceneResult};
 use super::limits::{MAX_POINTS_PER_STEP, MAX_TIME_STEPS};
+use crate::points::PointCloud;
 
 /// The magic bytes opening a clouds file.
 pub const CLOUDS_MAGIC: &[u8; 8] = b"DVCLOUDS";
@@ -42,42 +46,6 @@ pub const CODED_TABLE_ENTRY_BYTES: usize = 24;
 pub const MAX_CODED_BLOCK_BYTES: u64 = 64 << 20;
 /// Size of one stored point in bytes.
 pub const POINT_BYTES: usize = 9;
-
-/// A colored point cloud of one time step.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct PointCloud {
-    /// World positions.
-    pub positions_world: Vec<[f32; 3]>,
-    /// 8-bit colors, one per position.
-    pub colors: Vec<[u8; 3]>,
-}
-
-impl PointCloud {
-    /// Number of points.
-    pub fn len(&self) -> usize {
-        self.positions_world.len()
-    }
-
-    /// True without points.
-    pub fn is_empty(&self) -> bool {
-        self.positions_world.is_empty()
-    }
-
-    /// Appends the points of `source` at `indices` (each below `source.len()`).
-    pub fn extend_indexed(&mut self, source: &PointCloud, indices: impl IntoIterator<Item = usize>) {
-        for i in indices {
-            self.positions_world.push(source.positions_world[i]);
-            self.colors.push(source.colors[i]);
-        }
-    }
-
-    /// The points at `indices` (each below `len()`), in that order.
-    pub fn select(&self, indices: impl IntoIterator<Item = usize>) -> PointCloud {
-        let mut out = PointCloud::default();
-        out.extend_indexed(self, indices);
-        out
-    }
-}
 
 /// One entry of the offset table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -132,72 +100,6 @@ pub fn index_byte_length(version: u32, step_count: u32) -> u64 {
         HEADER_BYTES as u64 + (u64::from(step_count) + 1) * CODED_TABLE_ENTRY_BYTES as u64
     } else {
         HEADER_BYTES as u64 + u64::from(step_count) * TABLE_ENTRY_BYTES as u64
-    }
-}
-
-/// The quantisation of a clouds file: positions on a grid of `2^position_bits` levels per axis
-/// across the box, colors to `color_bits` per channel (16 and 8 in version 1; version 2 stores
-/// its choice in the header).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Grid {
-    /// Smallest corner of the box.
-    pub bounds_min: [f32; 3],
-    /// Largest corner of the box.
-    pub bounds_max: [f32; 3],
-    /// Bits per coordinate, 1 to 16.
-    pub position_bits: u32,
-    /// Bits per color channel, 4 to 8.
-    pub color_bits: u32,
-}
-
-impl Grid {
-    /// The 16-bit grid of `bounds`, 8-bit colors.
-    pub fn full(bounds_min: [f32; 3], bounds_max: [f32; 3]) -> Self {
-        Self { bounds_min, bounds_max, position_bits: 16, color_bits: 8 }
-    }
-
-    /// The coarsest grid of `bounds` whose step is at most `step` on every axis (16 bits at
-    /// most), 8-bit colors.
-    pub fn with_step(bounds_min: [f32; 3], bounds_max: [f32; 3], step: f64) -> Self {
-        let extent = (0..3).map(|i| f64::from(bounds_max[i] - bounds_min[i])).fold(0.0, f64::max);
-        let levels = if step > 0.0 && step.is_finite() { (extent / step).ceil() + 1.0 } else { f64::INFINITY };
-        let position_bits = (1..=16).find(|&b| f64::from((1u32 << b) - 1) >= levels - 1.0).unwrap_or(16);
-        Self { bounds_min, bounds_max, position_bits, color_bits: 8 }
-    }
-
-    /// A color channel on `color_bits` bits.
-    pub fn quantise_color(&self, v: u8) -> u8 {
-        v >> (8 - self.color_bits)
-    }
-
-    /// A color channel back on 8 bits, its bits repeated into the low ones (so the darkest and
-    /// brightest levels stay 0 and 255).
-    pub fn dequantise_color(&self, q: u8) -> u8 {
-        let b = self.color_bits;
-        if b >= 8 { q } else { (q << (8 - b)) | (q >> (2 * b - 8)) }
-    }
-
-    fn top(&self) -> f32 {
-        ((1u32 << self.position_bits) - 1) as f32
-    }
-
-    /// The grid cell of `p` (clamped onto the box); `None` when not finite.
-    pub fn quantise(&self, p: [f32; 3]) -> Option<[u16; 3]> {
-        if p.iter().any(|v| !v.is_finite()) {
-            return None;
-        }
-        let top = self.top();
-        Some(std::array::from_fn(|i| {
-            let extent = self.bounds_max[i] - self.bounds_min[i];
-            let inv = if extent > 0.0 { top / extent } else { 0.0 };
-            ((p[i] - self.bounds_min[i]) * inv).round().clamp(0.0, top) as u16
-        }))
-    }
-
-    /// The position of grid cell `q`.
-    pub fn dequantise(&self, q: [u16; 3]) -> [f32; 3] {
-        let top = self.top();
-        std::array::from_fn(|i| self.bounds_min[i] + f32::from(q[i]) * ((self.bounds_max[i] - self.bounds_min[i]) / top))
     }
 }
 
@@ -426,250 +328,5 @@ impl CloudIndex {
             cloud.colors.push([p[6], p[7], p[8]]);
         }
         Ok((cloud, Vec::new()))
-    }
-}
-
-/// Encodes one step's points into a block, quantising positions into the bounds (points
-/// outside are clamped onto the box). Fails on non-finite positions or too many points.
-pub fn encode_step(cloud: &PointCloud, bounds_min: [f32; 3], bounds_max: [f32; 3], t: usize) -> SceneResult<Vec<u8>> {
-    const FILE: &str = "clouds.bin";
-    if cloud.positions_world.len() != cloud.colors.len() {
-        return Err(SceneError::invalid(FILE, format!("steps[{t}]"), "positions and colors differ in length"));
-    }
-    if cloud.len() > MAX_POINTS_PER_STEP as usize {
-        return Err(SceneError::invalid(FILE, format!("steps[{t}].point_count"), format!("{} exceeds {MAX_POINTS_PER_STEP}", cloud.len())));
-    }
-    let mut out = Vec::with_capacity(cloud.len() * POINT_BYTES);
-    for (k, (p, c)) in cloud.positions_world.iter().zip(&cloud.colors).enumerate() {
-        let q = Grid::full(bounds_min, bounds_max)
-            .quantise(*p)
-            .ok_or_else(|| SceneError::invalid(FILE, format!("steps[{t}].points[{k}]"), "non-finite position"))?;
-        for v in q {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
-        out.extend_from_slice(c);
-    }
-    Ok(out)
-}
-
-/// Builds the header and offset table of a version 1 file for blocks of the given lengths (in
-/// points) and CRCs.
-pub fn encode_index(bounds_min: [f32; 3], bounds_max: [f32; 3], steps: &[(u32, u32)]) -> Vec<u8> {
-    let index_len = index_byte_length(CLOUDS_VERSION, steps.len() as u32);
-    let mut offset = index_len;
-    let entries: Vec<StepEntry> = steps
-        .iter()
-        .map(|&(point_count, crc32)| {
-            let e = StepEntry::plain(offset, point_count, crc32);
-            offset += e.byte_length();
-            e
-        })
-        .collect();
-    encode_table(CLOUDS_VERSION, &Grid::full(bounds_min, bounds_max), None, &entries)
-}
-
-/// Builds the header and offset table of a version 2 file on `grid`: the static block, then
-/// one block per step, as `(byte_length, point_count, borrowed_count, crc32)`.
-pub fn encode_coded_index(grid: &Grid, statics: (u32, u32, u32), steps: &[(u32, u32, u32, u32)]) -> Vec<u8> {
-    let mut offset = index_byte_length(CLOUDS_VERSION_CODED, steps.len() as u32);
-    let mut entry = |(length, point_count, borrowed_count, crc32): (u32, u32, u32, u32)| {
-        let e = StepEntry { offset, length_bytes: u64::from(length), point_count, borrowed_count, crc32 };
-        offset += e.byte_length();
-        e
-    };
-    let static_entry = entry((statics.0, statics.1, 0, statics.2));
-    let entries: Vec<StepEntry> = steps.iter().map(|&s| entry(s)).collect();
-    encode_table(CLOUDS_VERSION_CODED, grid, Some(static_entry), &entries)
-}
-
-fn encode_table(version: u32, grid: &Grid, static_entry: Option<StepEntry>, steps: &[StepEntry]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(index_byte_length(version, steps.len() as u32) as usize);
-    out.extend_from_slice(CLOUDS_MAGIC);
-    out.extend_from_slice(&version.to_le_bytes());
-    out.extend_from_slice(&(steps.len() as u32).to_le_bytes());
-    for v in grid.bounds_min.iter().chain(&grid.bounds_max) {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
-    let (position_bits, color_bits) = if version == CLOUDS_VERSION_CODED { (grid.position_bits, grid.color_bits) } else { (0, 0) };
-    out.extend_from_slice(&(position_bits as u16).to_le_bytes());
-    out.extend_from_slice(&(color_bits as u16).to_le_bytes());
-    out.extend_from_slice(&0u32.to_le_bytes()); // header_crc32, filled below
-    for e in static_entry.iter().chain(steps) {
-        out.extend_from_slice(&e.offset.to_le_bytes());
-        if version == CLOUDS_VERSION_CODED {
-            out.extend_from_slice(&(e.length_bytes as u32).to_le_bytes());
-            out.extend_from_slice(&e.point_count.to_le_bytes());
-            out.extend_from_slice(&e.borrowed_count.to_le_bytes());
-        } else {
-            out.extend_from_slice(&e.point_count.to_le_bytes());
-        }
-        out.extend_from_slice(&e.crc32.to_le_bytes());
-    }
-    let mut hasher = crc32fast::Hasher::new();
-    hasher.update(&out[..44]);
-    hasher.update(&out[HEADER_BYTES..]);
-    let crc = hasher.finalize();
-    out[44..48].copy_from_slice(&crc.to_le_bytes());
-    out
-}
-
-/// Encodes a whole clouds file in memory (used for small packages and tests; the package
-/// writer streams blocks to disk instead).
-pub fn encode_clouds(bounds_min: [f32; 3], bounds_max: [f32; 3], clouds: &[PointCloud]) -> SceneResult<Vec<u8>> {
-    let mut blocks = Vec::with_capacity(clouds.len());
-    for (t, cloud) in clouds.iter().enumerate() {
-        blocks.push(encode_step(cloud, bounds_min, bounds_max, t)?);
-    }
-    let entries: Vec<(u32, u32)> = blocks.iter().map(|b| ((b.len() / POINT_BYTES) as u32, crc32fast::hash(b))).collect();
-    let mut out = encode_index(bounds_min, bounds_max, &entries);
-    for b in blocks {
-        out.extend_from_slice(&b);
-    }
-    Ok(out)
-}
-
-/// Encodes a whole version 2 clouds file in memory on `grid`: the static cloud, then per step
-/// its own points and the static indices it borrows (for tests and small packages).
-pub fn encode_coded_clouds(grid: &Grid, statics: &PointCloud, steps: &[(PointCloud, Vec<u32>)]) -> SceneResult<Vec<u8>> {
-    let static_block = super::cloud_coding::encode_block(statics, &[], grid, "static")?;
-    let mut blocks = Vec::with_capacity(steps.len());
-    for (t, (own, borrowed)) in steps.iter().enumerate() {
-        blocks.push((
-            super::cloud_coding::encode_block(own, borrowed, grid, &format!("steps[{t}]"))?,
-            own.len() + borrowed.len(),
-            borrowed.len(),
-        ));
-    }
-    let entries: Vec<(u32, u32, u32, u32)> =
-        blocks.iter().map(|(b, points, borrowed)| (b.len() as u32, *points as u32, *borrowed as u32, crc32fast::hash(b))).collect();
-    let statics_entry = (static_block.len() as u32, statics.len() as u32, crc32fast::hash(&static_block));
-    let mut out = encode_coded_index(grid, statics_entry, &entries);
-    out.extend_from_slice(&static_block);
-    for (b, _, _) in blocks {
-        out.extend_from_slice(&b);
-    }
-    Ok(out)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn sample_clouds() -> Vec<PointCloud> {
-        vec![
-            PointCloud {
-                positions_world: vec![[0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [-1.0, 0.5, 2.5]],
-                colors: vec![[255, 0, 0], [0, 255, 0], [1, 2, 3]],
-            },
-            PointCloud::default(),
-            PointCloud { positions_world: vec![[0.25, 1.0, -0.5]], colors: vec![[9, 9, 9]] },
-        ]
-    }
-
-    const MIN: [f32; 3] = [-1.0, 0.0, -1.0];
-    const MAX: [f32; 3] = [1.0, 2.0, 3.0];
-
-    #[test]
-    fn round_trip_within_quantisation() {
-        let clouds = sample_clouds();
-        let bytes = encode_clouds(MIN, MAX, &clouds).unwrap();
-        let index = CloudIndex::parse(&bytes, bytes.len() as u64, "clouds.bin").unwrap();
-        assert_eq!(index.steps.len(), 3);
-        assert_eq!(index.total_points(), 4);
-        for (t, cloud) in clouds.iter().enumerate() {
-            let e = index.steps[t];
-            let block = &bytes[e.offset as usize..(e.offset + e.byte_length()) as usize];
-            let back = index.decode_step(t, block, None, "clouds.bin").unwrap();
-            assert_eq!(back.colors, cloud.colors);
-            for (a, b) in back.positions_world.iter().zip(&cloud.positions_world) {
-                for i in 0..3 {
-                    let step = (MAX[i] - MIN[i]) / 65535.0;
-                    assert!((a[i] - b[i]).abs() <= 0.5 * step + 1e-6, "{a:?} vs {b:?}");
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn a_coarser_grid_keeps_its_step_and_round_trips_within_half_of_it() {
-        let grid = Grid::with_step(MIN, MAX, 0.001);
-        // 4 m across at 1 mm: 4001 levels, 12 bits.
-        assert_eq!(grid.position_bits, 12);
-        let steps: Vec<(PointCloud, Vec<u32>)> = sample_clouds().into_iter().map(|c| (c, vec![])).collect();
-        let bytes = encode_coded_clouds(&grid, &PointCloud::default(), &steps).unwrap();
-        let index = CloudIndex::parse(&bytes, bytes.len() as u64, "clouds.bin").unwrap();
-        assert_eq!(index.grid(), grid);
-        for (t, (cloud, _)) in steps.iter().enumerate() {
-            let e = index.steps[t];
-            let back = index
-                .decode_step(t, &bytes[e.offset as usize..(e.offset + e.byte_length()) as usize], Some(&PointCloud::default()), "c")
-                .unwrap();
-            let mut got: Vec<[u32; 3]> = back.positions_world.iter().map(|p| p.map(f32::to_bits)).collect();
-            let mut want: Vec<[u32; 3]> =
-                cloud.positions_world.iter().map(|p| grid.dequantise(grid.quantise(*p).unwrap()).map(f32::to_bits)).collect();
-            got.sort_unstable();
-            want.sort_unstable();
-            assert_eq!(got, want);
-            for p in &cloud.positions_world {
-                let q = grid.dequantise(grid.quantise(*p).unwrap());
-                for i in 0..3 {
-                    let step = (MAX[i] - MIN[i]) / 4095.0;
-                    assert!((q[i] - p[i]).abs() <= 0.5 * step + 1e-6, "{p:?} -> {q:?}");
-                }
-            }
-        }
-        assert_eq!(Grid::with_step(MIN, MAX, 0.0).position_bits, 16);
-        assert_eq!(Grid::with_step(MIN, MAX, 10.0).position_bits, 1);
-    }
-
-    #[test]
-    fn every_truncation_is_an_error() {
-        let bytes = encode_clouds(MIN, MAX, &sample_clouds()).unwrap();
-        for len in 0..bytes.len() {
-            assert!(CloudIndex::parse(&bytes[..len], len as u64, "clouds.bin").is_err(), "length {len}");
-        }
-    }
-
-    #[test]
-    fn every_bit_flip_is_detected() {
-        let bytes = encode_clouds(MIN, MAX, &sample_clouds()).unwrap();
-        for i in 0..bytes.len() {
-            for bit in 0..8 {
-                let mut bad = bytes.clone();
-                bad[i] ^= 1 << bit;
-                let detected = match CloudIndex::parse(&bad, bad.len() as u64, "clouds.bin") {
-                    Err(_) => true,
-                    Ok(index) => (0..index.steps.len()).any(|t| {
-                        let e = index.steps[t];
-                        let block = &bad[e.offset as usize..(e.offset + e.byte_length()) as usize];
-                        index.decode_step(t, block, None, "clouds.bin").is_err()
-                    }),
-                };
-                assert!(detected, "flip of bit {bit} in byte {i} went unnoticed");
-            }
-        }
-    }
-
-    #[test]
-    fn errors_name_fields() {
-        let bytes = encode_clouds(MIN, MAX, &sample_clouds()).unwrap();
-        let mut bad = bytes.clone();
-        bad[8] = 3;
-        let err = CloudIndex::parse(&bad, bad.len() as u64, "clouds.bin").unwrap_err().to_string();
-        assert!(err.contains("`version`"), "{err}");
-        let err = CloudIndex::parse(&bytes, bytes.len() as u64 + 9, "clouds.bin").unwrap_err().to_string();
-        assert!(err.contains("file length"), "{err}");
-        let index = CloudIndex::parse(&bytes, bytes.len() as u64, "clouds.bin").unwrap();
-        let err = index.decode_step(7, &[], None, "clouds.bin").unwrap_err().to_string();
-        assert!(err.contains("out of range"), "{err}");
-    }
-
-    #[test]
-    fn encode_rejects_nan_and_clamps_outside() {
-        let nan = PointCloud { positions_world: vec![[f32::NAN, 0.0, 0.0]], colors: vec![[0; 3]] };
-        assert!(encode_step(&nan, MIN, MAX, 0).is_err());
-        let outside = PointCloud { positions_world: vec![[50.0, -50.0, 1.0]], colors: vec![[0; 3]] };
-        let block = encode_step(&outside, MIN, MAX, 0).unwrap();
-        assert_eq!(&block[0..4], &[0xff, 0xff, 0, 0]);
     }
 }

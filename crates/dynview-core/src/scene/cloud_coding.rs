@@ -12,9 +12,10 @@
 //! Positions are cells of the file's grid ([`Grid`]); on the 16-bit grid of version 1 a coded
 //! cloud decodes to the same points as a version 1 block of the same cloud (in another order).
 
-use super::cloud::{Grid, PointCloud};
+use super::cloud_grid::Grid;
 use super::error::{SceneError, SceneResult};
 use super::limits::MAX_POINTS_PER_STEP;
+use crate::points::PointCloud;
 
 /// Bytes a varint of a Morton difference takes at most (48 bits).
 const MAX_MORTON_VARINT: usize = 7;

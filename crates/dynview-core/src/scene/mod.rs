@@ -4,6 +4,8 @@
 
 pub mod cloud;
 pub mod cloud_coding;
+pub mod cloud_encode;
+pub mod cloud_grid;
 pub mod error;
 #[cfg(not(target_family = "wasm"))]
 pub mod ffmpeg;
@@ -22,7 +24,8 @@ pub mod video_files;
 pub mod writer;
 pub mod yuv;
 
-pub use cloud::{CloudIndex, PointCloud};
+pub use crate::points::PointCloud;
+pub use cloud::CloudIndex;
 pub use error::{SceneError, SceneResult};
 pub use frame::{decode_frame, encode_frame};
 pub use manifest::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, PoseEntry, StartView};

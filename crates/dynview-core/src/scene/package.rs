@@ -5,13 +5,14 @@ use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
-use super::cloud::{self, CloudIndex, PointCloud};
+use super::cloud::{self, CloudIndex};
 use super::error::{SceneError, SceneResult};
 use super::limits::{MAX_FRAME_FILE_BYTES, MAX_MANIFEST_BYTES};
 use super::manifest::{MANIFEST_FILE, Manifest};
 use super::video::FrameIndex;
 use super::video_files::VideoFrames;
 use crate::camera::Camera;
+use crate::points::PointCloud;
 use crate::raster::RgbRaster;
 
 pub use super::frame::{JPEG_QUALITY, decode_frame, encode_frame};

@@ -4,11 +4,14 @@ use std::fs;
 
 use proptest::prelude::*;
 
-use super::cloud::{self, CloudIndex, PointCloud};
+use super::cloud::{self, CloudIndex};
+use super::cloud_encode;
+use super::cloud_grid::Grid;
 use super::manifest::Manifest;
 use super::package::{ScenePackage, SceneWriter, decode_frame};
 use super::testing::small_manifest;
 use super::{FrameFormat, SceneError};
+use crate::points::PointCloud;
 
 fn cloud_for_step(t: u32) -> PointCloud {
     let n = 5 + t as usize * 3;
@@ -193,13 +196,13 @@ fn frame_of_wrong_size_is_rejected_before_decoding() {
 
 fn small_clouds_file() -> Vec<u8> {
     let clouds: Vec<PointCloud> = (0..3).map(cloud_for_step).collect();
-    cloud::encode_clouds([-2.0, -1.0, -2.0], [2.0, 2.0, 2.0], &clouds).unwrap()
+    cloud_encode::encode_clouds([-2.0, -1.0, -2.0], [2.0, 2.0, 2.0], &clouds).unwrap()
 }
 
 /// A version 2 file: a static cloud of 7 points, three steps borrowing some of them.
 fn small_coded_clouds_file() -> Vec<u8> {
     let steps: Vec<(PointCloud, Vec<u32>)> = (0..3).map(|t| (cloud_for_step(t), (0..7).filter(|i| i % (t + 2) == 0).collect())).collect();
-    cloud::encode_coded_clouds(&cloud::Grid::full([-2.0, -1.0, -2.0], [2.0, 2.0, 2.0]), &cloud_for_step(1), &steps).unwrap()
+    cloud_encode::encode_coded_clouds(&Grid::full([-2.0, -1.0, -2.0], [2.0, 2.0, 2.0]), &cloud_for_step(1), &steps).unwrap()
 }
 
 fn block<'a>(bytes: &'a [u8], e: &cloud::StepEntry) -> &'a [u8] {
@@ -277,7 +280,7 @@ proptest! {
     #[test]
     fn absurd_coded_counts_are_rejected_before_allocating(point_count in 1u32.., borrowed in 0u32.., length in 1u32..100_000) {
         // Checksums right, counts absurd: the index or the block says so, nothing allocates.
-        let bytes = cloud::encode_coded_index(&cloud::Grid::full([0.0; 3], [1.0; 3]), (0, 0, 0), &[(length, point_count, borrowed, 0)]);
+        let bytes = cloud_encode::encode_coded_index(&Grid::full([0.0; 3], [1.0; 3]), (0, 0, 0), &[(length, point_count, borrowed, 0)]);
         let claimed = bytes.len() as u64 + u64::from(length);
         let mut file = bytes.clone();
         file.resize(claimed as usize, 0);
@@ -287,14 +290,14 @@ proptest! {
     #[test]
     fn absurd_point_counts_are_rejected_before_allocating(point_count in 1u32..) {
         // A header whose checksum is right but whose block lies past the end of the file.
-        let bytes = cloud::encode_index([0.0; 3], [1.0; 3], &[(point_count, 0)]);
+        let bytes = cloud_encode::encode_index([0.0; 3], [1.0; 3], &[(point_count, 0)]);
         let err = CloudIndex::parse(&bytes, bytes.len() as u64, "clouds.bin").unwrap_err().to_string();
         prop_assert!(err.contains("`steps[0].point_count`"), "{}", err);
     }
 
     #[test]
     fn absurd_step_counts_are_rejected(step_count in (super::limits::MAX_TIME_STEPS + 1)..) {
-        let mut bytes = cloud::encode_index([0.0; 3], [1.0; 3], &[(0, 0)]);
+        let mut bytes = cloud_encode::encode_index([0.0; 3], [1.0; 3], &[(0, 0)]);
         bytes[12..16].copy_from_slice(&step_count.to_le_bytes());
         let err = CloudIndex::parse(&bytes, bytes.len() as u64, "clouds.bin").unwrap_err().to_string();
         prop_assert!(err.contains("`step_count`"), "{}", err);

@@ -5,11 +5,11 @@
 use std::fs;
 use std::path::Path;
 
-use super::cloud::PointCloud;
 use super::manifest::{FORMAT_VERSION_V1, Manifest};
 use super::package::{ScenePackage, SceneWriter};
 use super::testing::small_manifest;
 use crate::metrics::psnr;
+use crate::points::PointCloud;
 use crate::raster::RgbRaster;
 
 const W: u32 = 64;

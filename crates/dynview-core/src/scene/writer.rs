@@ -8,8 +8,10 @@ use std::fs::{self, File};
 use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use super::cloud::{self, Grid, PointCloud};
+use super::cloud::{CLOUDS_VERSION, CLOUDS_VERSION_CODED, index_byte_length};
 use super::cloud_coding::encode_block;
+use super::cloud_encode::{encode_coded_index, encode_index, encode_step};
+use super::cloud_grid::Grid;
 use super::error::{SceneError, SceneResult};
 use super::ffmpeg::{DEFAULT_KEYFRAME_INTERVAL, VideoSettings};
 use super::frame::encode_frame;
@@ -17,6 +19,7 @@ use super::limits::MAX_POINTS_PER_STEP;
 use super::manifest::{FORMAT_VERSION_V1, FRAMES_DIR, MANIFEST_FILE, Manifest};
 use super::video_files::VideoWriter;
 use crate::fsutil::StagedDir;
+use crate::points::PointCloud;
 
 /// Writes a scene package: frames (any order, from any thread), then clouds in time order,
 /// then [`SceneWriter::finish`] validates completeness and moves the package into place.
@@ -74,8 +77,8 @@ impl SceneWriter {
         let mut clouds_file = File::create(&clouds_path).map_err(|e| SceneError::io(&clouds_path, e))?;
         // Reserve the index; it is written once all blocks are known.
         // `clouds.bin` version 2 (coded, with a static cloud) in a format v2 package, else 1.
-        let clouds_version = if manifest.version == FORMAT_VERSION_V1 { cloud::CLOUDS_VERSION } else { cloud::CLOUDS_VERSION_CODED };
-        let index_len = cloud::index_byte_length(clouds_version, manifest.time_step_count);
+        let clouds_version = if manifest.version == FORMAT_VERSION_V1 { CLOUDS_VERSION } else { CLOUDS_VERSION_CODED };
+        let index_len = index_byte_length(clouds_version, manifest.time_step_count);
         clouds_file.write_all(&vec![0u8; index_len as usize]).map_err(|e| SceneError::io(&clouds_path, e))?;
         let b = manifest.bounds;
         let grid = Grid::full(b.min.map(|v| v as f32), b.max.map(|v| v as f32));
@@ -214,7 +217,7 @@ impl SceneWriter {
             if !borrowed.is_empty() {
                 return Err(SceneError::invalid("clouds.bin", field, "a format v1 package has no static cloud to borrow from"));
             }
-            let block = cloud::encode_step(own, lo, hi, t)?;
+            let block = encode_step(own, lo, hi, t)?;
             self.write_block(&block)?;
             self.written_steps.push((block.len() as u32, own.len() as u32, 0, crc32fast::hash(&block)));
             return Ok(());
@@ -286,10 +289,10 @@ impl SceneWriter {
         let (lo, hi) = (self.grid.bounds_min, self.grid.bounds_max);
         let index = if self.has_static_cloud() {
             let statics = self.static_block.unwrap_or((0, 0, 0));
-            cloud::encode_coded_index(&self.grid, statics, &self.written_steps)
+            encode_coded_index(&self.grid, statics, &self.written_steps)
         } else {
             let plain: Vec<(u32, u32)> = self.written_steps.iter().map(|&(_, points, _, crc)| (points, crc)).collect();
-            cloud::encode_index(lo, hi, &plain)
+            encode_index(lo, hi, &plain)
         };
         let io = |e| SceneError::io(&clouds_path, e);
         self.clouds_file.seek(SeekFrom::Start(0)).map_err(io)?;

@@ -1,0 +1,77 @@
+//! What the renderer renders from: the input views of one time step, each with its frame's
+//! pyramid, and the time step's sparse cloud. Prepared once per time step, shared by every
+//! virtual camera at that time.
+
+use super::error::RenderError;
+use super::params::RenderParams;
+use super::pyramid::{self, camera_at};
+use crate::camera::Camera;
+use crate::points::PointCloud;
+use crate::raster::RgbRaster;
+
+/// An input camera with its frame at every pyramid level (finest first), prepared once per
+/// time step and reused for every virtual camera at that time.
+#[derive(Clone, Debug)]
+pub struct InputView {
+    /// The camera at full resolution.
+    pub camera: Camera,
+    /// The frame at each level, finest first.
+    pub levels: Vec<RgbRaster>,
+}
+
+impl InputView {
+    /// Builds the pyramid of `image` (which must match `camera`'s size).
+    pub fn new(camera: Camera, image: RgbRaster, levels: usize) -> Self {
+        Self { camera, levels: pyramid::build(image, levels.max(1)) }
+    }
+
+    /// The camera and frame at `level` (the coarsest available when beyond).
+    pub(super) fn at(&self, level: usize) -> (Camera, &RgbRaster) {
+        let image = &self.levels[level.min(self.levels.len() - 1)];
+        (camera_at(&self.camera, image.width, image.height), image)
+    }
+}
+
+/// Everything known about one time step: its sparse cloud and its input views.
+#[derive(Clone, Debug)]
+pub struct TimeStepInputs {
+    /// The sparse cloud of the time step.
+    pub cloud: PointCloud,
+    /// All input views at this time step (the renderer ranks and picks `params.views`).
+    pub views: Vec<InputView>,
+}
+
+impl TimeStepInputs {
+    /// Bytes the decoded inputs hold: the pyramids' f32 RGB pixels and the cloud's points (a
+    /// f32 position and an 8-bit color each, 15 bytes). What a cache of time steps counts.
+    pub fn decoded_bytes(&self) -> usize {
+        let pixels: usize = self.views.iter().flat_map(|v| v.levels.iter()).map(|l| l.data.len()).sum();
+        pixels * std::mem::size_of::<[f32; 3]>() + self.cloud.len() * 15
+    }
+}
+
+/// Checks a render request: valid parameters, at least one view, every frame the size of its
+/// camera, an output size in `1..=16384` per side.
+pub(super) fn check_inputs(params: &RenderParams, camera: &Camera, inputs: &TimeStepInputs) -> Result<(), RenderError> {
+    params.validate()?;
+    if inputs.views.is_empty() {
+        return Err(RenderError::NoViews);
+    }
+    for (index, v) in inputs.views.iter().enumerate() {
+        let img = &v.levels[0];
+        if (img.width, img.height) != (v.camera.width_px as usize, v.camera.height_px as usize) {
+            return Err(RenderError::ViewSize {
+                index,
+                width: img.width,
+                height: img.height,
+                camera_width: v.camera.width_px,
+                camera_height: v.camera.height_px,
+            });
+        }
+    }
+    let (w, h) = (camera.width_px, camera.height_px);
+    if w == 0 || h == 0 || w > 16_384 || h > 16_384 {
+        return Err(RenderError::OutputSize { width: w, height: h });
+    }
+    Ok(())
+}
