@@ -54,6 +54,6 @@ fn main() {
     println!("RMS {:.3} px -> {:.4} px", report.initial_rms_px, report.final_rms_px);
     println!(
         "focal {:.3} px (true {:.3}), mean pose error {:.2e} rad / {:.2e} units",
-        problem.cameras[0].focal_px, truth.cameras[0].focal_px, rotation_error, center_error
+        problem.cameras[0].f, truth.cameras[0].f, rotation_error, center_error
     );
 }

@@ -1,50 +1,15 @@
 //! The bundle adjustment problem: cameras, image poses, points, observations and priors, and
 //! the validation that runs before any solve.
+//!
+//! A camera is COLMAP's `RADIAL` model ([`Radial`], which also computes the projection's
+//! Jacobians), pixel centres at integer coordinates: with `(X, Y, Z)` the point in the camera
+//! frame, `x_n = X/Z`, `y_n = Y/Z`, `r2 = x_n^2 + y_n^2`, `d = 1 + k1 r2 + k2 r2^2`,
+//! `u = f d x_n + cx`, `v = f d y_n + cy`. Its intrinsics are listed, wherever they are, in
+//! the order `[f, cx, cy, k1, k2]`. An image's pose is a [`Rigid3`] `camera_from_world`.
+
+use dynview_camera::{Radial, Rigid3};
 
 use crate::error::BaError;
-
-/// Intrinsics of one physical camera, shared by all its images: COLMAP's `RADIAL` model
-/// ([`dynview_camera::Radial`], which computes the projection and its Jacobians), pixel centres
-/// at integer coordinates.
-///
-/// With `(X, Y, Z)` the point in the camera frame: `x_n = X/Z`, `y_n = Y/Z`,
-/// `r2 = x_n^2 + y_n^2`, `d = 1 + k1 r2 + k2 r2^2`, `u = f d x_n + cx`, `v = f d y_n + cy`.
-/// Parameter order wherever the intrinsics are listed: `[focal_px, cx_px, cy_px, k1, k2]`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CameraIntrinsics {
-    /// Focal length in pixels (same for both axes); must be positive.
-    pub focal_px: f64,
-    /// Principal point, horizontal pixel coordinate.
-    pub cx_px: f64,
-    /// Principal point, vertical pixel coordinate.
-    pub cy_px: f64,
-    /// First radial distortion coefficient (multiplies `r2`).
-    pub k1: f64,
-    /// Second radial distortion coefficient (multiplies `r2^2`).
-    pub k2: f64,
-}
-
-impl From<CameraIntrinsics> for dynview_camera::Radial {
-    fn from(k: CameraIntrinsics) -> Self {
-        Self { f: k.focal_px, cx: k.cx_px, cy: k.cy_px, k1: k.k1, k2: k.k2 }
-    }
-}
-
-impl From<dynview_camera::Radial> for CameraIntrinsics {
-    fn from(k: dynview_camera::Radial) -> Self {
-        Self { focal_px: k.f, cx_px: k.cx, cy_px: k.cy, k1: k.k1, k2: k.k2 }
-    }
-}
-
-/// One image's pose: the camera_from_world rotation as an angle-axis vector (radians) and the
-/// camera centre in the world: `X_cam = R(angle_axis) * (X_world - center_world)`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ImagePose {
-    /// camera_from_world rotation as an angle-axis vector: direction is the axis, norm the angle in radians.
-    pub angle_axis: [f64; 3],
-    /// Camera centre in world coordinates.
-    pub center_world: [f64; 3],
-}
 
 /// One measured image position of one point.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -59,7 +24,8 @@ pub struct Observation {
 
 /// The paper's smoothness prior between two images of one camera (Eqs. 1-2): adds
 /// `weight_center * ||C_a - C_b||^2` (camera centres) and
-/// `weight_rotation * ||A_a - A_b||^2` (angle-axis vectors) to the cost.
+/// `weight_rotation * ||A_a - A_b||^2` (angle-axis vectors of the `camera_from_world`
+/// rotations) to the cost.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SmoothnessPrior {
     /// Index of the first image.
@@ -76,9 +42,9 @@ pub struct SmoothnessPrior {
 /// the user gave (a calibration, or a focal length alone).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct HeldIntrinsics {
-    /// Keep `focal_px`.
+    /// Keep the focal length `f`.
     pub focal: bool,
-    /// Keep `cx_px` and `cy_px`.
+    /// Keep the principal point `cx`, `cy`.
     pub principal_point: bool,
     /// Keep `k1` and `k2`.
     pub distortion: bool,
@@ -88,7 +54,7 @@ impl HeldIntrinsics {
     /// Every intrinsic held (a full calibration).
     pub const ALL: Self = Self { focal: true, principal_point: true, distortion: true };
 
-    /// Whether the intrinsic with index `index` in `[focal_px, cx_px, cy_px, k1, k2]` is held.
+    /// Whether the intrinsic with index `index` in `[f, cx, cy, k1, k2]` is held.
     pub fn holds(&self, index: usize) -> bool {
         match index {
             0 => self.focal,
@@ -104,10 +70,11 @@ impl HeldIntrinsics {
 /// `rho` from [`crate::Loss`] and the prior terms of [`SmoothnessPrior`].
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Problem {
-    /// The physical cameras.
-    pub cameras: Vec<CameraIntrinsics>,
-    /// One pose per image.
-    pub images: Vec<ImagePose>,
+    /// The physical cameras' intrinsics.
+    pub cameras: Vec<Radial>,
+    /// One pose per image, `camera_from_world`. A solve writes back the poses it changed; a
+    /// fixed or unchanged image keeps its pose exactly.
+    pub images: Vec<Rigid3>,
     /// For each image, the index of its camera in [`Problem::cameras`].
     pub image_camera: Vec<usize>,
     /// For each image, whether its pose is held constant.
@@ -142,22 +109,26 @@ impl Problem {
             check_length("held_intrinsics", self.held_intrinsics.len(), "cameras", self.cameras.len())?;
         }
         for (index, camera) in self.cameras.iter().enumerate() {
-            let values = [camera.focal_px, camera.cx_px, camera.cy_px, camera.k1, camera.k2];
-            for (name, value) in ["focal_px", "cx_px", "cy_px", "k1", "k2"].iter().zip(values) {
+            let values = [camera.f, camera.cx, camera.cy, camera.k1, camera.k2];
+            for (name, value) in ["f", "cx", "cy", "k1", "k2"].iter().zip(values) {
                 check_finite(|| format!("cameras[{index}].{name}"), value)?;
             }
-            if camera.focal_px <= 0.0 {
+            if camera.f <= 0.0 {
                 return Err(BaError::InvalidValue {
-                    field: format!("cameras[{index}].focal_px"),
-                    value: camera.focal_px,
+                    field: format!("cameras[{index}].f"),
+                    value: camera.f,
                     reason: "the focal length must be positive",
                 });
             }
         }
         for (index, pose) in self.images.iter().enumerate() {
-            for axis in 0..3 {
-                check_finite(|| format!("images[{index}].angle_axis[{axis}]"), pose.angle_axis[axis])?;
-                check_finite(|| format!("images[{index}].center_world[{axis}]"), pose.center_world[axis])?;
+            for (row, values) in pose.rotation_rows().iter().enumerate() {
+                for (column, &value) in values.iter().enumerate() {
+                    check_finite(|| format!("images[{index}].rotation[{row}][{column}]"), value)?;
+                }
+            }
+            for (axis, value) in pose.translation.to_array().into_iter().enumerate() {
+                check_finite(|| format!("images[{index}].translation[{axis}]"), value)?;
             }
         }
         for (index, &camera) in self.image_camera.iter().enumerate() {

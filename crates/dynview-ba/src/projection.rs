@@ -2,14 +2,14 @@
 //! block; the camera model's own part (pixel from normalized point, and its derivatives) is
 //! [`dynview_camera::Radial`]'s.
 
-use dynview_camera::{Model, Radial};
+use dynview_camera::{Model, Radial, Rigid3};
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, SMatrix, Vector2, Vector3};
 
-use crate::problem::{CameraIntrinsics, ImagePose, Problem};
-use crate::rotation::{right_jacobian, rotation_from_angle_axis};
+use crate::angle_axis::{right_jacobian, rotation_from_angle_axis};
+use crate::pose::ImagePose;
+use crate::problem::Problem;
 
-/// Number of intrinsic parameters, in the order `[focal_px, cx_px, cy_px, k1, k2]` (the
-/// `RADIAL` model's `f, cx, cy, k1, k2`).
+/// Number of intrinsic parameters, in the `RADIAL` model's order `[f, cx, cy, k1, k2]`.
 pub(crate) const INTRINSIC_COUNT: usize = dynview_camera::radial::PARAM_COUNT;
 
 /// One image's pose prepared for projecting many points: `R`, `R Jr` and the centre.
@@ -39,24 +39,25 @@ impl ImageFrame {
 }
 
 /// The pixel of a camera-frame point, or `None` when it is not in front of the camera (`Z <= 0`).
-pub(crate) fn pixel_from_camera(camera: &CameraIntrinsics, point_camera: &Vector3<f64>) -> Option<Vector2<f64>> {
+pub(crate) fn pixel_from_camera(camera: &Radial, point_camera: &Vector3<f64>) -> Option<Vector2<f64>> {
     if point_camera.z.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let normalized = [point_camera.x / point_camera.z, point_camera.y / point_camera.z];
-    Some(Vector2::from(Radial::from(*camera).pixel_from_normalized(normalized)))
+    Some(Vector2::from(camera.pixel_from_normalized(normalized)))
 }
 
-/// Projects a world point into an image; `None` when the point is not in front of the camera.
-pub fn pixel_from_world(camera: &CameraIntrinsics, pose: &ImagePose, point_world: &[f64; 3]) -> Option<[f64; 2]> {
-    let point_camera = ImageFrame::new(pose).point_camera(&Vector3::from(*point_world));
+/// Projects a world point into an image as the solver does (through the pose's angle-axis
+/// parameters); `None` when the point is not in front of the camera.
+pub fn pixel_from_world(camera: &Radial, camera_from_world: &Rigid3, point_world: &[f64; 3]) -> Option<[f64; 2]> {
+    let point_camera = ImageFrame::new(&ImagePose::from_rigid(camera_from_world)).point_camera(&Vector3::from(*point_world));
     pixel_from_camera(camera, &point_camera).map(|pixel| [pixel.x, pixel.y])
 }
 
 /// Per observation, the Euclidean reprojection error in pixels; `f64::INFINITY` when the point
 /// is not in front of the camera and `f64::NAN` when the observation's indices are out of range.
 pub fn reprojection_errors_px(problem: &Problem) -> Vec<f64> {
-    let frames: Vec<ImageFrame> = problem.images.iter().map(ImageFrame::new).collect();
+    let frames: Vec<ImageFrame> = problem.images.iter().map(|pose| ImageFrame::new(&ImagePose::from_rigid(pose))).collect();
     problem
         .observations
         .iter()
@@ -87,13 +88,13 @@ pub(crate) struct ResidualJacobians {
     pub d_center: Matrix2x3<f64>,
     /// d residual / d point_world.
     pub d_point: Matrix2x3<f64>,
-    /// d residual / d `[focal_px, cx_px, cy_px, k1, k2]`.
+    /// d residual / d `[f, cx, cy, k1, k2]`.
     pub d_intrinsics: SMatrix<f64, 2, INTRINSIC_COUNT>,
 }
 
 /// The residual and all its Jacobians; `None` when the point is not in front of the camera.
 pub(crate) fn residual_jacobians(
-    camera: &CameraIntrinsics,
+    camera: &Radial,
     frame: &ImageFrame,
     point_world: &Vector3<f64>,
     measured_px: &Vector2<f64>,
@@ -103,15 +104,14 @@ pub(crate) fn residual_jacobians(
     let inverse_depth = 1.0 / point_camera.z;
     let x = point_camera.x * inverse_depth;
     let y = point_camera.y * inverse_depth;
-    let radial = Radial::from(*camera);
-    let [[u_x, u_y], [v_x, v_y]] = radial.d_pixel_d_normalized([x, y]);
+    let [[u_x, u_y], [v_x, v_y]] = camera.d_pixel_d_normalized([x, y]);
     let d_pixel_d_normalized = Matrix2::new(u_x, u_y, v_x, v_y);
     // d (x, y) / d point_camera.
     let d_normalized_d_camera = Matrix2x3::new(inverse_depth, 0.0, -x * inverse_depth, 0.0, inverse_depth, -y * inverse_depth);
     let d_pixel_d_camera = d_pixel_d_normalized * d_normalized_d_camera;
     let d_point = d_pixel_d_camera * frame.camera_from_world;
     let d_angle_axis = -(d_pixel_d_camera * point_camera.cross_matrix()) * frame.rotation_times_right_jacobian;
-    let [u_params, v_params] = radial.d_pixel_d_params([x, y]);
+    let [u_params, v_params] = camera.d_pixel_d_params([x, y]);
     let d_intrinsics = SMatrix::<f64, 2, INTRINSIC_COUNT>::from_fn(|row, column| [u_params, v_params][row][column]);
     Some(ResidualJacobians { residual_px: pixel - measured_px, d_angle_axis, d_center: -d_point, d_point, d_intrinsics })
 }
@@ -124,19 +124,13 @@ mod tests {
 
     /// The pose, point and camera of one observation's parameters flattened as
     /// `[angle_axis(3), center(3), point(3), intrinsics(5)]`.
-    fn unpack(parameters: &[f64; 14]) -> (ImagePose, Vector3<f64>, CameraIntrinsics) {
+    fn unpack(parameters: &[f64; 14]) -> (ImagePose, Vector3<f64>, Radial) {
         let pose = ImagePose {
             angle_axis: [parameters[0], parameters[1], parameters[2]],
             center_world: [parameters[3], parameters[4], parameters[5]],
         };
         let point = Vector3::new(parameters[6], parameters[7], parameters[8]);
-        let camera = CameraIntrinsics {
-            focal_px: parameters[9],
-            cx_px: parameters[10],
-            cy_px: parameters[11],
-            k1: parameters[12],
-            k2: parameters[13],
-        };
+        let camera = Radial { f: parameters[9], cx: parameters[10], cy: parameters[11], k1: parameters[12], k2: parameters[13] };
         (pose, point, camera)
     }
 
@@ -186,15 +180,15 @@ mod tests {
         // A rotation of nearly pi about y looks back at the origin from +z.
         let parameters = [0.0, 3.0, 0.0, 0.2, -0.1, 5.0, 0.3, 0.1, 0.5, 900.0, 400.0, 300.0, -0.1, 0.01];
         let pose = ImagePose { angle_axis: [0.0, 3.0, 0.0], center_world: [0.2, -0.1, 5.0] };
-        let camera = CameraIntrinsics { focal_px: 900.0, cx_px: 400.0, cy_px: 300.0, k1: -0.1, k2: 0.01 };
-        assert!(pixel_from_world(&camera, &pose, &[0.3, 0.1, 0.5]).is_some());
+        let camera = Radial { f: 900.0, cx: 400.0, cy: 300.0, k1: -0.1, k2: 0.01 };
+        assert!(pixel_from_world(&camera, &pose.to_rigid(), &[0.3, 0.1, 0.5]).is_some());
         check(parameters);
     }
 
     #[test]
     fn projection_follows_the_documented_model() {
-        let camera = CameraIntrinsics { focal_px: 500.0, cx_px: 320.0, cy_px: 240.0, k1: 0.1, k2: 0.01 };
-        let pose = ImagePose { angle_axis: [0.0; 3], center_world: [0.0, 0.0, -2.0] };
+        let camera = Radial { f: 500.0, cx: 320.0, cy: 240.0, k1: 0.1, k2: 0.01 };
+        let pose = ImagePose { angle_axis: [0.0; 3], center_world: [0.0, 0.0, -2.0] }.to_rigid();
         let pixel = pixel_from_world(&camera, &pose, &[0.2, -0.4, 2.0]).expect("in front");
         let (x, y) = (0.2 / 4.0, -0.4 / 4.0);
         let r2: f64 = x * x + y * y;

@@ -64,16 +64,20 @@ fn non_finite_and_invalid_values_are_refused() {
     assert_eq!(refused(problem, &Options::default()).to_string(), format!("observations[{last}].pixel[0] is not finite (inf)"));
 
     let mut problem = base();
-    problem.images[2].angle_axis[0] = f64::NEG_INFINITY;
-    assert!(matches!(refused(problem, &Options::default()), BaError::NonFinite { field, .. } if field == "images[2].angle_axis[0]"));
+    problem.images[2].translation.x = f64::NEG_INFINITY;
+    assert!(matches!(refused(problem, &Options::default()), BaError::NonFinite { field, .. } if field == "images[2].translation[0]"));
+
+    let mut problem = base();
+    problem.images[1].rotation.z_axis.x = f64::NAN;
+    assert!(matches!(refused(problem, &Options::default()), BaError::NonFinite { field, .. } if field == "images[1].rotation[0][2]"));
 
     let mut problem = base();
     problem.cameras[0].k2 = f64::NAN;
     assert!(matches!(refused(problem, &Options::default()), BaError::NonFinite { field, .. } if field == "cameras[0].k2"));
 
     let mut problem = base();
-    problem.cameras[0].focal_px = -100.0;
-    assert!(matches!(refused(problem, &Options::default()), BaError::InvalidValue { field, .. } if field == "cameras[0].focal_px"));
+    problem.cameras[0].f = -100.0;
+    assert!(matches!(refused(problem, &Options::default()), BaError::InvalidValue { field, .. } if field == "cameras[0].f"));
 
     let mut problem = base();
     problem.priors.push(SmoothnessPrior { image_a: 0, image_b: 1, weight_center: -1.0, weight_rotation: 1.0 });

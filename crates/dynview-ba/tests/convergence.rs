@@ -32,8 +32,8 @@ fn noise_free_ring_recovers_poses_points_and_intrinsics() {
     perturb(&mut problem, &Perturbation { rotation_rad: 0.01, center: 0.05, point: 0.05, focal_relative: 0.03 }, 2);
     problem.cameras[0].k1 = 0.0;
     problem.cameras[0].k2 = 0.0;
-    problem.cameras[0].cx_px += 4.0;
-    problem.cameras[0].cy_px -= 3.0;
+    problem.cameras[0].cx += 4.0;
+    problem.cameras[0].cy -= 3.0;
     let report = solve(&mut problem, &tight(Loss::Squared)).expect("solves");
     println!("{report:?}");
     assert!(report.initial_rms_px > 10.0, "the perturbation should matter: {}", report.initial_rms_px);
@@ -42,8 +42,8 @@ fn noise_free_ring_recovers_poses_points_and_intrinsics() {
     assert_eq!(report.camera_unknowns, 18 * 6 + 5);
     assert_eq!(report.point_unknowns, 3000);
     let camera = problem.cameras[0];
-    assert!(((camera.focal_px - CAMERA.focal_px) / CAMERA.focal_px).abs() < 1e-6, "focal {}", camera.focal_px);
-    assert!((camera.cx_px - CAMERA.cx_px).abs() < 1e-4 && (camera.cy_px - CAMERA.cy_px).abs() < 1e-4, "{camera:?}");
+    assert!(((camera.f - CAMERA.f) / CAMERA.f).abs() < 1e-6, "focal {}", camera.f);
+    assert!((camera.cx - CAMERA.cx).abs() < 1e-4 && (camera.cy - CAMERA.cy).abs() < 1e-4, "{camera:?}");
     assert!((camera.k1 - CAMERA.k1).abs() < 1e-6 && (camera.k2 - CAMERA.k2).abs() < 1e-6, "{camera:?}");
     let (rotation_error, center_error) = pose_errors(&problem.images, &truth.images);
     assert!(rotation_error < 1e-8 && center_error < 1e-7, "pose errors {rotation_error} rad, {center_error}");

@@ -23,25 +23,25 @@ fn two_cameras() -> Problem {
 #[test]
 fn a_held_focal_stays_as_given_while_the_other_cameras_focal_is_refined() {
     let mut problem = two_cameras();
-    problem.cameras[0].focal_px *= 1.01;
-    problem.cameras[1].focal_px *= 1.03;
+    problem.cameras[0].f *= 1.01;
+    problem.cameras[1].f *= 1.03;
     problem.held_intrinsics = vec![HeldIntrinsics { focal: true, ..HeldIntrinsics::default() }, HeldIntrinsics::default()];
-    let given = problem.cameras[0].focal_px;
+    let given = problem.cameras[0].f;
     let std = intrinsics_std(&problem, &squared(), 1.0).unwrap();
     assert_eq!(std[0].focal_px, None, "a held focal has no standard deviation");
     assert!(std[1].focal_px.is_some());
     solve(&mut problem, &squared()).unwrap();
-    assert_eq!(problem.cameras[0].focal_px, given, "the held focal changed");
+    assert_eq!(problem.cameras[0].f, given, "the held focal changed");
     // The other camera's focal moves: on exact observations it settles where the held one's
     // (1% long) error puts the rest of the model, not where it started.
-    let moved = problem.cameras[1].focal_px / (1.03 * CAMERA.focal_px) - 1.0;
+    let moved = problem.cameras[1].f / (1.03 * CAMERA.f) - 1.0;
     assert!(moved.abs() > 1e-3, "the free focal stayed at its start ({moved})");
 }
 
 #[test]
 fn a_held_calibration_keeps_every_intrinsic() {
     let mut problem = two_cameras();
-    problem.cameras[1].cx_px += 6.0;
+    problem.cameras[1].cx += 6.0;
     problem.held_intrinsics = vec![HeldIntrinsics::default(), HeldIntrinsics::ALL];
     let given = problem.cameras[1];
     let options = Options { loss: Loss::Squared, refine_principal_point: true, ..Options::default() };
@@ -78,7 +78,7 @@ fn the_focal_standard_deviation_predicts_the_scatter_of_noisy_solves() {
                 observation.pixel[1] += normal.sample(&mut rng);
             }
             solve(&mut problem, &squared()).unwrap();
-            problem.cameras[0].focal_px
+            problem.cameras[0].f
         })
         .collect();
     let mean = focals.iter().sum::<f64>() / trials as f64;

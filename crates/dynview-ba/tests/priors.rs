@@ -52,14 +52,14 @@ fn smooth_sequence(seed: u64) -> Problem {
 
 /// RMS over the interior frames of the second difference of the centre errors.
 fn centre_jitter(estimate: &Problem, truth: &Problem) -> f64 {
-    let error = |t: usize| Vector3::from(estimate.images[t].center_world) - Vector3::from(truth.images[t].center_world);
+    let error = |t: usize| estimate.images[t].center() - truth.images[t].center();
     let sum: f64 = (1..FRAMES - 1).map(|t| (error(t + 1) - 2.0 * error(t) + error(t - 1)).norm_squared()).sum();
     (sum / (FRAMES - 2) as f64).sqrt()
 }
 
 /// Same for the angle-axis vectors.
 fn rotation_jitter(estimate: &Problem, truth: &Problem) -> f64 {
-    let error = |t: usize| Vector3::from(estimate.images[t].angle_axis) - Vector3::from(truth.images[t].angle_axis);
+    let error = |t: usize| estimate.images[t].angle_axis() - truth.images[t].angle_axis();
     let sum: f64 = (1..FRAMES - 1).map(|t| (error(t + 1) - 2.0 * error(t) + error(t - 1)).norm_squared()).sum();
     (sum / (FRAMES - 2) as f64).sqrt()
 }

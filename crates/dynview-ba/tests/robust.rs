@@ -18,7 +18,7 @@ fn robust_losses_resist_outliers_that_ruin_least_squares() {
         let mut problem = noisy.clone();
         let report = solve(&mut problem, &Options { loss, refine_distortion: false, ..Options::default() }).expect("solves");
         let (rotation, center) = pose_errors(&problem.images, &truth.images);
-        let focal = (problem.cameras[0].focal_px - truth.cameras[0].focal_px).abs();
+        let focal = (problem.cameras[0].f - truth.cameras[0].f).abs();
         println!(
             "{loss:?}: rotation {rotation:.2e} rad, centre {center:.2e}, focal {focal:.3} px, {} iterations, {:?}",
             report.iterations, report.termination

@@ -1,6 +1,7 @@
-//! dynview's camera models: the pinhole model and the COLMAP distortion models dynview reads
-//! and writes, one model per file with its parameter order documented, as COLMAP's
-//! `src/colmap/sensor/models.h` does.
+//! dynview's cameras: the pinhole model and the COLMAP distortion models dynview reads and
+//! writes, one model per file with its parameter order documented, as COLMAP's
+//! `src/colmap/sensor/models.h` does; and the one pose type every crate uses, [`Rigid3`]
+//! (`camera_from_world` and the like, glam `f64`), with its [`rotation`] parameterisations.
 //!
 //! | [`CameraModel`] | COLMAP id | parameters | type |
 //! |---|---|---|---|
@@ -32,21 +33,32 @@
 //! assert!((same[0] - pixel[0]).abs() < 1e-9 && (same[1] - pixel[1]).abs() < 1e-9);
 //! ```
 //!
-//! No dependencies; builds for `wasm32`.
+//! Depends on glam alone (pure Rust; builds for `wasm32`). Optional features:
+//! - `nalgebra`: the nalgebra forms of [`Rigid3`] and [`Radial`] that `dynview-sfm` and
+//!   `dynview-ba` compute with (rotation matrix, camera centre, angle-axis vector, pixels as
+//!   vectors, [`PoseMatrices`]); every conversion between the two libraries is there;
+//! - `serde`: `Serialize` and `Deserialize` for [`Radial`] and [`Rigid3`].
 
 mod any;
 mod model_id;
+#[cfg(feature = "nalgebra")]
+mod nalgebra_forms;
 pub mod opencv;
 pub mod pinhole;
 pub mod radial;
+mod rigid;
+pub mod rotation;
 pub mod simple_pinhole;
 pub mod simple_radial;
 
 pub use any::{Camera, normalized_from_pixel, pixel_from_normalized};
 pub use model_id::CameraModel;
+#[cfg(feature = "nalgebra")]
+pub use nalgebra_forms::{PoseMatrices, QUATERNION_ANGLE_RAD};
 pub use opencv::{OpenCv, OpenCvDistortion};
 pub use pinhole::Pinhole;
 pub use radial::Radial;
+pub use rigid::Rigid3;
 pub use simple_pinhole::SimplePinhole;
 pub use simple_radial::SimpleRadial;
 

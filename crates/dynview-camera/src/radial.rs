@@ -11,13 +11,20 @@ use crate::{CameraModel, Model, OpenCv, OpenCvDistortion, Pinhole, params_array,
 pub const PARAM_COUNT: usize = 5;
 
 /// The pinhole model with two radial distortion terms. Parameter order `f, cx, cy, k1, k2`.
+///
+/// With the feature `serde` it serializes as `{"focal_px", "cx_px", "cy_px", "k1", "k2"}`
+/// (the names `dynview-sfm`'s work files and reports have always used).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Radial {
     /// Focal length, in pixels, both axes.
+    #[cfg_attr(feature = "serde", serde(rename = "focal_px"))]
     pub f: f64,
     /// Principal point x, in pixels.
+    #[cfg_attr(feature = "serde", serde(rename = "cx_px"))]
     pub cx: f64,
     /// Principal point y, in pixels.
+    #[cfg_attr(feature = "serde", serde(rename = "cy_px"))]
     pub cy: f64,
     /// Radial distortion, `r^2` term.
     pub k1: f64,
@@ -30,6 +37,13 @@ impl Radial {
     /// centres at integers) and no distortion.
     pub fn centred(f: f64, width: u32, height: u32) -> Self {
         Self { f, cx: 0.5 * (f64::from(width) - 1.0), cy: 0.5 * (f64::from(height) - 1.0), k1: 0.0, k2: 0.0 }
+    }
+
+    /// A pinhole calibration as this model, without distortion (for undistorted frames). The
+    /// model has one focal length: a calibration's `fx` and `fy` are averaged (they differ by
+    /// a fraction of a pixel in real calibrations).
+    pub fn from_pinhole(pinhole: &Pinhole) -> Self {
+        Self { f: 0.5 * (pinhole.fx + pinhole.fy), cx: pinhole.cx, cy: pinhole.cy, k1: 0.0, k2: 0.0 }
     }
 
     /// The distortion factor `d = 1 + k1 r2 + k2 r2^2`.

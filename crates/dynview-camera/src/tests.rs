@@ -132,3 +132,18 @@ fn pinhole_projects_and_lifts_with_z_depth() {
     assert_eq!(pinhole.pixel_from_camera([0.0, 0.0, 0.0]), None);
     assert_eq!(pinhole.pixel_from_camera([0.0, 0.0, -1.0]), None);
 }
+
+/// The stored form of `Radial` is the one `dynview-sfm`'s work files have always had, so that
+/// their keys still match; `Rigid3` stores its rotation (column-major) and translation.
+#[cfg(feature = "serde")]
+#[test]
+fn radial_and_rigid_serialize_as_dynview_sfm_stores_them() {
+    let k = Radial { f: 500.0, cx: 319.5, cy: 239.5, k1: -0.1, k2: 0.01 };
+    let json = serde_json::to_string(&k).expect("serializes");
+    assert_eq!(json, r#"{"focal_px":500.0,"cx_px":319.5,"cy_px":239.5,"k1":-0.1,"k2":0.01}"#);
+    assert_eq!(serde_json::from_str::<Radial>(&json).expect("reads back"), k);
+    let pose = Rigid3::new(glam::DMat3::from_rotation_z(0.5), glam::DVec3::new(1.0, -2.0, 3.0));
+    let json = serde_json::to_string(&pose).expect("serializes");
+    assert!(json.starts_with(r#"{"rotation":["#) && json.ends_with(r#""translation":[1.0,-2.0,3.0]}"#), "{json}");
+    assert_eq!(serde_json::from_str::<Rigid3>(&json).expect("reads back"), pose);
+}

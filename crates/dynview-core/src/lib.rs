@@ -1,7 +1,9 @@
 //! dynview's core: everything the offline tools and the browser viewer share, in pure Rust.
 //!
-//! - [`camera`]: the OpenCV pinhole model, rigid transforms, project / unproject with z-depth;
-//! - [`rotation`]: quaternion and angle-axis conversions;
+//! - [`camera`]: the OpenCV pinhole model, posed cameras, project / unproject with z-depth;
+//!   rigid transforms ([`Rigid3`]) are `dynview-camera`'s, re-exported;
+//! - [`rotation`]: quaternion and angle-axis conversions (`dynview_camera::rotation`,
+//!   re-exported);
 //! - [`look_at`]: virtual cameras as eye, target, up and field of view (the viewer's form);
 //! - [`view_ranking`]: the paper's input-view score `r_F`;
 //! - [`raster`]: pixel grids and 8-bit conversions;
@@ -30,9 +32,10 @@ pub mod par;
 pub mod points;
 pub mod raster;
 pub mod render;
-pub mod rotation;
 pub mod scene;
 pub mod view_ranking;
+
+pub use dynview_camera::rotation;
 
 pub use camera::{Camera, Intrinsics, Rigid3};
 pub use raster::{Raster, Rgb, RgbRaster, ScalarRaster};

@@ -6,13 +6,13 @@
 
 use std::time::Instant;
 
+use dynview_camera::Radial;
 use dynview_interchange::colmap::ColmapModel;
 use dynview_interchange::poses::EventPoses;
-use dynview_sfm::densify::{DensifyOptions, densify};
-use dynview_sfm::features::FeatureOptions;
-use dynview_sfm::geometry::{Intrinsics, Pose};
-use dynview_sfm::input::read_bgr;
-use dynview_sfm::points::{PointOptions, TimestepCloud, TimestepView, timestep_points};
+use dynview_sfm::dense::densify::{DensifyOptions, densify};
+use dynview_sfm::features::sift::FeatureOptions;
+use dynview_sfm::input::frames::read_bgr;
+use dynview_sfm::mapping::points::{PointOptions, TimestepCloud, TimestepView, timestep_points};
 use dynview_synth::SynthConfig;
 use dynview_synth::scene::{Frame, default_objects};
 use glam::DVec3;
@@ -68,13 +68,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for (c, (camera, image)) in poses.cameras.iter().zip(&images).enumerate() {
             let k = &camera.intrinsics;
             views.push(TimestepView {
-                intrinsics: Intrinsics { focal_px: k.fx, cx_px: k.cx, cy_px: k.cy, k1: 0.0, k2: 0.0 },
-                pose: Pose::from_rigid(&poses.camera_from_world(c, t).ok_or("no pose")?),
+                intrinsics: Radial { f: k.fx, cx: k.cx, cy: k.cy, k1: 0.0, k2: 0.0 },
+                pose: poses.camera_from_world(c, t).ok_or("no pose")?,
                 image_bgr: image,
             });
         }
-        let origins: Vec<DVec3> =
-            views.iter().map(|v| DVec3::new(v.pose.center_world.x, v.pose.center_world.y, v.pose.center_world.z)).collect();
+        let origins: Vec<DVec3> = views.iter().map(|v| v.pose.camera_center_world()).collect();
         let start = Instant::now();
         let sparse = timestep_points(&views, &FeatureOptions::default(), &PointOptions::default())?;
         let points_ms = start.elapsed().as_secs_f64() * 1e3;

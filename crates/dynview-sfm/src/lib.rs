@@ -1,48 +1,38 @@
 //! dynview's preprocessing (`dynview prep`): a scene package from raw videos.
 //!
-//! [`pipeline::run`] takes a folder with one video (or one image folder) per camera and
-//! writes a scene package:
-//! 1. [`input`]: cameras and frames (videos decoded by OpenCV);
-//! 2. [`keyframes`]: SIFT ([`features`]) on every `kappa`-th frame, exhaustive matching with
-//!    the ratio test and cross-check and MAGSAC++ verification ([`matching`]), focal lengths by
-//!    self-calibration ([`focal`]), incremental reconstruction with bundle adjustment
-//!    ([`incremental`], solved by `dynview-ba`);
-//! 3. [`refine`]: every other frame matched only with its neighbour in time, posed with the
-//!    keyframes fixed and the paper's smoothness priors;
-//! 4. [`timesteps`]: per time step, the frames matched across cameras only and triangulated with
-//!    the poses fixed ([`points`], METHOD.md step 3), PatchMatch stereo grows those points into
-//!    a denser cloud ([`densify`], step 4), frames reduced to the working size;
-//! 5. [`static_cloud`]: static points accumulated across time, lent to the steps whose frames
-//!    agree with them;
-//! 6. [`export`]: the scene package from the prepared steps of one run or of several range
-//!    runs (`dynview merge`).
+//! [`run`] takes a folder with one video (or one image folder) per camera and writes a scene
+//! package. The modules are grouped by role, as COLMAP's sources are, each folder using only
+//! the ones above it in this list:
+//! - [`error`] and [`work`]: the errors, and the work folder where each stage keeps its result
+//!   so that a re-run skips what is finished;
+//! - [`input`]: the cameras and their frames (videos decoded by OpenCV), and a calibration
+//!   the user gives;
+//! - [`estimators`]: two-view relative poses, PnP, focal lengths by self-calibration,
+//!   triangulation and reprojection errors;
+//! - [`features`]: SIFT, exhaustive matching with the ratio test and cross-check and MAGSAC++
+//!   verification, matching guided by known poses, multi-view tracks;
+//! - [`mapping`]: the keyframe reconstruction (incremental, with bundle adjustment by
+//!   `dynview-ba`; cameras that stand still pooled), the frame-to-frame refinement of every
+//!   other frame with the paper's smoothness priors, the adjustment over sampled time steps,
+//!   and each time step's points triangulated across cameras (METHOD.md step 3);
+//! - [`dense`]: PatchMatch densification of a time step's points (step 4), and the static
+//!   points accumulated across time;
+//! - [`pipeline`]: the driver: the stages in order ([`run`]), the per-timestep stage, and the
+//!   package export of one run or of several range runs (`dynview merge`).
 //!
-//! Each stage's result is kept in the output's work folder ([`work`]), so a re-run skips what
-//! is finished. Only this crate (and the CLI) depend on OpenCV.
+//! Poses are `dynview_camera::Rigid3` (`camera_from_world`), intrinsics
+//! `dynview_camera::Radial` (COLMAP's `RADIAL`, pixel centres at integers). Only this crate
+//! (and the CLI) depend on OpenCV.
 
-pub mod calibration;
-pub mod densify;
+pub mod dense;
 pub mod error;
-pub mod export;
+pub mod estimators;
 pub mod features;
-pub mod focal;
-pub mod geometry;
-pub mod guided;
-pub mod incremental;
 pub mod input;
-pub mod keyframes;
-pub mod matching;
+pub mod mapping;
 pub mod pipeline;
-pub mod pnp;
-pub mod points;
-pub mod refine;
-mod relative;
-pub mod static_cloud;
-pub mod step_adjust;
-pub mod still;
-pub mod timesteps;
-pub mod tracks;
 pub mod work;
 
 pub use error::{SfmError, SfmResult};
-pub use pipeline::{PrepOptions, PrepReport, Stage, run};
+pub use pipeline::options::{PrepOptions, PrepReport, Stage};
+pub use pipeline::prep::run;

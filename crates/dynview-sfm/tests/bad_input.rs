@@ -123,7 +123,7 @@ fn a_black_camera_an_unrelated_camera_and_a_short_video_give_warnings_and_a_pack
     let out = dir.path().join("prep");
     let options = PrepOptions {
         keyframe_interval: 2,
-        steps: dynview_sfm::timesteps::StepOptions { working_width: 240, densify: None, ..Default::default() },
+        steps: dynview_sfm::pipeline::timesteps::StepOptions { working_width: 240, densify: None, ..Default::default() },
         ..PrepOptions::default()
     };
     let report = run(&input, &out, &options, &|_, _, _| {}, &AtomicBool::new(false)).expect("a package from the usable cameras");

@@ -2,11 +2,11 @@
 
 use std::sync::atomic::AtomicBool;
 
+use dynview_camera::Radial;
 use dynview_core::Intrinsics;
 use dynview_interchange::poses::{CameraPoses, FramePose};
-use dynview_sfm::calibration::undistort_frames;
-use dynview_sfm::geometry::Intrinsics as Model;
-use dynview_sfm::input::{CameraFrames, EventFrames};
+use dynview_sfm::input::calibration::undistort_frames;
+use dynview_sfm::input::frames::{CameraFrames, EventFrames};
 use nalgebra::Vector2;
 
 const W: u32 = 240;
@@ -30,7 +30,7 @@ fn mean_abs_diff(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
 
 #[test]
 fn a_given_distortion_is_removed() {
-    let k = Model { focal_px: 200.0, cx_px: 119.5, cy_px: 79.5, k1: -0.25, k2: 0.05 };
+    let k = Radial { f: 200.0, cx: 119.5, cy: 79.5, k1: -0.25, k2: 0.05 };
     let pinhole = image::RgbImage::from_fn(W, H, |x, y| {
         let v = pattern(f64::from(x), f64::from(y)) as u8;
         image::Rgb([v, v, v])
@@ -39,7 +39,7 @@ fn a_given_distortion_is_removed() {
     // distortion lands on it.
     let distorted = image::RgbImage::from_fn(W, H, |x, y| {
         let n = k.normalized(Vector2::new(f64::from(x), f64::from(y)));
-        let v = pattern(k.focal_px * n.x + k.cx_px, k.focal_px * n.y + k.cy_px) as u8;
+        let v = pattern(k.f * n.x + k.cx, k.f * n.y + k.cy) as u8;
         image::Rgb([v, v, v])
     });
     let dir = tempfile::tempdir().unwrap();
@@ -50,7 +50,7 @@ fn a_given_distortion_is_removed() {
         name: "cam".into(),
         width: W,
         height: H,
-        intrinsics: Intrinsics { fx: k.focal_px, fy: k.focal_px, cx: k.cx_px, cy: k.cy_px },
+        intrinsics: Intrinsics { fx: k.f, fy: k.f, cx: k.cx, cy: k.cy },
         distortion: [k.k1, k.k2, 0.0, 0.0],
         frames: vec![FramePose { file: "00000.png".into(), camera_from_world: None }],
     };

@@ -29,7 +29,7 @@ fn a_camera_with_another_response_is_balanced_to_the_others() {
     let out = dir.path().join("prep");
     let options = PrepOptions {
         keyframe_interval: 2,
-        steps: dynview_sfm::timesteps::StepOptions { working_width: 240, ..Default::default() },
+        steps: dynview_sfm::pipeline::timesteps::StepOptions { working_width: 240, ..Default::default() },
         ..PrepOptions::default()
     };
     let report = run(&input, &out, &options, &|_, _, _| {}, &AtomicBool::new(false)).expect("prep");

@@ -2,13 +2,13 @@
 //! on the true surfaces (moving objects included), deterministic, within the target count, and no
 //! panic on degenerate input.
 
+use dynview_camera::{Radial, Rigid3};
 use dynview_interchange::colmap::ColmapModel;
 use dynview_interchange::poses::EventPoses;
-use dynview_sfm::densify::{DensifyOptions, densify};
-use dynview_sfm::features::FeatureOptions;
-use dynview_sfm::geometry::{Intrinsics, Pose};
-use dynview_sfm::input::read_bgr;
-use dynview_sfm::points::{PointOptions, TimestepCloud, TimestepView, timestep_points};
+use dynview_sfm::dense::densify::{DensifyOptions, densify};
+use dynview_sfm::features::sift::FeatureOptions;
+use dynview_sfm::input::frames::read_bgr;
+use dynview_sfm::mapping::points::{PointOptions, TimestepCloud, TimestepView, timestep_points};
 use dynview_synth::SynthConfig;
 use dynview_synth::scene::{Frame, default_objects};
 use glam::DVec3;
@@ -19,8 +19,8 @@ struct Event {
     config: SynthConfig,
     t: usize,
     images: Vec<Mat>,
-    intrinsics: Vec<Intrinsics>,
-    poses: Vec<Pose>,
+    intrinsics: Vec<Radial>,
+    poses: Vec<Rigid3>,
 }
 
 impl Event {
@@ -36,9 +36,9 @@ impl Event {
         let intrinsics = poses
             .cameras
             .iter()
-            .map(|c| Intrinsics { focal_px: c.intrinsics.fx, cx_px: c.intrinsics.cx, cy_px: c.intrinsics.cy, k1: 0.0, k2: 0.0 })
+            .map(|c| Radial { f: c.intrinsics.fx, cx: c.intrinsics.cx, cy: c.intrinsics.cy, k1: 0.0, k2: 0.0 })
             .collect();
-        let poses = (0..poses.cameras.len()).map(|c| Pose::from_rigid(&poses.camera_from_world(c, t).expect("pose"))).collect();
+        let poses = (0..poses.cameras.len()).map(|c| poses.camera_from_world(c, t).expect("pose")).collect();
         Self { config, t, images, intrinsics, poses }
     }
 
@@ -56,7 +56,7 @@ impl Event {
     fn errors(&self, cloud: &TimestepCloud) -> (Vec<f64>, usize) {
         let objects = default_objects(self.config.seed);
         let frame = Frame::at(&objects, self.config.time_s(self.t as u32));
-        let origins: Vec<DVec3> = self.poses.iter().map(|p| DVec3::new(p.center_world.x, p.center_world.y, p.center_world.z)).collect();
+        let origins: Vec<DVec3> = self.poses.iter().map(Rigid3::camera_center_world).collect();
         frame.relative_depth_errors(&origins, cloud.positions_world.iter().map(|p| DVec3::new(p.x, p.y, p.z)))
     }
 }
@@ -116,8 +116,8 @@ fn densify_handles_degenerate_input() {
     assert_eq!(none.positions_world.len(), sparse.positions_world.len());
 
     let mut broken = event.views();
-    broken[1].pose.rotation[(0, 0)] = f64::NAN;
-    broken[2].pose.center_world.x = f64::NAN;
+    broken[1].pose.rotation.x_axis.x = f64::NAN;
+    broken[2].pose.translation.x = f64::NAN;
     let mut with_nan = sparse.clone();
     with_nan.positions_world[0].x = f64::NAN;
     let cloud = densify(&broken, &with_nan, &options).expect("NaN pose");

@@ -1,12 +1,12 @@
 //! Per-timestep points on a synthetic event with known poses: they lie on the true surfaces,
 //! moving objects included (nothing is matched through time).
 
+use dynview_camera::Radial;
 use dynview_interchange::colmap::ColmapModel;
 use dynview_interchange::poses::EventPoses;
-use dynview_sfm::features::FeatureOptions;
-use dynview_sfm::geometry::{Intrinsics, Pose};
-use dynview_sfm::input::read_bgr;
-use dynview_sfm::points::{PointOptions, TimestepView, timestep_points};
+use dynview_sfm::features::sift::FeatureOptions;
+use dynview_sfm::input::frames::read_bgr;
+use dynview_sfm::mapping::points::{PointOptions, TimestepView, timestep_points};
 use dynview_synth::SynthConfig;
 use dynview_synth::scene::{Frame, default_objects};
 use glam::DVec3;
@@ -29,8 +29,8 @@ fn timestep_points_lie_on_the_true_surfaces_including_moving_objects() {
         .map(|(c, (camera, image))| {
             let k = &camera.intrinsics;
             TimestepView {
-                intrinsics: Intrinsics { focal_px: k.fx, cx_px: k.cx, cy_px: k.cy, k1: 0.0, k2: 0.0 },
-                pose: Pose::from_rigid(&poses.camera_from_world(c, t).expect("pose")),
+                intrinsics: Radial { f: k.fx, cx: k.cx, cy: k.cy, k1: 0.0, k2: 0.0 },
+                pose: poses.camera_from_world(c, t).expect("pose"),
                 image_bgr: image,
             }
         })
@@ -41,8 +41,7 @@ fn timestep_points_lie_on_the_true_surfaces_including_moving_objects() {
     // Trace the true scene at this time from camera 0's centre towards each point.
     let objects = default_objects(config.seed);
     let frame = Frame::at(&objects, config.time_s(t as u32));
-    let center = views[0].pose.center_world;
-    let origin = DVec3::new(center.x, center.y, center.z);
+    let origin = views[0].pose.camera_center_world();
     let mut errors = Vec::new();
     let mut on_moving = 0;
     for p in &cloud.positions_world {

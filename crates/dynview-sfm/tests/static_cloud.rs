@@ -2,15 +2,15 @@
 //! surfaces, are lent to the steps where nothing moved in front of them, and not on the moving
 //! objects; the steps gain many points from it.
 
+use dynview_camera::Radial;
 use dynview_core::scene::PointCloud;
 use dynview_core::{Camera, Rigid3};
 use dynview_interchange::colmap::ColmapModel;
 use dynview_interchange::poses::EventPoses;
-use dynview_sfm::features::FeatureOptions;
-use dynview_sfm::geometry::{Intrinsics, Pose};
-use dynview_sfm::input::read_bgr;
-use dynview_sfm::points::{PointOptions, TimestepView, timestep_points};
-use dynview_sfm::static_cloud::{StaticOptions, build_static_cloud, candidate_steps};
+use dynview_sfm::dense::static_cloud::{StaticOptions, build_static_cloud, candidate_steps};
+use dynview_sfm::features::sift::FeatureOptions;
+use dynview_sfm::input::frames::read_bgr;
+use dynview_sfm::mapping::points::{PointOptions, TimestepView, timestep_points};
 use dynview_synth::SynthConfig;
 use dynview_synth::scene::{Frame, default_objects};
 use glam::DVec3;
@@ -41,8 +41,8 @@ fn static_points_lie_on_static_surfaces_and_are_lent_where_they_agree() {
             .zip(&images)
             .enumerate()
             .map(|(c, (camera, image))| TimestepView {
-                intrinsics: Intrinsics::from_pinhole(&camera.intrinsics),
-                pose: Pose::from_rigid(&pose(c, t)),
+                intrinsics: Radial::from_pinhole(&camera.intrinsics.into()),
+                pose: pose(c, t),
                 image_bgr: image,
             })
             .collect();

@@ -1,5 +1,5 @@
-//! The adjustment over sampled time steps (`dynview_sfm::step_adjust`) on a hand-held arc the
-//! keyframes fix poorly: 8 cameras over 90 degrees, each its own focal length (1.6 to 0.8 x
+//! The adjustment over sampled time steps (`dynview_sfm::mapping::step_adjust`) on a hand-held
+//! arc the keyframes fix poorly: 8 cameras over 90 degrees, each its own focal length (1.6 to 0.8 x
 //! the longer side) and a principal point 5 px off the centre in x and y, 3 keyframes each.
 //! The keyframes alone leave the focal lengths up to 0.66% off and the principal points up to
 //! 5 px; every time step's own points fix them.
@@ -11,7 +11,7 @@ use dynview_core::{Intrinsics, Rigid3};
 use dynview_eval::align::{PoseEvalOptions, evaluate_poses};
 use dynview_interchange::colmap::ColmapModel;
 use dynview_interchange::poses::EventPoses;
-use dynview_sfm::step_adjust::StepAdjustOptions;
+use dynview_sfm::mapping::step_adjust::StepAdjustOptions;
 use dynview_sfm::{PrepOptions, Stage, run};
 use dynview_synth::SynthConfig;
 use dynview_synth::rig::Layout;

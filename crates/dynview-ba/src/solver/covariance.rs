@@ -85,7 +85,9 @@ pub fn intrinsics_std(problem: &Problem, options: &Options, noise_px: f64) -> Re
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::problem::{CameraIntrinsics, ImagePose, Observation};
+    use dynview_camera::{Radial, Rigid3};
+
+    use crate::problem::Observation;
     use crate::projection::pixel_from_world;
 
     /// `n` images of one camera on an arc of `arc_deg` around a cloud of 60 points at the
@@ -93,16 +95,15 @@ mod tests {
     /// fixed. A principal point shift looks like a common turn of every image; only
     /// perspective and different rolls of one camera tell them apart.
     fn arc_problem(n: usize, arc_deg: f64, roll_deg: f64) -> Problem {
-        let camera = CameraIntrinsics { focal_px: 500.0, cx_px: 320.0, cy_px: 240.0, k1: 0.0, k2: 0.0 };
-        let images: Vec<ImagePose> = (0..n)
+        let camera = Radial { f: 500.0, cx: 320.0, cy: 240.0, k1: 0.0, k2: 0.0 };
+        let images: Vec<Rigid3> = (0..n)
             .map(|i| {
                 let a = (arc_deg * (i as f64 / (n - 1) as f64 - 0.5)).to_radians();
                 // Looking along +z rotated by a about y, from 6 m away.
                 let roll = (roll_deg * (2.0 * (i % 3) as f64 / 2.0 - 1.0)).to_radians();
                 let rotation = nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::z_axis(), roll)
                     * nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::y_axis(), -a);
-                let angle_axis = rotation.scaled_axis();
-                ImagePose { angle_axis: [angle_axis.x, angle_axis.y, angle_axis.z], center_world: [-6.0 * a.sin(), 0.0, -6.0 * a.cos()] }
+                Rigid3::from_rotation_center(rotation.into_inner(), nalgebra::Vector3::new(-6.0 * a.sin(), 0.0, -6.0 * a.cos()))
             })
             .collect();
         let points_world: Vec<[f64; 3]> = (0..60)

@@ -14,6 +14,7 @@ use nalgebra::{Vector2, Vector3};
 use super::block_cholesky::{BlockPattern, BlockSlot};
 use super::ordering::BlockGraph;
 use crate::options::Options;
+use crate::pose::ImagePose;
 use crate::problem::Problem;
 use crate::projection::{ImageFrame, pixel_from_camera};
 
@@ -114,7 +115,7 @@ impl Layout {
             .collect();
 
         // Observations whose point is in front of the camera at the start.
-        let frames: Vec<ImageFrame> = problem.images.iter().map(ImageFrame::new).collect();
+        let frames: Vec<ImageFrame> = problem.images.iter().map(|pose| ImageFrame::new(&ImagePose::from_rigid(pose))).collect();
         let used: Vec<bool> = problem
             .observations
             .iter()

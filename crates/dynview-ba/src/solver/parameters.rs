@@ -1,42 +1,54 @@
 //! The values being optimised, and how a step updates them.
 
+use dynview_camera::Radial;
 use nalgebra::Vector3;
 
 use super::layout::{Layout, NodeKind};
-use crate::problem::{CameraIntrinsics, ImagePose, Problem};
+use crate::pose::ImagePose;
+use crate::problem::Problem;
 
 /// A copy of the problem's optimisable values.
 #[derive(Debug, Clone)]
 pub(crate) struct Parameters {
     /// Camera intrinsics.
-    pub cameras: Vec<CameraIntrinsics>,
-    /// Image poses.
+    pub cameras: Vec<Radial>,
+    /// Image poses, as the optimiser parametrises them.
     pub images: Vec<ImagePose>,
     /// Points in world coordinates.
     pub points_world: Vec<[f64; 3]>,
 }
 
-/// The intrinsic with index `index` in `[focal_px, cx_px, cy_px, k1, k2]`.
-pub(crate) fn intrinsic_mut(camera: &mut CameraIntrinsics, index: usize) -> &mut f64 {
+/// The intrinsic with index `index` in `[f, cx, cy, k1, k2]`.
+pub(crate) fn intrinsic_mut(camera: &mut Radial, index: usize) -> &mut f64 {
     match index {
-        0 => &mut camera.focal_px,
-        1 => &mut camera.cx_px,
-        2 => &mut camera.cy_px,
+        0 => &mut camera.f,
+        1 => &mut camera.cx,
+        2 => &mut camera.cy,
         3 => &mut camera.k1,
         _ => &mut camera.k2,
     }
 }
 
 impl Parameters {
-    /// Copies the values out of a problem.
+    /// Copies the values out of a problem (the poses as angle-axis vectors and centres).
     pub(crate) fn from_problem(problem: &Problem) -> Self {
-        Self { cameras: problem.cameras.clone(), images: problem.images.clone(), points_world: problem.points_world.clone() }
+        Self {
+            cameras: problem.cameras.clone(),
+            images: problem.images.iter().map(ImagePose::from_rigid).collect(),
+            points_world: problem.points_world.clone(),
+        }
     }
 
-    /// Writes the values back into the problem.
+    /// Writes the values back into the problem. Only the poses whose parameters changed are
+    /// converted back: the others (fixed, or not moved by the solve) keep their `Rigid3`
+    /// exactly rather than taking a round trip through the angle-axis vector.
     pub(crate) fn write_to(self, problem: &mut Problem) {
         problem.cameras = self.cameras;
-        problem.images = self.images;
+        for (pose, parameters) in problem.images.iter_mut().zip(self.images) {
+            if parameters != ImagePose::from_rigid(pose) {
+                *pose = parameters.to_rigid();
+            }
+        }
         problem.points_world = self.points_world;
     }
 

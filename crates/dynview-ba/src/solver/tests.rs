@@ -10,7 +10,10 @@ use super::parameters::Parameters;
 use super::step::compute_step;
 use crate::loss::Loss;
 use crate::options::Options;
-use crate::problem::{CameraIntrinsics, ImagePose, Observation, Problem, SmoothnessPrior};
+use dynview_camera::{Radial, Rigid3};
+
+use crate::pose::ImagePose;
+use crate::problem::{Observation, Problem, SmoothnessPrior};
 use crate::projection::{ImageFrame, pixel_from_camera, pixel_from_world};
 
 const STEP: f64 = 1e-6;
@@ -19,13 +22,13 @@ const STEP: f64 = 1e-6;
 /// an unobserved point, an image known only through priors, and an observation behind its camera.
 fn small_problem() -> Problem {
     let cameras = vec![
-        CameraIntrinsics { focal_px: 520.0, cx_px: 320.0, cy_px: 240.0, k1: -0.05, k2: 0.01 },
-        CameraIntrinsics { focal_px: 610.0, cx_px: 300.0, cy_px: 250.0, k1: 0.02, k2: -0.003 },
+        Radial { f: 520.0, cx: 320.0, cy: 240.0, k1: -0.05, k2: 0.01 },
+        Radial { f: 610.0, cx: 300.0, cy: 250.0, k1: 0.02, k2: -0.003 },
     ];
-    let images: Vec<ImagePose> = (0..5)
+    let images: Vec<Rigid3> = (0..5)
         .map(|i| {
             let t = i as f64;
-            ImagePose { angle_axis: [0.02 * t, -0.1 + 0.05 * t, 0.01], center_world: [0.4 * t - 0.8, 0.1 * t, -5.0 + 0.05 * t] }
+            ImagePose { angle_axis: [0.02 * t, -0.1 + 0.05 * t, 0.01], center_world: [0.4 * t - 0.8, 0.1 * t, -5.0 + 0.05 * t] }.to_rigid()
         })
         .collect();
     let points_world: Vec<[f64; 3]> = (0..12)

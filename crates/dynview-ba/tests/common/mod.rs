@@ -1,13 +1,14 @@
 //! Synthetic scenes for the tests and the `ba_scale` example.
 #![allow(dead_code)]
 
-use dynview_ba::{CameraIntrinsics, ImagePose, Observation, Problem, pixel_from_world};
+use dynview_ba::{Observation, Problem, pixel_from_world};
+use dynview_camera::{Radial, Rigid3};
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 use rand_distr::{Distribution, Normal};
 
 /// The camera used by the synthetic scenes.
-pub const CAMERA: CameraIntrinsics = CameraIntrinsics { focal_px: 800.0, cx_px: 640.0, cy_px: 480.0, k1: -0.08, k2: 0.02 };
+pub const CAMERA: Radial = Radial { f: 800.0, cx: 640.0, cy: 480.0, k1: -0.08, k2: 0.02 };
 
 /// Seeded generator for reproducible tests.
 pub fn rng(seed: u64) -> SmallRng {
@@ -16,16 +17,19 @@ pub fn rng(seed: u64) -> SmallRng {
 
 /// The pose of a camera at `center_world` looking at `target_world`, image y pointing down
 /// towards world -z.
-pub fn look_at(center_world: Vector3<f64>, target_world: Vector3<f64>) -> ImagePose {
+pub fn look_at(center_world: Vector3<f64>, target_world: Vector3<f64>) -> Rigid3 {
     let forward = (target_world - center_world).normalize();
     let down = Vector3::new(0.0, 0.0, -1.0);
     let right = down.cross(&forward).normalize();
     let down = forward.cross(&right);
-    let camera_from_world =
-        Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_rows(&[right.transpose(), down.transpose(), forward.transpose()]));
-    // Through the quaternion: `Rotation3::scaled_axis` returns zero for half-turns.
-    let angle_axis = UnitQuaternion::from_rotation_matrix(&camera_from_world).scaled_axis();
-    ImagePose { angle_axis: [angle_axis.x, angle_axis.y, angle_axis.z], center_world: center_world.into() }
+    let camera_from_world = nalgebra::Matrix3::from_rows(&[right.transpose(), down.transpose(), forward.transpose()]);
+    Rigid3::from_rotation_center(camera_from_world, center_world)
+}
+
+/// Adds `delta_angle_axis` (radians) to a pose's rotation as an angle-axis vector and
+/// `delta_center` to its centre.
+pub fn moved(pose: &Rigid3, delta_angle_axis: Vector3<f64>, delta_center: Vector3<f64>) -> Rigid3 {
+    Rigid3::from_angle_axis_center(pose.angle_axis() + delta_angle_axis, pose.center() + delta_center)
 }
 
 /// `images` cameras on a circle of radius 8 around the origin, looking at it, and `points`
@@ -33,7 +37,7 @@ pub fn look_at(center_world: Vector3<f64>, target_world: Vector3<f64>) -> ImageP
 /// Images 0 and 1 are fixed, which fixes the gauge.
 pub fn inward_ring(images: usize, points: usize, seed: u64) -> Problem {
     let mut rng = rng(seed);
-    let poses: Vec<ImagePose> = (0..images)
+    let poses: Vec<Rigid3> = (0..images)
         .map(|i| {
             let angle = std::f64::consts::TAU * i as f64 / images as f64;
             let height = 0.5 * (3.0 * angle).sin();
@@ -67,7 +71,7 @@ pub fn inward_ring(images: usize, points: usize, seed: u64) -> Problem {
 pub fn outward_ring(images: usize, points: usize, seed: u64) -> Problem {
     let mut rng = rng(seed);
     let step = std::f64::consts::TAU / images as f64;
-    let poses: Vec<ImagePose> = (0..images)
+    let poses: Vec<Rigid3> = (0..images)
         .map(|i| {
             let angle = step * i as f64;
             let center = Vector3::new(10.0 * angle.cos(), 10.0 * angle.sin(), 0.3 * (5.0 * angle).sin());
@@ -112,10 +116,12 @@ pub fn perturb(problem: &mut Problem, perturbation: &Perturbation, seed: u64) {
     let mut gaussian = |sigma: f64| if sigma > 0.0 { Normal::new(0.0, sigma).expect("valid sigma").sample(&mut rng) } else { 0.0 };
     for (pose, &fixed) in problem.images.iter_mut().zip(&problem.image_fixed) {
         if !fixed {
+            let (mut rotation, mut center) = (Vector3::zeros(), Vector3::zeros());
             for axis in 0..3 {
-                pose.angle_axis[axis] += gaussian(perturbation.rotation_rad);
-                pose.center_world[axis] += gaussian(perturbation.center);
+                rotation[axis] = gaussian(perturbation.rotation_rad);
+                center[axis] = gaussian(perturbation.center);
             }
+            *pose = moved(pose, rotation, center);
         }
     }
     for (point, &fixed) in problem.points_world.iter_mut().zip(&problem.point_fixed) {
@@ -126,7 +132,7 @@ pub fn perturb(problem: &mut Problem, perturbation: &Perturbation, seed: u64) {
         }
     }
     for camera in &mut problem.cameras {
-        camera.focal_px *= 1.0 + perturbation.focal_relative;
+        camera.f *= 1.0 + perturbation.focal_relative;
     }
 }
 
@@ -157,20 +163,20 @@ pub fn add_outliers(problem: &mut Problem, fraction: f64, seed: u64) -> usize {
 }
 
 /// Mean rotation error (radians) and mean centre error over the images, against the truth.
-pub fn pose_errors(estimate: &[ImagePose], truth: &[ImagePose]) -> (f64, f64) {
+pub fn pose_errors(estimate: &[Rigid3], truth: &[Rigid3]) -> (f64, f64) {
     let mut rotation = 0.0;
     let mut center = 0.0;
     for (e, t) in estimate.iter().zip(truth) {
-        let re = UnitQuaternion::from_scaled_axis(Vector3::from(e.angle_axis));
-        let rt = UnitQuaternion::from_scaled_axis(Vector3::from(t.angle_axis));
+        let re = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(e.rotation_matrix()));
+        let rt = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(t.rotation_matrix()));
         rotation += re.angle_to(&rt);
-        center += (Vector3::from(e.center_world) - Vector3::from(t.center_world)).norm();
+        center += (e.center() - t.center()).norm();
     }
     (rotation / estimate.len() as f64, center / estimate.len() as f64)
 }
 
 /// A problem with one camera ([`CAMERA`]) for every image and images 0 and 1 fixed (the gauge).
-fn problem_with_two_fixed_images(poses: Vec<ImagePose>, points_world: Vec<[f64; 3]>, observations: Vec<Observation>) -> Problem {
+fn problem_with_two_fixed_images(poses: Vec<Rigid3>, points_world: Vec<[f64; 3]>, observations: Vec<Observation>) -> Problem {
     let (images, points) = (poses.len(), points_world.len());
     let mut image_fixed = vec![false; images];
     image_fixed[0] = true;

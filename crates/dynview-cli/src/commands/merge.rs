@@ -36,13 +36,13 @@ pub struct MergeArgs {
 pub fn run_merge(args: MergeArgs) -> anyhow::Result<()> {
     let name = args.name.clone().unwrap_or_else(|| args.out.file_name().map_or("event".into(), |n| n.to_string_lossy().into_owned()));
     let bars = StageBars::new();
-    let options = dynview_sfm::export::PackageOptions {
-        static_cloud: (!args.no_static).then(dynview_sfm::static_cloud::StaticOptions::default),
+    let options = dynview_sfm::pipeline::export::PackageOptions {
+        static_cloud: (!args.no_static).then(dynview_sfm::dense::static_cloud::StaticOptions::default),
         video: args.frames_as.video(),
         format_v1: args.frames_as.format_v1(),
         color_balance: !args.no_color_balance,
     };
-    let result = dynview_sfm::export::export_package(&args.outputs, &args.out, &name, &options, &|stage, done, total| {
+    let result = dynview_sfm::pipeline::export::export_package(&args.outputs, &args.out, &name, &options, &|stage, done, total| {
         bars.update(stage, done, total)
     });
     bars.finish();

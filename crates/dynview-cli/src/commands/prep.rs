@@ -8,9 +8,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::{Context, bail};
 use std::ops::Range;
 
-use dynview_sfm::densify::DensifyOptions;
-use dynview_sfm::step_adjust::StepAdjustOptions;
-use dynview_sfm::timesteps::StepOptions;
+use dynview_sfm::dense::densify::DensifyOptions;
+use dynview_sfm::mapping::step_adjust::StepAdjustOptions;
+use dynview_sfm::pipeline::timesteps::StepOptions;
 use dynview_sfm::{PrepOptions, Stage};
 
 use crate::progress::StageBars;

@@ -17,11 +17,11 @@
 use std::collections::{BTreeMap, HashMap};
 
 use crate::error::SfmResult;
-use crate::features::Features;
-use crate::guided::guided_matches_fundamental;
-use crate::incremental::{MapPoint, Reconstruction};
-use crate::keyframes::Keyframe;
-use crate::matching::{MatchOptions, TwoView, verify};
+use crate::features::guided::guided_matches_fundamental;
+use crate::features::matching::{MatchOptions, TwoView, verify};
+use crate::features::sift::Features;
+use crate::mapping::incremental::{MapPoint, Reconstruction};
+use crate::mapping::keyframes::Keyframe;
 
 /// A camera stands still when a quarter of the verified matches between any two of its
 /// keyframes moved by at most this (px): the static background stays in place, whatever moves
@@ -311,7 +311,7 @@ mod tests {
         assert_eq!(pooled.features[0].xy, vec![[10.0, 10.0], [50.0, 20.0], [70.0, 70.0]]);
         assert_eq!(pooled.feature_of_key, vec![vec![0, 1], vec![0, 2]]);
         assert!(pooled.pairs.is_empty(), "a camera is not paired with itself");
-        let pose = crate::geometry::Pose { rotation: nalgebra::Matrix3::identity(), center_world: nalgebra::Vector3::zeros() };
+        let pose = dynview_camera::Rigid3::IDENTITY;
         let r = Reconstruction {
             intrinsics: vec![],
             poses: vec![Some(pose)],

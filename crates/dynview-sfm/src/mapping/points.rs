@@ -1,19 +1,21 @@
 //! Per-timestep points (METHOD.md Part 1 step 3): with the poses fixed, the frames of one time
 //! step are matched across cameras only (never through time, which is what lets moving objects
-//! be reconstructed), guided by the known epipolar geometry ([`crate::guided`]), joined into
-//! multi-view tracks, triangulated, filtered by reprojection error, ray angle and cheirality,
-//! and colored from the views that see them.
+//! be reconstructed), guided by the known epipolar geometry ([`crate::features::guided`]),
+//! joined into multi-view tracks, triangulated, filtered by reprojection error, ray angle and
+//! cheirality, and colored from the views that see them.
 
 use nalgebra::{Matrix3, Vector2, Vector3};
 use opencv::core::Mat;
 use opencv::prelude::*;
 use rayon::prelude::*;
 
+use dynview_camera::{Radial, Rigid3};
+
 use crate::error::{SfmError, SfmResult};
-use crate::features::{FeatureOptions, Features, extract_gray};
-use crate::geometry::{Intrinsics, Pose, Ray, triangulate_robust};
-use crate::guided::guided_matches;
-use crate::tracks::Tracks;
+use crate::estimators::geometry::{Ray, essential_between, triangulate_robust};
+use crate::features::guided::guided_matches;
+use crate::features::sift::{FeatureOptions, Features, extract_gray};
+use crate::features::tracks::Tracks;
 
 /// How the points of a time step are made.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -37,9 +39,9 @@ impl Default for PointOptions {
 /// One camera's frame at the time step, with its calibration.
 pub struct TimestepView<'a> {
     /// Intrinsics (the frame is undistorted: `k1`, `k2` apply as given).
-    pub intrinsics: Intrinsics,
-    /// Pose at this time step.
-    pub pose: Pose,
+    pub intrinsics: Radial,
+    /// Pose at this time step, `camera_from_world`.
+    pub pose: Rigid3,
     /// The frame, 8-bit BGR.
     pub image_bgr: &'a Mat,
 }
@@ -53,13 +55,6 @@ pub struct TimestepCloud {
     pub colors: Vec<[u8; 3]>,
     /// Number of views of each point.
     pub views: Vec<u8>,
-}
-
-/// The essential matrix `E` with `n_b^T E n_a = 0` for normalized points of poses `a` and `b`.
-pub fn essential_between(a: &Pose, b: &Pose) -> Matrix3<f64> {
-    let rotation = b.rotation * a.rotation.transpose();
-    let translation = b.translation() - rotation * a.translation();
-    translation.cross_matrix() * rotation
 }
 
 /// Symmetric epipolar distance (px at the two focal lengths) of a normalized match.
@@ -109,7 +104,7 @@ pub fn timestep_tracks(views: &[TimestepView], features: &FeatureOptions, option
                     .into_iter()
                     .filter(|m| {
                         let (na, nb) = (ka.normalized(pixel(a, m[0])), kb.normalized(pixel(b, m[1])));
-                        epipolar_distance_px(&e, na, nb, ka.focal_px, kb.focal_px) <= options.max_epipolar_px
+                        epipolar_distance_px(&e, na, nb, ka.f, kb.f) <= options.max_epipolar_px
                     })
                     .collect();
             pairs.push((a, b, matches));
@@ -151,8 +146,8 @@ mod tests {
 
     #[test]
     fn the_essential_matrix_of_two_poses_holds_for_their_points() {
-        let a = Pose::from_angle_axis(Vector3::new(0.0, 0.2, 0.0), Vector3::new(-1.0, 0.0, 0.0));
-        let b = Pose::from_angle_axis(Vector3::new(0.05, -0.2, 0.0), Vector3::new(1.0, 0.2, 0.1));
+        let a = Rigid3::from_angle_axis_center(Vector3::new(0.0, 0.2, 0.0), Vector3::new(-1.0, 0.0, 0.0));
+        let b = Rigid3::from_angle_axis_center(Vector3::new(0.05, -0.2, 0.0), Vector3::new(1.0, 0.2, 0.1));
         let e = essential_between(&a, &b);
         for p in [Vector3::new(0.3, 0.1, 5.0), Vector3::new(-0.5, 0.4, 7.0)] {
             let (na, nb) = (a.project_normalized(&p).unwrap(), b.project_normalized(&p).unwrap());

@@ -1,8 +1,8 @@
 //! The per-timestep stage (METHOD.md Part 1 steps 3-4): for each time step, the frames of every
-//! camera are matched across cameras only ([`crate::points`]), the points densified
-//! ([`crate::densify`]) and saved with the frames at the package's working size under
+//! camera are matched across cameras only ([`crate::mapping::points`]), the points densified
+//! ([`crate::dense::densify`]) and saved with the frames at the package's working size under
 //! `OUT/work/steps/`. Time steps are independent, so ranges of them can run as separate jobs
-//! (`prep --frames A..B`) and be joined by [`crate::export`].
+//! (`prep --frames A..B`) and be joined by [`crate::pipeline::export`].
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -14,17 +14,17 @@ use opencv::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use dynview_camera::Radial;
 use dynview_core::StageProgress;
 use dynview_core::scene::PointCloud;
 use dynview_core::scene::manifest::PoseEntry;
 use dynview_interchange::poses::EventPoses;
 
-use crate::densify::{DensifyOptions, densify};
+use crate::dense::densify::{DensifyOptions, densify};
 use crate::error::{SfmError, SfmResult};
-use crate::features::FeatureOptions;
-use crate::geometry::{Intrinsics, Pose};
-use crate::input::{EventFrames, read_bgr};
-use crate::points::{PointOptions, TimestepView, timestep_points};
+use crate::features::sift::FeatureOptions;
+use crate::input::frames::{EventFrames, read_bgr};
+use crate::mapping::points::{PointOptions, TimestepView, timestep_points};
 use crate::work::WorkDir;
 
 /// The steps folder inside the work folder.
@@ -33,8 +33,8 @@ pub const STEPS_DIR: &str = "steps";
 pub const SETTINGS_FILE: &str = "steps/settings.json";
 const CLOUD_MAGIC: &[u8; 8] = b"DVSTEP01";
 const POINT_BYTES: usize = 15;
-/// JPEG quality of the package frames.
-pub const FRAME_JPEG_QUALITY: i32 = dynview_core::scene::frame::JPEG_QUALITY as i32;
+/// JPEG quality of the package frames (the scene package's own, `dynview_core::scene::frame`).
+pub const PACKAGE_FRAME_JPEG_QUALITY: i32 = dynview_core::scene::frame::JPEG_QUALITY as i32;
 
 /// How each time step is processed.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -260,8 +260,8 @@ fn run_step(work: &WorkDir, files: &[&[PathBuf]], event: &EventPoses, settings: 
             path: work.path().to_path_buf(),
             problem: format!("camera {} has no pose at frame {t}", camera.name),
         })?;
-        let intrinsics = Intrinsics::from_pinhole(&camera.intrinsics);
-        views.push(TimestepView { intrinsics, pose: Pose::from_rigid(&rigid), image_bgr: image });
+        let intrinsics = Radial::from_pinhole(&camera.intrinsics.into());
+        views.push(TimestepView { intrinsics, pose: rigid, image_bgr: image });
     }
     let sparse = timestep_points(&views, &settings.options.features, &settings.options.points)?;
     let points_seconds = lap();
@@ -301,7 +301,7 @@ fn write_frame(image: &Mat, size: (u32, u32), path: &Path) -> SfmResult<()> {
         &resized
     };
     let mut bytes = Vector::<u8>::new();
-    let params = Vector::<i32>::from_slice(&[imgcodecs::IMWRITE_JPEG_QUALITY, FRAME_JPEG_QUALITY]);
+    let params = Vector::<i32>::from_slice(&[imgcodecs::IMWRITE_JPEG_QUALITY, PACKAGE_FRAME_JPEG_QUALITY]);
     imgcodecs::imencode(".jpg", source, &mut bytes, &params).map_err(SfmError::cv("encoding a frame as JPEG"))?;
     dynview_core::fsutil::write_atomic(path, bytes.as_slice()).map_err(SfmError::io(path))
 }

@@ -5,22 +5,23 @@ use opencv::calib3d;
 use opencv::core::{Mat, Point2d, Point3d, Vector};
 use opencv::prelude::*;
 
+use dynview_camera::{Radial, Rigid3};
+
 use crate::error::{SfmError, SfmResult};
-use crate::geometry::{Intrinsics, Pose};
 
 /// The pose of a camera with intrinsics `k` seeing `object` points at `image` pixels, and its
 /// inlier count (reprojection within `max_px`); `None` when RANSAC finds nothing or a value is
 /// not finite.
 pub fn pnp_ransac(
-    k: &Intrinsics,
+    k: &Radial,
     object: &Vector<Point3d>,
     image: &Vector<Point2d>,
     max_px: f64,
     iterations: i32,
     confidence: f64,
-) -> SfmResult<Option<(Pose, usize)>> {
-    let camera_matrix = Mat::from_slice_2d(&[[k.focal_px, 0.0, k.cx_px], [0.0, k.focal_px, k.cy_px], [0.0, 0.0, 1.0]])
-        .map_err(SfmError::cv("camera matrix"))?;
+) -> SfmResult<Option<(Rigid3, usize)>> {
+    let camera_matrix =
+        Mat::from_slice_2d(&[[k.f, 0.0, k.cx], [0.0, k.f, k.cy], [0.0, 0.0, 1.0]]).map_err(SfmError::cv("camera matrix"))?;
     let distortion = Mat::from_slice(&[k.k1, k.k2, 0.0, 0.0]).and_then(|m| m.try_clone()).map_err(SfmError::cv("distortion"))?;
     let (mut rvec, mut tvec, mut inliers) = (Mat::default(), Mat::default(), Mat::default());
     let ok = calib3d::solve_pnp_ransac(
@@ -46,5 +47,5 @@ pub fn pnp_ransac(
     if !aa.iter().chain(t.iter()).all(|v| v.is_finite()) {
         return Ok(None);
     }
-    Ok(Some((Pose::from_rt(Rotation3::from_scaled_axis(aa).into_inner(), t), inliers.rows().max(0) as usize)))
+    Ok(Some((Rigid3::from_rotation_translation(Rotation3::from_scaled_axis(aa).into_inner(), t), inliers.rows().max(0) as usize)))
 }

@@ -1,315 +1,50 @@
-//! `dynview prep`'s pose stages end to end: frames, keyframe reconstruction, frame-to-frame
-//! refinement; each saved in the work folder and skipped on a re-run with the same inputs.
+//! The frames and pose stages of `dynview prep`: the frames decoded (and undistorted with a
+//! given calibration), the keyframe reconstruction, the frame-to-frame refinement of every
+//! camera and the adjustment over sampled time steps, each saved in the work folder and
+//! skipped on a re-run with the same inputs; then `poses.json`. Known poses skip them all.
 
-use std::collections::BTreeMap;
-use std::ops::Range;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use nalgebra::Vector3;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
+use dynview_camera::{Model, Radial, Rigid3};
 use dynview_core::StageProgress;
 use dynview_core::scene::manifest::PoseEntry;
 use dynview_interchange::poses::{CameraPoses, EventPoses, FramePose, POSES_FILE};
 
-use crate::calibration::{KnownCameras, KnownIntrinsics, calibration_for, known_intrinsics, read_poses, undistort_frames};
 use crate::error::{SfmError, SfmResult};
-use crate::export::{ExportReport, export_package, usable_poses};
-use crate::features::{FeatureOptions, Features};
-use crate::focal::PRIOR_FOCAL_FACTOR;
-use crate::geometry::{Intrinsics, Pose};
-use crate::incremental::MapperOptions;
-use crate::input::{EventFrames, decode_frames, discover, video_fps};
-use crate::keyframes::{
-    Keyframe, KeyframeModel, PRIOR_FOCAL_SOURCE, focal_std_fractions, intrinsics_groups, intrinsics_notes, keyframe_features, keyframes,
-    match_all_pairs, per_group, reconstruct_keyframes, to_colmap, weak_focal_warnings, write_colmap_text,
+use crate::estimators::focal::PRIOR_FOCAL_FACTOR;
+use crate::features::sift::Features;
+use crate::input::calibration::{KnownCameras, KnownIntrinsics, calibration_for, known_intrinsics, read_poses, undistort_frames};
+use crate::input::frames::{DiscoveredCamera, EventFrames, decode_frames};
+use crate::mapping::keyframe_model::{
+    KeyframeModel, PRIOR_FOCAL_SOURCE, focal_std_fractions, intrinsics_groups, intrinsics_notes, per_group, reconstruct_keyframes,
+    to_colmap, weak_focal_warnings, write_colmap_text,
 };
-use crate::matching::MatchOptions;
-use crate::refine::{CameraTrack, KeyframeView, RefineOptions, RefineReport, refine_camera};
-use crate::step_adjust::{StepAdjustOptions, StepAdjustReport, StepCameras, adjust_with_steps};
-use crate::timesteps::{StepOptions, StepSettings, StepsReport, run_steps};
+use crate::mapping::keyframes::{Keyframe, keyframe_features, keyframes, match_all_pairs};
+use crate::mapping::refine::{CameraTrack, KeyframeView, RefineReport, refine_camera};
+use crate::mapping::step_adjust::{StepAdjustReport, StepCameras, adjust_with_steps};
+use crate::pipeline::options::{PrepOptions, PrepReport, Stage};
 use crate::work::WorkDir;
 
-/// The stages, in order.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-pub enum Stage {
-    /// Cameras found, videos decoded, frame counts checked.
-    Frames,
-    /// Keyframe structure from motion.
-    Keyframes,
-    /// Every frame posed.
-    Poses,
-    /// Every time step's points (and densification) and package frames.
-    Points,
-    /// The scene package.
-    Package,
-}
+/// The revision of the pose stages' work files (`keyframes/model.json`, `refine/<camera>.json`,
+/// `step_adjust.json`), part of their keys: a work folder written by an earlier revision
+/// computes them again instead of failing to read them. 2: poses are stored as
+/// `dynview_camera::Rigid3` (`{"rotation", "translation"}`, `camera_from_world`) instead of a
+/// rotation and a camera centre (revision 1, which had no number).
+pub const POSE_STAGES_REVISION: u32 = 2;
 
-impl std::str::FromStr for Stage {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "frames" => Ok(Self::Frames),
-            "keyframes" => Ok(Self::Keyframes),
-            "poses" => Ok(Self::Poses),
-            "points" => Ok(Self::Points),
-            "package" => Ok(Self::Package),
-            other => Err(format!("unknown stage {other:?} (expected frames, keyframes, poses, points or package)")),
-        }
-    }
-}
-
-/// Everything `prep`'s pose stages can be told.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PrepOptions {
-    /// Every `keyframe_interval`-th frame of every camera is a keyframe (the paper's kappa).
-    pub keyframe_interval: usize,
-    /// Keep the first N frames of every camera when counts differ, N the shortest (with a
-    /// warning); `false` makes differing counts an error.
-    pub trim: bool,
-    /// Focal lengths (px) known per camera name; others are estimated.
-    pub focal_px: BTreeMap<String, f64>,
-    /// A focal length (px) for every camera not in `focal_px`.
-    pub focal_px_all: Option<f64>,
-    /// Feature extraction.
-    pub features: FeatureOptions,
-    /// Matching and verification.
-    pub matching: MatchOptions,
-    /// The keyframe reconstruction.
-    pub mapper: MapperOptions,
-    /// Frame-to-frame refinement.
-    pub refine: RefineOptions,
-    /// The last stage to run.
-    pub stop_after: Stage,
-    /// Known poses (a COLMAP model folder or a `poses.json`): pose estimation is skipped.
-    pub poses: Option<PathBuf>,
-    /// Known intrinsics and distortion per camera (a COLMAP model folder or a `poses.json`;
-    /// poses in it are ignored): frames with a distortion are undistorted first, and the
-    /// intrinsics are kept fixed.
-    pub intrinsics: Option<PathBuf>,
-    /// The per-timestep stage.
-    pub steps: StepOptions,
-    /// The adjustment of intrinsics and poses over sampled time steps after the frame-to-frame
-    /// refinement.
-    #[serde(default)]
-    pub step_adjust: StepAdjustOptions,
-    /// What the package holds and how: the static cloud, video or JPEG frames.
-    #[serde(default)]
-    pub package: crate::export::PackageOptions,
-    /// Only these time steps (half-open, cut at the event's end) after the pose stage, and no
-    /// package: a range job whose output `dynview merge` joins with the others.
-    pub frames: Option<Range<usize>>,
-    /// Frames per second of the capture; by default the first video's, else 30.
-    pub fps: Option<f64>,
-}
-
-impl Default for PrepOptions {
-    fn default() -> Self {
-        Self {
-            keyframe_interval: 20,
-            trim: true,
-            focal_px: BTreeMap::new(),
-            focal_px_all: None,
-            features: FeatureOptions::default(),
-            matching: MatchOptions::default(),
-            mapper: MapperOptions::default(),
-            refine: RefineOptions::default(),
-            stop_after: Stage::Package,
-            poses: None,
-            intrinsics: None,
-            steps: StepOptions::default(),
-            step_adjust: StepAdjustOptions::default(),
-            package: crate::export::PackageOptions::default(),
-            frames: None,
-            fps: None,
-        }
-    }
-}
-
-impl PrepOptions {
-    /// Checks ranges.
-    pub fn validate(&self) -> SfmResult<()> {
-        let bad = |option, problem: String| Err(SfmError::Option { option, problem });
-        if !(1..=10_000).contains(&self.keyframe_interval) {
-            return bad("keyframe-interval", format!("must be in 1..=10000, found {}", self.keyframe_interval));
-        }
-        for (name, f) in self.focal_px.iter().map(|(k, v)| (k.as_str(), *v)).chain(self.focal_px_all.map(|f| ("all", f))) {
-            if !(f.is_finite() && f > 0.0 && f < 1e6) {
-                return bad("focal", format!("focal of {name} must be a positive number of pixels, found {f}"));
-            }
-        }
-        if !(self.refine.smoothness.is_finite() && self.refine.smoothness >= 0.0) {
-            return bad("smoothness", format!("must be >= 0, found {}", self.refine.smoothness));
-        }
-        if !(16..=8192).contains(&self.steps.working_width) {
-            return bad("working-width", format!("must be in 16..=8192 px, found {}", self.steps.working_width));
-        }
-        if let Some(d) = &self.steps.densify
-            && !(1..=dynview_core::scene::limits::MAX_POINTS_PER_STEP as usize).contains(&d.target_points)
-        {
-            return bad(
-                "target-points",
-                format!("must be in 1..={}, found {}", dynview_core::scene::limits::MAX_POINTS_PER_STEP, d.target_points),
-            );
-        }
-        if let Some(r) = &self.frames
-            && r.start >= r.end
-        {
-            return bad("frames", format!("{}..{} is empty (give A..B with A < B, B excluded)", r.start, r.end));
-        }
-        if let Some(fps) = self.fps
-            && !(fps.is_finite() && fps > 0.0 && fps <= 1000.0)
-        {
-            return bad("fps", format!("must be in (0, 1000], found {fps}"));
-        }
-        Ok(())
-    }
-}
-
-/// What a run did.
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-pub struct PrepReport {
-    /// Cameras.
-    pub cameras: usize,
-    /// Frames per camera.
-    pub frames: usize,
-    /// Keyframes in the reconstruction.
-    pub keyframes: usize,
-    /// Keyframes registered.
-    pub keyframes_registered: usize,
-    /// Keyframes placed from a verified pair with a placed keyframe, the translation's length
-    /// from their few points, because PnP had too few correspondences ("camera frame t").
-    #[serde(default)]
-    pub keyframes_placed_from_pair: Vec<String>,
-    /// Points of the keyframe model.
-    pub keyframe_points: usize,
-    /// RMS reprojection error of the keyframe model (px).
-    pub keyframe_rms_px: f64,
-    /// How each camera's focal was initialised.
-    pub focal_source: Vec<String>,
-    /// Per camera, which intrinsics the keyframe reconstruction refined and why.
-    #[serde(default)]
-    pub intrinsics_refined: Vec<String>,
-    /// Per camera, the standard deviation of its refined focal length in % of it (`None`:
-    /// given, or not measured).
-    #[serde(default)]
-    pub focal_std_percent: Vec<Option<f64>>,
-    /// Per camera refinement figures.
-    pub refine: Vec<RefineReport>,
-    /// The adjustment over sampled time steps, when it ran.
-    #[serde(default)]
-    pub step_adjustment: Option<StepAdjustReport>,
-    /// Stages skipped because an earlier run had finished them.
-    pub skipped: Vec<String>,
-    /// Seconds per stage run.
-    pub stage_seconds: Vec<(String, f64)>,
-    /// Where `poses.json` was written, when the pose stage ran.
-    pub poses_file: Option<PathBuf>,
-    /// Problems worked around: cameras left out, frames trimmed, poses filled in.
-    pub warnings: Vec<String>,
-    /// The time steps, when they ran.
-    pub steps: Option<StepsReport>,
-    /// The package, when it was written.
-    pub package: Option<ExportReport>,
-    /// Where the package was written.
-    pub package_dir: Option<PathBuf>,
-}
-
-/// The report's file in the output folder.
-pub const REPORT_FILE: &str = "report.json";
-/// The package's folder in the output folder.
-pub const SCENE_DIR: &str = "scene";
-
-/// Runs `prep` from `input` into `out`: the pose stages, the time steps, the package
-/// (`out/scene`) and the report (`out/report.json`); work files under `out/work`.
-pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: StageProgress, interrupt: &AtomicBool) -> SfmResult<PrepReport> {
-    options.validate()?;
-    let work = WorkDir::new(out);
-    std::fs::create_dir_all(work.path()).map_err(SfmError::io(work.path()))?;
-    let mut report = PrepReport::default();
-    let mut timer = std::time::Instant::now();
-    let mut lap = |report: &mut PrepReport, name: &str| {
-        report.stage_seconds.push((name.to_string(), timer.elapsed().as_secs_f64()));
-        timer = std::time::Instant::now();
-    };
-    let cameras = discover(input)?;
-    let fps = options.fps.or_else(|| video_fps(&cameras)).unwrap_or(DEFAULT_FPS);
-    let Some((frames, event)) = pose_stages(&work, out, &cameras, options, &mut report, &mut lap, progress, interrupt)? else {
-        return finish(out, report);
-    };
-    if options.stop_after == Stage::Poses {
-        return finish(out, report);
-    }
-
-    let (event, warnings) = usable_poses(&event);
-    report.warnings.extend(warnings);
-    if event.cameras.len() < 2 {
-        return Err(SfmError::Reconstruction(format!("only {} camera has poses; at least 2 are needed for points", event.cameras.len())));
-    }
-    let frames = undistorted_for(&work, &frames, &event, progress, interrupt)?;
-    let event = EventPoses { cameras: event.cameras.into_iter().map(|c| CameraPoses { distortion: [0.0; 4], ..c }).collect() };
-    let steps = event.time_step_count();
-    // A range past the end is cut there, so array jobs of equal ranges need not know the length.
-    let range = options.frames.clone().map_or(0..steps, |r| r.start..r.end.min(steps));
-    if range.is_empty() {
-        return Err(SfmError::Option {
-            option: "frames",
-            problem: format!("{:?} starts past the {steps} time steps of the event", options.frames.clone().unwrap_or_default()),
-        });
-    }
-    let settings = StepSettings { options: options.steps.clone(), fps };
-    report.steps = Some(run_steps(&work, &frames, &event, range, &settings, progress, interrupt)?);
-    lap(&mut report, "time steps");
-    if options.stop_after == Stage::Points || options.frames.is_some() {
-        return finish(out, report);
-    }
-
-    let scene = out.join(SCENE_DIR);
-    let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "event".into());
-    let package = export_package(&[out.to_path_buf()], &scene, &name, &options.package, progress)?;
-    report.warnings.extend(package.warnings.iter().filter(|w| !report.warnings.contains(w)).cloned().collect::<Vec<_>>());
-    report.package = Some(package);
-    report.package_dir = Some(scene);
-    lap(&mut report, "package");
-    finish(out, report)
-}
-
-/// Frames per second when neither `--fps` nor a video says.
-pub const DEFAULT_FPS: f64 = 30.0;
-
-fn finish(out: &Path, report: PrepReport) -> SfmResult<PrepReport> {
-    let path = out.join(REPORT_FILE);
-    let text = serde_json::to_vec_pretty(&report).map_err(|e| SfmError::WorkFile { path: path.clone(), problem: e.to_string() })?;
-    dynview_core::fsutil::write_atomic(&path, &text).map_err(SfmError::io(&path))?;
-    Ok(report)
-}
-
-/// The frames the time steps read: undistorted when the poses carry a distortion.
-fn undistorted_for(
-    work: &WorkDir,
-    frames: &EventFrames,
-    event: &EventPoses,
-    progress: StageProgress,
-    interrupt: &AtomicBool,
-) -> SfmResult<EventFrames> {
-    let mut kept =
-        EventFrames { cameras: event.cameras.iter().filter_map(|c| frames.cameras.iter().find(|f| f.name == c.name).cloned()).collect() };
-    if event.cameras.iter().any(|c| c.distortion.iter().any(|d| *d != 0.0)) {
-        let calibration: Vec<&CameraPoses> = event.cameras.iter().collect();
-        kept = undistort_frames(&kept, &calibration, &work.join("undistorted"), progress, interrupt)?;
-    }
-    Ok(kept)
-}
-
-type Lap<'a> = dyn FnMut(&mut PrepReport, &str) + 'a;
+/// What a stage reports when it ends: the report and the stage's name (for its time).
+pub(crate) type Lap<'a> = dyn FnMut(&mut PrepReport, &str) + 'a;
 
 /// The frames and pose stages; `None` when `stop_after` ended the run before poses.
 #[allow(clippy::too_many_arguments)]
-fn pose_stages(
+pub(crate) fn pose_stages(
     work: &WorkDir,
     out: &Path,
-    cameras: &[crate::input::DiscoveredCamera],
+    cameras: &[DiscoveredCamera],
     options: &PrepOptions,
     report: &mut PrepReport,
     lap: &mut Lap,
@@ -373,7 +108,8 @@ fn pose_stages(
         features = keyframe_features(work, &frames, &keys, &options.features, progress, interrupt)?;
     }
     lap(report, "keyframe features");
-    let key_stage = (&frames, options.keyframe_interval, &options.features, &options.matching, &options.mapper, &known);
+    let key_stage =
+        (&frames, options.keyframe_interval, &options.features, &options.matching, &options.mapper, &known, POSE_STAGES_REVISION);
     let mapper = options.mapper.clone();
     let model: KeyframeModel = if work.is_done("keyframes", &key_stage) {
         report.skipped.push("keyframes".into());
@@ -442,7 +178,7 @@ fn adjust_steps<K: Serialize>(
     frames: &EventFrames,
     model: &mut KeyframeModel,
     known: &KnownCameras,
-    poses: &mut Vec<Vec<Pose>>,
+    poses: &mut Vec<Vec<Rigid3>>,
     options: &PrepOptions,
     key_stage: &K,
     report: &mut PrepReport,
@@ -451,7 +187,7 @@ fn adjust_steps<K: Serialize>(
 ) -> SfmResult<()> {
     const STAGE: &str = "step_adjust";
     let key = (key_stage, &options.refine, &options.step_adjust);
-    let adjusted: Option<(Vec<Vec<Pose>>, Vec<Intrinsics>, StepAdjustReport)> = if work.is_done(STAGE, &key) {
+    let adjusted: Option<(Vec<Vec<Rigid3>>, Vec<Radial>, StepAdjustReport)> = if work.is_done(STAGE, &key) {
         report.skipped.push(STAGE.into());
         work.read_json(&format!("{STAGE}.json"))?
     } else {
@@ -509,7 +245,7 @@ fn adjust_steps<K: Serialize>(
 fn check_two_view_model(frames: &EventFrames, model: &KeyframeModel, known: &KnownCameras) -> SfmResult<()> {
     let r = &model.reconstruction;
     // Distinct viewpoints: a still camera's pooled keyframes share one pose.
-    let mut viewpoints: Vec<(Pose, &Keyframe)> = Vec::new();
+    let mut viewpoints: Vec<(Rigid3, &Keyframe)> = Vec::new();
     for (key, pose) in model.keyframes.iter().zip(&r.poses) {
         if let Some(pose) = pose
             && !viewpoints.iter().any(|(p, _)| p == pose)
@@ -571,7 +307,7 @@ fn refine_all<K: Serialize>(
     report: &mut PrepReport,
     progress: StageProgress,
     interrupt: &AtomicBool,
-) -> SfmResult<Vec<Vec<Pose>>> {
+) -> SfmResult<Vec<Vec<Rigid3>>> {
     let r = &model.reconstruction;
     let counts: Vec<usize> = features.iter().map(Features::len).collect();
     let point_of = r.point_of_feature(&counts);
@@ -589,7 +325,7 @@ fn refine_all<K: Serialize>(
         let stage = format!("refine/{}", camera.name);
         let key = (key_stage, &options.refine);
         if work.is_done(&stage, &key) {
-            let (poses, camera_report): (Vec<Pose>, RefineReport) = work.read_json(&format!("{stage}.json"))?;
+            let (poses, camera_report): (Vec<Rigid3>, RefineReport) = work.read_json(&format!("{stage}.json"))?;
             report.skipped.push(stage);
             warn_repaired(report, &camera.name, &camera_report, options.refine.max_reprojection_px);
             report.refine.push(camera_report);
@@ -630,14 +366,14 @@ fn warn_repaired(report: &mut PrepReport, camera: &str, refined: &RefineReport, 
         report.warnings.push(format!(
             "camera {camera}: the refinement misplaced {} of its frames (reprojection errors above {} x the {} px limit): they were placed between their neighbours instead",
             refined.frames_repaired,
-            crate::refine::MISPLACED_FRAME_FACTOR,
+            crate::mapping::refine::MISPLACED_FRAME_FACTOR,
             limit_px,
         ));
     }
 }
 
 /// The poses of every frame as `poses.json`'s shape.
-pub fn event_poses(frames: &EventFrames, model: &KeyframeModel, poses: &[Vec<Pose>]) -> EventPoses {
+pub fn event_poses(frames: &EventFrames, model: &KeyframeModel, poses: &[Vec<Rigid3>]) -> EventPoses {
     let r = &model.reconstruction;
     EventPoses {
         cameras: frames
@@ -645,7 +381,9 @@ pub fn event_poses(frames: &EventFrames, model: &KeyframeModel, poses: &[Vec<Pos
             .iter()
             .enumerate()
             .map(|(c, camera)| {
-                let (intrinsics, distortion) = r.intrinsics[c].to_pinhole_and_distortion();
+                // dynview's pinhole and OpenCV's distortion `[k1, k2, p1, p2]`, as `poses.json` stores them.
+                let opencv = r.intrinsics[c].to_opencv();
+                let (intrinsics, distortion) = (opencv.pinhole.into(), opencv.distortion.to_array());
                 CameraPoses {
                     name: camera.name.clone(),
                     width: camera.width,
@@ -653,10 +391,7 @@ pub fn event_poses(frames: &EventFrames, model: &KeyframeModel, poses: &[Vec<Pos
                     intrinsics,
                     distortion,
                     frames: (0..camera.files.len())
-                        .map(|t| FramePose {
-                            file: camera.file_name(t),
-                            camera_from_world: poses[c].get(t).map(|p| PoseEntry::from(p.to_rigid())),
-                        })
+                        .map(|t| FramePose { file: camera.file_name(t), camera_from_world: poses[c].get(t).map(|p| PoseEntry::from(*p)) })
                         .collect(),
                 }
             })

@@ -1,12 +1,14 @@
-//! A view at the working resolution: grayscale `f32` and RGB pixels, scaled intrinsics, pose.
+//! A view at the working resolution: grayscale `f32` and RGB pixels, scaled intrinsics, and
+//! the pose's rotation and centre as nalgebra values (computed once: every pixel is projected
+//! and lifted through them).
 
+use dynview_camera::PoseMatrices;
 use nalgebra::{Vector2, Vector3};
 use opencv::core::{Mat, Size};
 use opencv::prelude::*;
 
 use crate::error::{SfmError, SfmResult};
-use crate::geometry::Pose;
-use crate::points::TimestepView;
+use crate::mapping::points::TimestepView;
 
 /// One view, reduced for matching.
 pub(super) struct WorkView {
@@ -24,8 +26,8 @@ pub(super) struct WorkView {
     pub cx_px: f64,
     /// Principal point y (px) at this resolution.
     pub cy_px: f64,
-    /// The pose.
-    pub pose: Pose,
+    /// The pose (`camera_from_world`) as its rotation and centre.
+    pub pose: PoseMatrices,
 }
 
 impl WorkView {
@@ -34,8 +36,9 @@ impl WorkView {
     pub fn from_view(view: &TimestepView, max_side_px: usize) -> SfmResult<Option<Self>> {
         let image = view.image_bgr;
         let k = &view.intrinsics;
-        let finite = [k.focal_px, k.cx_px, k.cy_px].iter().all(|v| v.is_finite()) && k.focal_px > 0.0;
-        let pose_finite = view.pose.rotation.iter().chain(view.pose.center_world.iter()).all(|v| v.is_finite());
+        let finite = [k.f, k.cx, k.cy].iter().all(|v| v.is_finite()) && k.f > 0.0;
+        let pose = view.pose.matrices();
+        let pose_finite = pose.rotation.iter().chain(pose.center_world.iter()).all(|v| v.is_finite());
         if image.empty() || image.typ() != opencv::core::CV_8UC3 || !finite || !pose_finite {
             return Ok(None);
         }
@@ -67,10 +70,10 @@ impl WorkView {
             height: new_height,
             gray,
             rgb,
-            focal_px: k.focal_px * 0.5 * (sx + sy),
-            cx_px: (k.cx_px + 0.5) * sx - 0.5,
-            cy_px: (k.cy_px + 0.5) * sy - 0.5,
-            pose: view.pose,
+            focal_px: k.f * 0.5 * (sx + sy),
+            cx_px: (k.cx + 0.5) * sx - 0.5,
+            cy_px: (k.cy + 0.5) * sy - 0.5,
+            pose,
         }))
     }
 
@@ -81,7 +84,7 @@ impl WorkView {
 
     /// Pixel and depth (m, camera z) of a world point in front of the camera.
     pub fn project(&self, point_world: &Vector3<f64>) -> Option<(Vector2<f64>, f64)> {
-        let p = self.pose.to_camera(point_world);
+        let p = self.pose.point_camera(point_world);
         (p.z > 1e-9 && p.iter().all(|v| v.is_finite()))
             .then(|| (Vector2::new(self.focal_px * p.x / p.z + self.cx_px, self.focal_px * p.y / p.z + self.cy_px), p.z))
     }

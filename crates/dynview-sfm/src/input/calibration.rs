@@ -12,13 +12,13 @@ use opencv::prelude::*;
 use rayon::prelude::*;
 
 use dynview_ba::HeldIntrinsics;
+use dynview_camera::Radial;
 use dynview_core::StageProgress;
 use dynview_core::fsutil::write_atomic;
 use dynview_interchange::poses::{CameraPoses, EventPoses};
 
 use crate::error::{SfmError, SfmResult};
-use crate::geometry::Intrinsics;
-use crate::input::{EventFrames, read_bgr};
+use crate::input::frames::{EventFrames, WORK_FRAME_JPEG_QUALITY, read_bgr};
 
 /// Reads a `poses.json` file, a COLMAP model folder (text or binary), a Qualisys or a
 /// Middlebury calibration (detected: `dynview_interchange::import`).
@@ -52,7 +52,7 @@ pub fn calibration_for<'a>(given: &'a EventPoses, path: &Path, frames: &EventFra
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct KnownIntrinsics {
     /// The intrinsics (undistorted: the frames are undistorted first).
-    pub intrinsics: Intrinsics,
+    pub intrinsics: Radial,
     /// A whole calibration (`--intrinsics`, `--poses`): every intrinsic is held. Otherwise a
     /// focal length alone (`--focal`): the focal is held and the principal point estimated as
     /// for any camera.
@@ -62,7 +62,7 @@ pub struct KnownIntrinsics {
 impl KnownIntrinsics {
     /// A focal length alone, the principal point at the centre of a `width` x `height` image.
     pub fn focal(focal_px: f64, width: u32, height: u32) -> Self {
-        Self { intrinsics: Intrinsics::centred(focal_px, width, height), calibrated: false }
+        Self { intrinsics: Radial::centred(focal_px, width, height), calibrated: false }
     }
 
     /// What bundle adjustment holds.
@@ -84,7 +84,7 @@ pub fn held_intrinsics(known: &KnownCameras, name: &str) -> HeldIntrinsics {
 pub fn known_intrinsics(calibration: &[&CameraPoses]) -> KnownCameras {
     calibration
         .iter()
-        .map(|c| (c.name.clone(), KnownIntrinsics { intrinsics: Intrinsics::from_pinhole(&c.intrinsics), calibrated: true }))
+        .map(|c| (c.name.clone(), KnownIntrinsics { intrinsics: Radial::from_pinhole(&c.intrinsics.into()), calibrated: true }))
         .collect()
 }
 
@@ -125,7 +125,7 @@ pub fn undistort_frames(
                     calib3d::undistort(&image, &mut undistorted, &matrix, &distortion, &matrix)
                         .map_err(SfmError::cv("undistorting a frame"))?;
                     let mut bytes = Vector::<u8>::new();
-                    let params = Vector::<i32>::from_slice(&[imgcodecs::IMWRITE_JPEG_QUALITY, 95]);
+                    let params = Vector::<i32>::from_slice(&[imgcodecs::IMWRITE_JPEG_QUALITY, WORK_FRAME_JPEG_QUALITY]);
                     imgcodecs::imencode(".jpg", &undistorted, &mut bytes, &params).map_err(SfmError::cv("encoding a frame"))?;
                     write_atomic(&path, bytes.as_slice()).map_err(SfmError::io(&path))?;
                     write_atomic(&stamp_path, stamp.as_bytes()).map_err(SfmError::io(&stamp_path))?;

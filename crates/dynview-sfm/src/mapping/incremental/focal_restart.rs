@@ -9,9 +9,10 @@
 //! other cameras, its images placed anew by PnP under it, and the solution whose cost is lower
 //! on the same observations is kept.
 
+use dynview_camera::Radial;
+
 use super::{Mapper, longer_side_px, median_focal_factor};
 use crate::error::SfmResult;
-use crate::geometry::Intrinsics;
 
 /// How far (as a fraction) a camera's focal may lie from the median of the other cameras'
 /// before it is also solved from there. Lenses at one event differ (the Panoptic cameras by
@@ -47,9 +48,9 @@ impl Mapper<'_> {
             return Ok(());
         }
         let (registered, held) = (self.registered_cameras(), self.held.clone());
-        let outlying = |cameras: &[dynview_ba::CameraIntrinsics], camera: usize| -> Option<f64> {
-            let start_px = others_focal_factor(cameras, &registered, camera)? * longer_side_px(&Intrinsics::from(cameras[camera]));
-            let outlying = !held[camera].focal && (cameras[camera].focal_px / start_px - 1.0).abs() > OUTLYING_FOCAL_FRACTION;
+        let outlying = |cameras: &[Radial], camera: usize| -> Option<f64> {
+            let start_px = others_focal_factor(cameras, &registered, camera)? * longer_side_px(&cameras[camera]);
+            let outlying = !held[camera].focal && (cameras[camera].f / start_px - 1.0).abs() > OUTLYING_FOCAL_FRACTION;
             outlying.then_some(start_px)
         };
         let (mut best, ids) = self.ba_problem();
@@ -61,20 +62,20 @@ impl Mapper<'_> {
         for camera in 0..best.cameras.len() {
             let Some(start_px) = outlying(&best.cameras, camera) else { continue };
             let mut trial = best.clone();
-            let k = Intrinsics { focal_px: start_px, ..Intrinsics::from(best.cameras[camera]) };
-            trial.cameras[camera] = k.into();
+            let k = Radial { f: start_px, ..best.cameras[camera] };
+            trial.cameras[camera] = k;
             for (slot, &image) in ids.images.iter().enumerate() {
                 if self.images[image].camera != camera {
                     continue;
                 }
                 let (object, pixels) = self.pnp_correspondences(image);
                 if let Some(pose) = self.pose_by_pnp(&k, &object, &pixels)? {
-                    trial.images[slot] = pose.into();
+                    trial.images[slot] = pose;
                 }
             }
             let trial_cost = dynview_ba::solve(&mut trial, &options)?.final_cost;
             if trial_cost < best_cost {
-                let (settled_px, ended_px) = (best.cameras[camera].focal_px, trial.cameras[camera].focal_px);
+                let (settled_px, ended_px) = (best.cameras[camera].f, trial.cameras[camera].f);
                 if (ended_px / settled_px - 1.0).abs() > MOVED_FOCAL_FRACTION {
                     self.focal_restarts.push(FocalRestart { camera, settled_px, restarted_px: start_px, cost: [best_cost, trial_cost] });
                 }
@@ -97,6 +98,6 @@ impl Mapper<'_> {
 
 /// The median focal factor (focal / longer side) of the registered cameras other than
 /// `camera`; `None` when there are none.
-fn others_focal_factor(cameras: &[dynview_ba::CameraIntrinsics], registered: &[bool], camera: usize) -> Option<f64> {
-    median_focal_factor((0..cameras.len()).filter(|&c| c != camera && registered[c]).map(|c| cameras[c].into()))
+fn others_focal_factor(cameras: &[Radial], registered: &[bool], camera: usize) -> Option<f64> {
+    median_focal_factor((0..cameras.len()).filter(|&c| c != camera && registered[c]).map(|c| cameras[c]))
 }

@@ -22,8 +22,10 @@ use crate::error::{SfmError, SfmResult};
 pub const VIDEO_EXTENSIONS: &[&str] = &["mp4", "mov", "avi", "mkv", "webm", "m4v", "mpg", "mpeg"];
 /// File extensions read as frames of an image-sequence folder.
 pub const IMAGE_EXTENSIONS: &[&str] = &["png", "jpg", "jpeg", "tif", "tiff", "bmp", "webp"];
-/// JPEG quality of frames decoded from videos.
-const FRAME_JPEG_QUALITY: i32 = 95;
+/// JPEG quality of the work frames: the frames decoded from videos (and the undistorted frames
+/// of [`crate::input::calibration`]), which features are extracted from and the package frames
+/// made from; high, so that compression adds little to what the video's did.
+pub const WORK_FRAME_JPEG_QUALITY: i32 = 95;
 /// Most frames read from one camera (a hostile input cannot fill the disk).
 pub const MAX_FRAMES: usize = 100_000;
 
@@ -197,7 +199,7 @@ fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: StageProgr
     fs::create_dir_all(out_dir).map_err(SfmError::io(out_dir))?;
     let mut files = Vec::new();
     let mut frame = Mat::default();
-    let params = Vector::<i32>::from_slice(&[imgcodecs::IMWRITE_JPEG_QUALITY, FRAME_JPEG_QUALITY]);
+    let params = Vector::<i32>::from_slice(&[imgcodecs::IMWRITE_JPEG_QUALITY, WORK_FRAME_JPEG_QUALITY]);
     let mut size = None;
     while capture.read(&mut frame).map_err(|e| decode(e.to_string()))? {
         if frame.empty() {

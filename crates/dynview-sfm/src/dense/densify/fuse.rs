@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use super::DensifyOptions;
 use super::patchmatch::DepthMap;
 use super::view::WorkView;
-use crate::points::TimestepCloud;
+use crate::mapping::points::TimestepCloud;
 
 /// A dense point before the merge.
 pub(super) struct Candidate {

@@ -7,11 +7,12 @@
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-use crate::features::{DESCRIPTOR_LEN, Features};
-use crate::geometry::Intrinsics;
+use dynview_camera::Radial;
+
+use crate::features::sift::{DESCRIPTOR_LEN, Features};
 
 /// Normalized homogeneous coordinates of every feature.
-fn rays(features: &Features, intrinsics: &Intrinsics) -> Vec<Vector3<f64>> {
+fn rays(features: &Features, intrinsics: &Radial) -> Vec<Vector3<f64>> {
     features
         .xy
         .iter()
@@ -72,31 +73,32 @@ fn best_along_lines(
 /// for normalized points), each within `max_epipolar_px` of the other's epipolar line and
 /// passing the ratio test among the candidates there: pairs `[feature of a, feature of b]`.
 pub fn guided_matches(
-    a: (&Features, &Intrinsics),
-    b: (&Features, &Intrinsics),
+    a: (&Features, &Radial),
+    b: (&Features, &Radial),
     e: &Matrix3<f64>,
     max_epipolar_px: f64,
     ratio: f32,
 ) -> Vec<[u32; 2]> {
     let (rays_a, rays_b) = (rays(a.0, a.1), rays(b.0, b.1));
-    let ab = best_along_lines((a.0, &rays_a), (b.0, &rays_b, b.1.focal_px), e, max_epipolar_px, ratio);
-    let ba = best_along_lines((b.0, &rays_b), (a.0, &rays_a, a.1.focal_px), &e.transpose(), max_epipolar_px, ratio);
-    crate::matching::mutual(&ab, &ba)
+    let ab = best_along_lines((a.0, &rays_a), (b.0, &rays_b, b.1.f), e, max_epipolar_px, ratio);
+    let ba = best_along_lines((b.0, &rays_b), (a.0, &rays_a, a.1.f), &e.transpose(), max_epipolar_px, ratio);
+    crate::features::matching::mutual(&ab, &ba)
 }
 
 /// [`guided_matches`] under a fundamental matrix in pixels (row-major, `x_b^T F x_a = 0`), for
 /// images whose intrinsics are not known yet.
 pub fn guided_matches_fundamental(a: &Features, b: &Features, fundamental: &[f64; 9], max_epipolar_px: f64, ratio: f32) -> Vec<[u32; 2]> {
     // Pixels as normalized coordinates: a unit focal at the origin.
-    let pixels = Intrinsics { focal_px: 1.0, cx_px: 0.0, cy_px: 0.0, k1: 0.0, k2: 0.0 };
+    let pixels = Radial { f: 1.0, cx: 0.0, cy: 0.0, k1: 0.0, k2: 0.0 };
     guided_matches((a, &pixels), (b, &pixels), &Matrix3::from_row_slice(fundamental), max_epipolar_px, ratio)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Pose;
-    use crate::points::essential_between;
+    use dynview_camera::Rigid3;
+
+    use crate::estimators::geometry::essential_between;
 
     fn descriptor(seed: u32) -> Vec<u8> {
         (0..DESCRIPTOR_LEN as u32).map(|k| ((seed.wrapping_mul(2_654_435_761) ^ k.wrapping_mul(40_503)) >> 7) as u8).collect()
@@ -104,11 +106,11 @@ mod tests {
 
     #[test]
     fn only_features_near_the_epipolar_line_can_match() {
-        let k = Intrinsics { focal_px: 500.0, cx_px: 320.0, cy_px: 240.0, k1: 0.0, k2: 0.0 };
-        let a = Pose::from_angle_axis(Vector3::zeros(), Vector3::new(-0.5, 0.0, 0.0));
-        let b = Pose::from_angle_axis(Vector3::new(0.0, -0.1, 0.0), Vector3::new(0.5, 0.0, 0.0));
+        let k = Radial { f: 500.0, cx: 320.0, cy: 240.0, k1: 0.0, k2: 0.0 };
+        let a = Rigid3::from_angle_axis_center(Vector3::zeros(), Vector3::new(-0.5, 0.0, 0.0));
+        let b = Rigid3::from_angle_axis_center(Vector3::new(0.0, -0.1, 0.0), Vector3::new(0.5, 0.0, 0.0));
         let points = [Vector3::new(0.1, 0.2, 5.0), Vector3::new(-0.3, -0.1, 6.0), Vector3::new(0.4, 0.0, 4.0)];
-        let project = |pose: &Pose, p: &Vector3<f64>| {
+        let project = |pose: &Rigid3, p: &Vector3<f64>| {
             let px = k.pixel(pose.project_normalized(p).expect("in front"));
             [px.x as f32, px.y as f32]
         };

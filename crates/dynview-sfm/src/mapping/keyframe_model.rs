@@ -1,10 +1,9 @@
-//! The keyframe stage: SIFT on every `kappa`-th frame of every camera, exhaustive matching,
-//! verification, focal estimation and the incremental reconstruction; saved to
-//! `work/keyframes/` (our model as JSON and as a COLMAP text model).
+//! The keyframe stage's reconstruction: initial intrinsics (given, self-calibrated or the
+//! prior), cameras that stand still pooled ([`crate::mapping::still`]), the incremental
+//! reconstruction ([`crate::mapping::incremental`]), what the report says of the intrinsics,
+//! and the model as COLMAP text (saved to `work/keyframes/`, with our model as JSON).
 
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-
-use rayon::prelude::*;
+use std::sync::atomic::AtomicBool;
 
 use dynview_ba::HeldIntrinsics;
 use dynview_camera::{Model, Radial};
@@ -12,25 +11,15 @@ use dynview_core::StageProgress;
 use dynview_core::fsutil::write_atomic;
 use dynview_interchange::colmap::{ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
 
-use crate::calibration::{KnownCameras, held_intrinsics};
 use crate::error::{SfmError, SfmResult};
-use crate::features::{FeatureOptions, Features};
-use crate::focal::{PRIOR_FOCAL_FACTOR, PairGeometry, estimate_focal_factor};
-use crate::geometry::Intrinsics;
-use crate::incremental::{MapImage, MapperOptions, PRINCIPAL_POINT_PRIOR_FRACTION, Reconstruction, reconstruct};
-use crate::input::EventFrames;
-use crate::matching::{MatchOptions, TwoView, build_indices, mutual_matches_shared, verify};
-use crate::still::{pool, still_cameras, unpool};
-use crate::work::WorkDir;
-
-/// A keyframe: camera index and frame index.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct Keyframe {
-    /// Camera (index into the event's cameras).
-    pub camera: usize,
-    /// Frame (time step).
-    pub frame: usize,
-}
+use crate::estimators::focal::{PRIOR_FOCAL_FACTOR, PairGeometry, estimate_focal_factor};
+use crate::features::matching::{MatchOptions, TwoView};
+use crate::features::sift::Features;
+use crate::input::calibration::{KnownCameras, held_intrinsics};
+use crate::input::frames::EventFrames;
+use crate::mapping::incremental::{MapImage, MapperOptions, PRINCIPAL_POINT_PRIOR_FRACTION, Reconstruction, reconstruct};
+use crate::mapping::keyframes::Keyframe;
+use crate::mapping::still::{cameras_to_pool, pool, still_cameras, unpool};
 
 /// The keyframe stage's result.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -53,74 +42,6 @@ impl KeyframeModel {
     }
 }
 
-/// The frames every `interval` frames, in camera-then-time order.
-pub fn keyframes(frames: &EventFrames, interval: usize) -> Vec<Keyframe> {
-    let n = frames.frame_count();
-    (0..frames.cameras.len()).flat_map(|camera| (0..n).step_by(interval.max(1)).map(move |frame| Keyframe { camera, frame })).collect()
-}
-
-/// Path of a frame's feature file in the work folder.
-pub fn feature_path(work: &WorkDir, frames: &EventFrames, k: Keyframe) -> std::path::PathBuf {
-    let c = &frames.cameras[k.camera];
-    work.join(format!("features/{}/{}.sift", c.name, c.file_name(k.frame)))
-}
-
-/// Extracts (or loads) the features of `keys`.
-pub fn keyframe_features(
-    work: &WorkDir,
-    frames: &EventFrames,
-    keys: &[Keyframe],
-    options: &FeatureOptions,
-    progress: StageProgress,
-    interrupt: &AtomicBool,
-) -> SfmResult<Vec<Features>> {
-    let done = AtomicU64::new(0);
-    let stamp = serde_json::to_string(options).unwrap_or_default();
-    keys.par_iter()
-        .map(|&k| {
-            SfmError::check_interrupt(interrupt)?;
-            let path = feature_path(work, frames, k);
-            let stamp_path = path.with_extension("sift.options");
-            let cached = std::fs::read_to_string(&stamp_path).is_ok_and(|s| s == stamp);
-            let features = match cached.then(|| Features::read(&path)).transpose() {
-                Ok(Some(f)) => f,
-                _ => {
-                    let f = crate::features::extract_file(&frames.cameras[k.camera].files[k.frame], options)?;
-                    f.write(&path)?;
-                    write_atomic(&stamp_path, stamp.as_bytes()).map_err(SfmError::io(&stamp_path))?;
-                    f
-                }
-            };
-            progress("features", done.fetch_add(1, Ordering::Relaxed) + 1, keys.len() as u64);
-            Ok(features)
-        })
-        .collect()
-}
-
-/// Matches and verifies every pair of `features`.
-pub fn match_all_pairs(
-    features: &[Features],
-    options: &MatchOptions,
-    progress: StageProgress,
-    interrupt: &AtomicBool,
-) -> SfmResult<Vec<(usize, usize, TwoView)>> {
-    let mats = features.iter().map(Features::descriptor_mat).collect::<SfmResult<Vec<_>>>()?;
-    let indices = build_indices(&mats)?;
-    let pairs: Vec<(usize, usize)> = (0..features.len()).flat_map(|a| (a + 1..features.len()).map(move |b| (a, b))).collect();
-    let done = AtomicU64::new(0);
-    let verified: Vec<(usize, usize, TwoView)> = pairs
-        .par_iter()
-        .map(|&(a, b)| {
-            SfmError::check_interrupt(interrupt)?;
-            let matches = mutual_matches_shared(&mats, &indices, a, b, options)?;
-            let two_view = verify(&features[a].xy, &features[b].xy, &matches, options)?;
-            progress("matching", done.fetch_add(1, Ordering::Relaxed) + 1, pairs.len() as u64);
-            Ok((a, b, two_view))
-        })
-        .collect::<SfmResult<Vec<_>>>()?;
-    Ok(verified.into_iter().filter(|(_, _, v)| !v.inliers.is_empty()).collect())
-}
-
 /// [`KeyframeModel::focal_source`] of a camera whose focal length nothing measured: no pair
 /// self-calibrated and none was given (later notes are appended to it).
 pub const PRIOR_FOCAL_SOURCE: &str = "prior (1.2 x longer side)";
@@ -132,7 +53,7 @@ pub fn initial_intrinsics(
     pairs: &[(usize, usize, TwoView)],
     known: &KnownCameras,
     match_options: &MatchOptions,
-) -> (Vec<Intrinsics>, Vec<String>) {
+) -> (Vec<Radial>, Vec<String>) {
     // Frames of one camera may share no baseline; use pairs of two cameras when there are any,
     // and only pairs a homography does not explain (a dominant plane leaves F ill-determined).
     let across = pairs.iter().any(|(a, b, _)| keys[*a].camera != keys[*b].camera);
@@ -158,9 +79,9 @@ pub fn initial_intrinsics(
             match (known.get(&c.name), estimated) {
                 (Some(k), _) => (k.intrinsics, if k.calibrated { "given (calibration)" } else { "given" }.to_string()),
                 (None, Some(factor)) => {
-                    (Intrinsics::centred(factor * longer, c.width, c.height), format!("self-calibrated ({factor:.3} x {longer})"))
+                    (Radial::centred(factor * longer, c.width, c.height), format!("self-calibrated ({factor:.3} x {longer})"))
                 }
-                (None, None) => (Intrinsics::centred(PRIOR_FOCAL_FACTOR * longer, c.width, c.height), PRIOR_FOCAL_SOURCE.to_string()),
+                (None, None) => (Radial::centred(PRIOR_FOCAL_FACTOR * longer, c.width, c.height), PRIOR_FOCAL_SOURCE.to_string()),
             }
         })
         .unzip()
@@ -180,7 +101,7 @@ pub fn reconstruct_keyframes(
     interrupt: &AtomicBool,
 ) -> SfmResult<KeyframeModel> {
     let still = still_cameras(frames.cameras.len(), keys, features, pairs);
-    let pooled_cameras = crate::still::cameras_to_pool(&still, keys, pairs);
+    let pooled_cameras = cameras_to_pool(&still, keys, pairs);
     let pooled = pool(keys, features, pairs, &pooled_cameras, match_options)?;
     let (intrinsics, mut focal_source) = initial_intrinsics(frames, &pooled.keys, &pooled.pairs, known, match_options);
     let group = intrinsics_groups(frames, known, mapper_options.share_intrinsics);
@@ -241,7 +162,7 @@ pub const WEAK_FOCAL_FRACTION: f64 = 0.02;
 /// A warning per camera whose refined focal length the views fix only to more than
 /// [`WEAK_FOCAL_FRACTION`] (one standard deviation, `std_percent` per camera), naming the
 /// camera and the `--focal` argument that would fix it.
-pub fn weak_focal_warnings(frames: &EventFrames, intrinsics: &[Intrinsics], std_percent: &[Option<f64>]) -> Vec<String> {
+pub fn weak_focal_warnings(frames: &EventFrames, intrinsics: &[Radial], std_percent: &[Option<f64>]) -> Vec<String> {
     frames
         .cameras
         .iter()
@@ -254,7 +175,7 @@ pub fn weak_focal_warnings(frames: &EventFrames, intrinsics: &[Intrinsics], std_
                     "camera {}: its views fix its focal length ({:.0} px) only to {:.1}% (one standard deviation), which bends the model; if \
                      it is known, give it with --focal {}=PX",
                     camera.name,
-                    k.focal_px,
+                    k.f,
                     100.0 * fraction,
                     camera.name
                 )
@@ -268,7 +189,7 @@ pub fn weak_focal_warnings(frames: &EventFrames, intrinsics: &[Intrinsics], std_
 pub fn focal_std_fractions(frames: &EventFrames, model: &KeyframeModel, known: &KnownCameras, options: &MapperOptions) -> Vec<Option<f64>> {
     let group = intrinsics_groups(frames, known, options.share_intrinsics);
     let r = &model.reconstruction;
-    (0..frames.cameras.len()).map(|c| Some(r.focal_std_px.get(group[c]).copied().flatten()? / r.intrinsics.get(c)?.focal_px)).collect()
+    (0..frames.cameras.len()).map(|c| Some(r.focal_std_px.get(group[c]).copied().flatten()? / r.intrinsics.get(c)?.f)).collect()
 }
 
 /// Per camera, which intrinsics the keyframe reconstruction refined and why (the report's
@@ -313,12 +234,7 @@ pub fn intrinsics_notes(frames: &EventFrames, model: &KeyframeModel, known: &Kno
 /// Per intrinsics set (`group`, from [`intrinsics_groups`]): its intrinsics, taken from
 /// `per_camera` at the set's first camera, and what the user gave for it (the cameras of one set
 /// are all given alike or not at all).
-pub fn per_group(
-    frames: &EventFrames,
-    known: &KnownCameras,
-    group: &[usize],
-    per_camera: &[Intrinsics],
-) -> (Vec<Intrinsics>, Vec<HeldIntrinsics>) {
+pub fn per_group(frames: &EventFrames, known: &KnownCameras, group: &[usize], per_camera: &[Radial]) -> (Vec<Radial>, Vec<HeldIntrinsics>) {
     let sets = group.iter().max().map_or(0, |g| g + 1);
     let first: Vec<usize> = (0..sets).map(|g| group.iter().position(|&x| x == g).unwrap_or(0)).collect();
     (first.iter().map(|&c| per_camera[c]).collect(), first.iter().map(|&c| held_intrinsics(known, &frames.cameras[c].name)).collect())
@@ -339,7 +255,7 @@ pub fn intrinsics_groups(frames: &EventFrames, known: &KnownCameras, share: bool
             let key = (
                 camera.width,
                 camera.height,
-                known.get(&camera.name).map(|k| [k.intrinsics.focal_px, k.intrinsics.cx_px, k.intrinsics.cy_px].map(f64::to_bits)),
+                known.get(&camera.name).map(|k| [k.intrinsics.f, k.intrinsics.cx, k.intrinsics.cy].map(f64::to_bits)),
             );
             keys.iter().position(|k| *k == key).unwrap_or_else(|| {
                 keys.push(key);
@@ -355,7 +271,7 @@ pub fn to_colmap(model: &KeyframeModel, frames: &EventFrames, features: &[Featur
     let mut out = ColmapModel::default();
     let r = &model.reconstruction;
     for (c, camera) in frames.cameras.iter().enumerate() {
-        let k = Radial::from(r.intrinsics[c]);
+        let k = r.intrinsics[c];
         // COLMAP puts pixel centres at +0.5.
         let colmap = Radial { cx: k.cx + 0.5, cy: k.cy + 0.5, ..k };
         out.cameras.insert(
@@ -378,15 +294,16 @@ pub fn to_colmap(model: &KeyframeModel, frames: &EventFrames, features: &[Featur
             i as u32 + 1,
             ColmapImage {
                 camera_id: key.camera as u32 + 1,
-                camera_from_world: pose.to_rigid(),
+                camera_from_world: *pose,
                 name: format!("{}/{}", camera.name, camera.file_name(key.frame)),
                 points2d,
             },
         );
     }
     let images = model.map_images(features);
+    let poses = r.pose_matrices();
     for (p, point) in r.points.iter().enumerate() {
-        let errors = r.point_errors_px(&images, point);
+        let errors = r.point_errors_px(&images, &poses, point);
         let error = errors.iter().sum::<f64>() / errors.len().max(1) as f64;
         out.points3d.insert(
             p as u64 + 1,
@@ -413,13 +330,13 @@ pub fn write_colmap_text(model: &ColmapModel, dir: &std::path::Path) -> SfmResul
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::input::CameraFrames;
+    use crate::input::frames::CameraFrames;
 
     #[test]
     fn a_focal_the_views_hardly_fix_is_named_with_the_argument_that_fixes_it() {
         let camera = |name: &str| CameraFrames { name: name.into(), width: 640, height: 360, files: Vec::new() };
         let frames = EventFrames { cameras: vec![camera("left"), camera("middle"), camera("right")] };
-        let intrinsics = vec![Intrinsics::centred(500.0, 640, 360); 3];
+        let intrinsics = vec![Radial::centred(500.0, 640, 360); 3];
         // Known to 3%, to 0.5%, and given (no standard deviation).
         let warnings = weak_focal_warnings(&frames, &intrinsics, &[Some(3.0), Some(0.5), None]);
         assert_eq!(warnings.len(), 1, "{warnings:?}");

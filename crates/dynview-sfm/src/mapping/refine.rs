@@ -12,11 +12,13 @@ use nalgebra::{UnitQuaternion, Vector2, Vector3};
 use opencv::core::{Point2d, Point3d, Vector};
 use rayon::prelude::*;
 
+use dynview_camera::{PoseMatrices, Radial, Rigid3};
+
 use crate::error::{SfmError, SfmResult};
-use crate::features::{FeatureOptions, Features};
-use crate::geometry::{Intrinsics, Pose, reprojection_error_px};
-use crate::matching::{MatchOptions, build_indices, mutual_matches_shared, verify};
-use crate::pnp::pnp_ransac;
+use crate::estimators::geometry::reprojection_error_px;
+use crate::estimators::pnp::pnp_ransac;
+use crate::features::matching::{MatchOptions, build_indices, mutual_matches_shared, verify};
+use crate::features::sift::{FeatureOptions, Features};
 
 /// How frames are refined.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -44,8 +46,8 @@ impl Default for RefineOptions {
 /// A registered keyframe as refinement sees it.
 #[derive(Clone, Debug)]
 pub struct KeyframeView<'a> {
-    /// Its pose in the keyframe model.
-    pub pose: Pose,
+    /// Its pose in the keyframe model, `camera_from_world`.
+    pub pose: Rigid3,
     /// Its features.
     pub features: &'a Features,
     /// Per feature, the keyframe model's point it sees (an index into
@@ -60,7 +62,7 @@ pub struct CameraTrack<'a> {
     /// Its frame files in time order.
     pub files: &'a [std::path::PathBuf],
     /// Its intrinsics (fixed).
-    pub intrinsics: Intrinsics,
+    pub intrinsics: Radial,
     /// Per frame: the keyframe's view for registered keyframes.
     pub keyframes: Vec<Option<KeyframeView<'a>>>,
     /// The keyframe model's points.
@@ -87,7 +89,7 @@ pub struct RefineReport {
     /// repair: what the kept poses explain.
     #[serde(default)]
     pub inlier_rms_px: f64,
-    /// The camera stands still (`crate::still`): every frame has its keyframes' pose, and
+    /// The camera stands still (`crate::mapping::still`): every frame has its keyframes' pose, and
     /// nothing was refined.
     #[serde(default)]
     pub still: bool,
@@ -98,31 +100,31 @@ pub struct RefineReport {
 pub const MISPLACED_FRAME_FACTOR: f64 = 4.0;
 
 /// The reprojection errors (px) of frame `t`'s observations (its features with a point) under
-/// `pose`.
+/// the pose whose matrices are `pose`.
 fn frame_errors_px<'a>(
-    intrinsics: &'a Intrinsics,
-    pose: &'a Pose,
+    intrinsics: &'a Radial,
+    pose: PoseMatrices,
     features: &'a Features,
     point_at: &'a [Option<u32>],
     points_world: &'a [Vector3<f64>],
 ) -> impl Iterator<Item = f64> + 'a {
     point_at.iter().zip(&features.xy).filter_map(move |(p, xy)| {
-        p.map(|p| reprojection_error_px(intrinsics, pose, &points_world[p as usize], &Vector2::new(f64::from(xy[0]), f64::from(xy[1]))))
+        p.map(|p| reprojection_error_px(intrinsics, &pose, &points_world[p as usize], &Vector2::new(f64::from(xy[0]), f64::from(xy[1]))))
     })
 }
 
 /// Per frame, the median reprojection error (px) of its observations under `poses`; `None` for
 /// a frame without observations.
 pub fn median_frame_errors_px(
-    intrinsics: &Intrinsics,
-    poses: &[Pose],
+    intrinsics: &Radial,
+    poses: &[Rigid3],
     features: &[&Features],
     point_at: &[Vec<Option<u32>>],
     points_world: &[Vector3<f64>],
 ) -> Vec<Option<f64>> {
     (0..poses.len())
         .map(|t| {
-            let mut errors: Vec<f64> = frame_errors_px(intrinsics, &poses[t], features[t], &point_at[t], points_world).collect();
+            let mut errors: Vec<f64> = frame_errors_px(intrinsics, poses[t].matrices(), features[t], &point_at[t], points_world).collect();
             errors.sort_by(f64::total_cmp);
             errors.get(errors.len() / 2).copied()
         })
@@ -131,12 +133,12 @@ pub fn median_frame_errors_px(
 
 /// Replaces the poses of frames (never keyframes) whose median error is above `limit_px` by
 /// interpolation between their placed neighbours; returns how many were replaced.
-pub fn repair_misplaced(poses: &mut [Pose], median_errors_px: &[Option<f64>], is_keyframe: &[bool], limit_px: f64) -> usize {
+pub fn repair_misplaced(poses: &mut [Rigid3], median_errors_px: &[Option<f64>], is_keyframe: &[bool], limit_px: f64) -> usize {
     let misplaced: Vec<bool> =
         (0..poses.len()).map(|t| !is_keyframe[t] && median_errors_px[t].is_some_and(|e| e > limit_px || e.is_nan())).collect();
     let count = misplaced.iter().filter(|&&m| m).count();
     if count > 0 {
-        let mut kept: Vec<Option<Pose>> = poses.iter().zip(&misplaced).map(|(p, &m)| (!m).then_some(*p)).collect();
+        let mut kept: Vec<Option<Rigid3>> = poses.iter().zip(&misplaced).map(|(p, &m)| (!m).then_some(*p)).collect();
         fill_missing(&mut kept);
         for (pose, fixed) in poses.iter_mut().zip(kept) {
             if let Some(fixed) = fixed {
@@ -177,12 +179,12 @@ pub fn propagate(point_at: &mut [Vec<Option<u32>>], matches: &[Vec<[u32; 2]>], i
 }
 
 fn pnp(
-    intrinsics: &Intrinsics,
+    intrinsics: &Radial,
     features: &Features,
     point_at: &[Option<u32>],
     points: &[Vector3<f64>],
     max_px: f64,
-) -> SfmResult<Option<Pose>> {
+) -> SfmResult<Option<Rigid3>> {
     let mut object = Vector::<Point3d>::new();
     let mut image = Vector::<Point2d>::new();
     for (f, p) in point_at.iter().enumerate() {
@@ -200,8 +202,8 @@ fn pnp(
 
 /// RMS reprojection error (px) of the observations within `max_px` under `poses`.
 fn inlier_rms_px(
-    intrinsics: &Intrinsics,
-    poses: &[Pose],
+    intrinsics: &Radial,
+    poses: &[Rigid3],
     features: &[&Features],
     point_at: &[Vec<Option<u32>>],
     points_world: &[Vector3<f64>],
@@ -209,7 +211,7 @@ fn inlier_rms_px(
 ) -> f64 {
     let (mut sum, mut count) = (0.0, 0usize);
     for t in 0..poses.len() {
-        for e in frame_errors_px(intrinsics, &poses[t], features[t], &point_at[t], points_world).filter(|&e| e <= max_px) {
+        for e in frame_errors_px(intrinsics, poses[t].matrices(), features[t], &point_at[t], points_world).filter(|&e| e <= max_px) {
             sum += e * e;
             count += 1;
         }
@@ -218,7 +220,7 @@ fn inlier_rms_px(
 }
 
 /// Fills missing poses by interpolating (slerp and lerp) between the nearest posed frames.
-fn fill_missing(poses: &mut [Option<Pose>]) -> usize {
+fn fill_missing(poses: &mut [Option<Rigid3>]) -> usize {
     let known: Vec<usize> = (0..poses.len()).filter(|&t| poses[t].is_some()).collect();
     let mut filled = 0;
     for t in 0..poses.len() {
@@ -231,10 +233,10 @@ fn fill_missing(poses: &mut [Option<Pose>]) -> usize {
             (Some(a), Some(b)) => {
                 let (pa, pb) = (poses[a].unwrap_or_else(|| unreachable!()), poses[b].unwrap_or_else(|| unreachable!()));
                 let s = (t - a) as f64 / (b - a) as f64;
-                let qa = UnitQuaternion::from_matrix(&pa.rotation);
-                let qb = UnitQuaternion::from_matrix(&pb.rotation);
+                let qa = UnitQuaternion::from_matrix(&pa.rotation_matrix());
+                let qb = UnitQuaternion::from_matrix(&pb.rotation_matrix());
                 let q = qa.try_slerp(&qb, s, 1e-9).unwrap_or(qa);
-                Pose { rotation: q.to_rotation_matrix().into_inner(), center_world: pa.center_world.lerp(&pb.center_world, s) }
+                Rigid3::from_rotation_center(q.to_rotation_matrix().into_inner(), pa.center().lerp(&pb.center(), s))
             }
             (Some(k), None) | (None, Some(k)) => poses[k].unwrap_or_else(|| unreachable!()),
             (None, None) => continue,
@@ -261,7 +263,7 @@ pub fn refine_camera(
     options: &RefineOptions,
     progress: StageProgress,
     interrupt: &AtomicBool,
-) -> SfmResult<(Vec<Pose>, RefineReport)> {
+) -> SfmResult<(Vec<Rigid3>, RefineReport)> {
     let n = camera.files.len();
     let is_keyframe: Vec<bool> = camera.keyframes.iter().map(Option::is_some).collect();
     if !is_keyframe.iter().any(|k| *k) {
@@ -277,8 +279,11 @@ pub fn refine_camera(
         .into_par_iter()
         .map(|t| {
             SfmError::check_interrupt(interrupt)?;
-            let f =
-                if camera.keyframes[t].is_some() { None } else { Some(crate::features::extract_file(&camera.files[t], feature_options)?) };
+            let f = if camera.keyframes[t].is_some() {
+                None
+            } else {
+                Some(crate::features::sift::extract_file(&camera.files[t], feature_options)?)
+            };
             progress(&label, done.fetch_add(1, Ordering::Relaxed) + 1, total);
             Ok(f)
         })
@@ -311,7 +316,7 @@ pub fn refine_camera(
     propagate(&mut point_at, &matches, &is_keyframe);
 
     let mut report = RefineReport::default();
-    let mut poses: Vec<Option<Pose>> = (0..n)
+    let mut poses: Vec<Option<Rigid3>> = (0..n)
         .map(|t| match &camera.keyframes[t] {
             Some(k) => Ok(Some(k.pose)),
             None => pnp(&camera.intrinsics, features[t], &point_at[t], camera.points_world, options.max_reprojection_px),
@@ -319,7 +324,7 @@ pub fn refine_camera(
         .collect::<SfmResult<Vec<_>>>()?;
     report.frames_with_pnp = (0..n).filter(|&t| !is_keyframe[t] && poses[t].is_some()).count();
     report.frames_interpolated = fill_missing(&mut poses);
-    let mut poses: Vec<Pose> = poses.into_iter().map(|p| p.unwrap_or_else(|| unreachable!())).collect();
+    let mut poses: Vec<Rigid3> = poses.into_iter().map(|p| p.unwrap_or_else(|| unreachable!())).collect();
     if is_keyframe.iter().all(|k| *k) {
         return Ok((poses, report));
     }
@@ -327,8 +332,9 @@ pub fn refine_camera(
     // Scale of the priors: one pixel at the median scene depth.
     let mut depths: Vec<f64> = Vec::new();
     for t in 0..n {
+        let pose = poses[t].matrices();
         for p in point_at[t].iter().flatten() {
-            let z = poses[t].to_camera(&camera.points_world[*p as usize]).z;
+            let z = pose.point_camera(&camera.points_world[*p as usize]).z;
             if z > 0.0 {
                 depths.push(z);
             }
@@ -337,7 +343,7 @@ pub fn refine_camera(
     depths.sort_by(f64::total_cmp);
     let depth = depths.get(depths.len() / 2).copied().unwrap_or(1.0);
     let observations_per_frame = point_at.iter().map(|v| v.iter().flatten().count()).sum::<usize>() as f64 / n as f64;
-    let focal = camera.intrinsics.focal_px;
+    let focal = camera.intrinsics.f;
     let scale = options.smoothness * observations_per_frame.max(1.0);
 
     for round in 0..2 {
@@ -346,8 +352,8 @@ pub fn refine_camera(
         used_points.dedup();
         let slot = |p: u32| used_points.binary_search(&p).unwrap_or_else(|_| unreachable!());
         let mut problem = dynview_ba::Problem {
-            cameras: vec![camera.intrinsics.into()],
-            images: poses.iter().map(|&p| p.into()).collect(),
+            cameras: vec![camera.intrinsics],
+            images: poses.clone(),
             image_camera: vec![0; n],
             image_fixed: is_keyframe.clone(),
             points_world: used_points.iter().map(|&p| camera.points_world[p as usize].into()).collect(),
@@ -360,12 +366,13 @@ pub fn refine_camera(
             if is_keyframe[t] {
                 continue;
             }
+            let pose = poses[t].matrices();
             for (f, p) in point_at[t].iter().enumerate() {
                 let Some(p) = p else { continue };
                 let xy = features[t].xy[f];
                 let pixel = Vector2::new(f64::from(xy[0]), f64::from(xy[1]));
                 if round > 0
-                    && reprojection_error_px(&camera.intrinsics, &poses[t], &camera.points_world[*p as usize], &pixel)
+                    && reprojection_error_px(&camera.intrinsics, &pose, &camera.points_world[*p as usize], &pixel)
                         > options.max_reprojection_px
                 {
                     continue;
@@ -400,7 +407,7 @@ pub fn refine_camera(
         report.observations = problem.observations.len();
         report.rms_px = solved.final_rms_px;
         for (t, p) in problem.images.iter().enumerate() {
-            poses[t] = (*p).into();
+            poses[t] = *p;
         }
     }
     // A solve that exploded somewhere is not kept there: those frames are placed between their
@@ -416,27 +423,28 @@ pub fn refine_camera(
 mod tests {
     use super::*;
 
-    fn at(x: f64) -> Pose {
-        Pose::from_angle_axis(Vector3::new(0.0, 0.01 * x, 0.0), Vector3::new(x, 0.0, 0.0))
+    fn at(x: f64) -> Rigid3 {
+        Rigid3::from_angle_axis_center(Vector3::new(0.0, 0.01 * x, 0.0), Vector3::new(x, 0.0, 0.0))
     }
 
     #[test]
     fn misplaced_frames_are_placed_between_their_neighbours_and_keyframes_kept() {
         // Keyframes 0 and 5; frame 2 exploded (100 px), frame 3 has no observations, frame 4
         // has a NaN error: the repair replaces 2 and 4, never a keyframe or frame 3.
-        let mut poses: Vec<Pose> = (0..6).map(|t| at(t as f64)).collect();
-        poses[2] = Pose::from_angle_axis(Vector3::new(2.0, 0.0, 0.0), Vector3::new(1e4, -3e3, 7.0));
-        poses[4].center_world.y = 50.0;
+        let mut poses: Vec<Rigid3> = (0..6).map(|t| at(t as f64)).collect();
+        poses[2] = Rigid3::from_angle_axis_center(Vector3::new(2.0, 0.0, 0.0), Vector3::new(1e4, -3e3, 7.0));
+        poses[4] = Rigid3::from_rotation_center(poses[4].rotation_matrix(), Vector3::new(4.0, 50.0, 0.0));
         let errors = [Some(300.0), Some(0.5), Some(100.0), None, Some(f64::NAN), Some(0.7)];
         let is_keyframe = [true, false, false, false, false, true];
         let expected_three = poses[3];
         assert_eq!(repair_misplaced(&mut poses, &errors, &is_keyframe, 16.0), 2);
-        let close = |a: &Pose, b: &Pose| (a.center_world - b.center_world).norm() < 1e-9 && (a.rotation - b.rotation).norm() < 1e-9;
+        let close =
+            |a: &Rigid3, b: &Rigid3| (a.center() - b.center()).norm() < 1e-9 && (a.rotation_matrix() - b.rotation_matrix()).norm() < 1e-9;
         assert!(close(&poses[0], &at(0.0)), "a keyframe is never replaced");
         assert!(close(&poses[3], &expected_three), "a frame without evidence is kept");
         // Frame 2 lies between frames 1 and 3, frame 4 between 3 and 5.
-        assert!(close(&poses[2], &at(2.0)), "{:?}", poses[2].center_world);
-        assert!(close(&poses[4], &at(4.0)), "{:?}", poses[4].center_world);
+        assert!(close(&poses[2], &at(2.0)), "{:?}", poses[2].center());
+        assert!(close(&poses[4], &at(4.0)), "{:?}", poses[4].center());
         // Nothing misplaced: nothing changes.
         let before = poses.clone();
         assert_eq!(repair_misplaced(&mut poses, &[Some(1.0); 6], &is_keyframe, 16.0), 0);

@@ -12,8 +12,10 @@ use opencv::calib3d;
 use opencv::core::{Mat, Point2d, Vector};
 use opencv::prelude::*;
 
+use dynview_camera::{Radial, Rigid3};
+
 use crate::error::{SfmError, SfmResult};
-use crate::geometry::{Intrinsics, Pose, reprojection_error_px};
+use crate::estimators::geometry::reprojection_error_px;
 
 /// View `b` relative to view `a`: `X_b = rotation X_a + translation`.
 pub(crate) struct RelativePose {
@@ -27,8 +29,8 @@ pub(crate) struct RelativePose {
 /// The pose of view `b` relative to view `a` from matched pixels; `None` when no essential
 /// matrix is found.
 pub(crate) fn relative_pose(
-    ka: &Intrinsics,
-    kb: &Intrinsics,
+    ka: &Radial,
+    kb: &Radial,
     pixels_a: &[Vector2<f64>],
     pixels_b: &[Vector2<f64>],
 ) -> SfmResult<Option<RelativePose>> {
@@ -39,7 +41,7 @@ pub(crate) fn relative_pose(
         return Ok(None);
     }
     let identity = Mat::eye(3, 3, opencv::core::CV_64F).and_then(|m| m.to_mat()).map_err(SfmError::cv("identity"))?;
-    let threshold = 1.0 / ka.focal_px.min(kb.focal_px);
+    let threshold = 1.0 / ka.f.min(kb.f);
     let mut mask = Mat::default();
     let e = calib3d::find_essential_mat(&pa, &pb, &identity, calib3d::USAC_MAGSAC, 0.9999, threshold, 10_000, &mut mask)
         .map_err(SfmError::cv("essential matrix of a pair"))?;
@@ -62,17 +64,17 @@ pub(crate) fn relative_pose(
 /// image) reproject within `max_px`: `(pose, inliers)`, or `None` when no positive length
 /// makes at least `min_inliers` agree.
 pub(crate) fn place_along(
-    k: &Intrinsics,
-    placed: &Pose,
+    k: &Radial,
+    placed: &Rigid3,
     relative: &RelativePose,
     correspondences: &[(Vector3<f64>, Vector2<f64>)],
     max_px: f64,
     min_inliers: usize,
-) -> Option<(Pose, usize)> {
+) -> Option<(Rigid3, usize)> {
     let (r, t) = (&relative.rotation, &relative.translation);
-    let rotation = r * placed.rotation;
-    let base = r * placed.translation();
-    let pose_at = |s: f64| Pose::from_rt(rotation, base + t * s);
+    let rotation = r * placed.rotation_matrix();
+    let base = r * placed.translation_vector();
+    let pose_at = |s: f64| Rigid3::from_rotation_translation(rotation, base + t * s);
     // Each correspondence's own length: least squares over its two projection equations.
     let candidates = correspondences.iter().filter_map(|(x, p)| {
         let u = k.normalized(*p);
@@ -83,7 +85,10 @@ pub(crate) fn place_along(
         let s = -(a0 * b0 + a1 * b1) / denominator;
         (denominator > 1e-12 && s.is_finite() && s > 0.0).then_some(s)
     });
-    let inliers = |pose: &Pose| correspondences.iter().filter(|(x, p)| reprojection_error_px(k, pose, x, p) <= max_px).count();
+    let inliers = |pose: &Rigid3| {
+        let pose = pose.matrices();
+        correspondences.iter().filter(|(x, p)| reprojection_error_px(k, &pose, x, p) <= max_px).count()
+    };
     let (s, count) = candidates.map(|s| (s, inliers(&pose_at(s)))).max_by(|a, b| a.1.cmp(&b.1).then(b.0.total_cmp(&a.0)))?;
     (count >= min_inliers).then(|| (pose_at(s), count))
 }
@@ -94,12 +99,12 @@ mod tests {
 
     #[test]
     fn a_pose_is_placed_at_the_length_its_points_agree_on() {
-        let k = Intrinsics::centred(500.0, 640, 480);
-        let placed = Pose::from_rt(Matrix3::identity(), Vector3::new(0.1, 0.0, 0.0));
+        let k = Radial::centred(500.0, 640, 480);
+        let placed = Rigid3::from_rotation_translation(Matrix3::identity(), Vector3::new(0.1, 0.0, 0.0));
         let angle = 0.2f64;
         let r = Matrix3::new(angle.cos(), 0.0, angle.sin(), 0.0, 1.0, 0.0, -angle.sin(), 0.0, angle.cos());
         let t = Vector3::new(-0.8, 0.1, 0.2).normalize();
-        let truth = Pose::from_rt(r * placed.rotation, r * placed.translation() + t * 1.7);
+        let truth = Rigid3::from_rotation_translation(r * placed.rotation_matrix(), r * placed.translation_vector() + t * 1.7);
         let points: Vec<Vector3<f64>> =
             (0..8).map(|i| Vector3::new(-0.5 + 0.15 * f64::from(i), 0.2 * f64::from(i % 3) - 0.2, 4.0 + 0.1 * f64::from(i))).collect();
         let mut correspondences: Vec<(Vector3<f64>, Vector2<f64>)> =
@@ -110,7 +115,7 @@ mod tests {
         let relative = RelativePose { rotation: r, translation: t, in_front: 0 };
         let (pose, inliers) = place_along(&k, &placed, &relative, &correspondences, 2.0, 5).unwrap();
         assert_eq!(inliers, 6);
-        assert!((pose.center_world - truth.center_world).norm() < 1e-9, "{:?} vs {:?}", pose.center_world, truth.center_world);
+        assert!((pose.center() - truth.center()).norm() < 1e-9, "{:?} vs {:?}", pose.center(), truth.center());
         // Too few agree: no placement.
         assert!(place_along(&k, &placed, &relative, &correspondences, 2.0, 7).is_none());
     }

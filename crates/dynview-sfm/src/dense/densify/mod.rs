@@ -22,7 +22,7 @@ mod view;
 use rayon::prelude::*;
 
 use crate::error::SfmResult;
-use crate::points::{TimestepCloud, TimestepView};
+use crate::mapping::points::{TimestepCloud, TimestepView};
 
 /// How a time step's sparse cloud is densified. The defaults are tuned on the synthetic event with
 /// 6 views of 960x540: about 0.7 s per time step on two cores (1.4 s of CPU), median depth error

@@ -15,15 +15,15 @@
 use std::sync::atomic::AtomicBool;
 
 use dynview_ba::HeldIntrinsics;
+use dynview_camera::{Radial, Rigid3};
 use dynview_core::StageProgress;
 use nalgebra::{Rotation3, Vector3};
 
 use crate::error::{SfmError, SfmResult};
-use crate::features::FeatureOptions;
-use crate::geometry::{Intrinsics, Pose};
-use crate::incremental::{MapperOptions, PRINCIPAL_POINT_PRIOR_FRACTION, longer_side_px, solve_final};
-use crate::input::{EventFrames, read_bgr};
-use crate::points::{PointOptions, TimestepView, timestep_tracks};
+use crate::features::sift::FeatureOptions;
+use crate::input::frames::{EventFrames, read_bgr};
+use crate::mapping::incremental::{MapperOptions, PRINCIPAL_POINT_PRIOR_FRACTION, longer_side_px, solve_final};
+use crate::mapping::points::{PointOptions, TimestepView, timestep_tracks};
 
 /// Default number of sampled time steps.
 pub const DEFAULT_SAMPLES: usize = 24;
@@ -77,7 +77,7 @@ pub struct StepCameras<'a> {
     /// Per camera, its intrinsics set (cameras sharing intrinsics share a set).
     pub group: &'a [usize],
     /// Per intrinsics set, its intrinsics after the keyframe reconstruction.
-    pub intrinsics: Vec<Intrinsics>,
+    pub intrinsics: Vec<Radial>,
     /// Per intrinsics set, what the user gave.
     pub held: Vec<HeldIntrinsics>,
     /// Per camera, whether it stands still (one pose for all its frames).
@@ -99,13 +99,13 @@ pub struct StepCameras<'a> {
 /// rotation median from 0.551 to 0.649 degrees).
 pub fn adjust_with_steps(
     cameras: &StepCameras,
-    poses: &mut [Vec<Pose>],
+    poses: &mut [Vec<Rigid3>],
     options: &StepAdjustOptions,
     features: &FeatureOptions,
     mapper: &MapperOptions,
     progress: StageProgress,
     interrupt: &AtomicBool,
-) -> SfmResult<Option<(Vec<Intrinsics>, StepAdjustReport)>> {
+) -> SfmResult<Option<(Vec<Radial>, StepAdjustReport)>> {
     let posed: Vec<usize> = (0..poses.len()).filter(|&c| !poses[c].is_empty()).collect();
     let frames_count = posed.iter().map(|&c| poses[c].len()).min().unwrap_or(0);
     let moving = posed.iter().any(|&c| cameras.still.get(c) != Some(&true));
@@ -115,11 +115,8 @@ pub fn adjust_with_steps(
     let steps = sample_steps(frames_count, options.samples);
     // One image per sampled frame; a still camera has one image for all.
     let mut image_of = vec![vec![usize::MAX; steps.len()]; poses.len()];
-    let mut problem = dynview_ba::Problem {
-        cameras: cameras.intrinsics.iter().map(|&k| k.into()).collect(),
-        held_intrinsics: cameras.held.clone(),
-        ..Default::default()
-    };
+    let mut problem =
+        dynview_ba::Problem { cameras: cameras.intrinsics.clone(), held_intrinsics: cameras.held.clone(), ..Default::default() };
     for &c in &posed {
         for (s, &t) in steps.iter().enumerate() {
             if cameras.still.get(c) == Some(&true) && s > 0 {
@@ -127,8 +124,7 @@ pub fn adjust_with_steps(
                 continue;
             }
             image_of[c][s] = problem.images.len();
-            let p = poses[c][t];
-            problem.images.push(p.into());
+            problem.images.push(poses[c][t]);
             problem.image_camera.push(cameras.group[c]);
             problem.image_fixed.push(false);
         }
@@ -169,14 +165,14 @@ pub fn adjust_with_steps(
     };
     let prior_px: Vec<f64> = cameras.intrinsics.iter().map(|k| PRINCIPAL_POINT_PRIOR_FRACTION * longer_side_px(k)).collect();
     let solved = solve_final(&mut problem, ba, mapper.refine_principal_point && cameras.principal_points_fixed, &prior_px)?;
-    let adjusted: Vec<Intrinsics> = problem.cameras.iter().map(|&k| k.into()).collect();
+    let adjusted: Vec<Radial> = problem.cameras.clone();
     for &c in &posed {
         let corrections: Vec<(usize, Correction)> = steps
             .iter()
             .enumerate()
             .map(|(s, &t)| {
                 let image = &problem.images[image_of[c][s]];
-                (t, Correction::between(&poses[c][t], &Pose::from(*image)))
+                (t, Correction::between(&poses[c][t], image))
             })
             .collect();
         let line = CorrectionLine::fit(&corrections);
@@ -190,12 +186,12 @@ pub fn adjust_with_steps(
         rms_px: [solved.report.initial_rms_px, solved.report.final_rms_px],
         iterations: solved.report.iterations,
         termination: format!("{:?}", solved.report.termination),
-        focal_px: (0..poses.len()).map(|c| adjusted[cameras.group[c]].focal_px).collect(),
+        focal_px: (0..poses.len()).map(|c| adjusted[cameras.group[c]].f).collect(),
         focal_change_percent: (0..poses.len())
-            .map(|c| 100.0 * (adjusted[cameras.group[c]].focal_px / cameras.intrinsics[cameras.group[c]].focal_px - 1.0))
+            .map(|c| 100.0 * (adjusted[cameras.group[c]].f / cameras.intrinsics[cameras.group[c]].f - 1.0))
             .collect(),
         focal_std_percent: (0..poses.len())
-            .map(|c| solved.std.get(cameras.group[c]).and_then(|s| s.focal_px).map(|s| 100.0 * s / adjusted[cameras.group[c]].focal_px))
+            .map(|c| solved.std.get(cameras.group[c]).and_then(|s| s.focal_px).map(|s| 100.0 * s / adjusted[cameras.group[c]].f))
             .collect(),
         principal_point_std_px: (0..poses.len()).map(|c| solved.principal_point_std_px.get(cameras.group[c]).copied().flatten()).collect(),
         principal_point_refined: solved.principal_point_refined,
@@ -226,13 +222,16 @@ struct Correction {
 }
 
 impl Correction {
-    fn between(old: &Pose, new: &Pose) -> Self {
-        let turn = Rotation3::from_matrix_unchecked(new.rotation * old.rotation.transpose()).scaled_axis();
-        Self { turn, shift: new.center_world - old.center_world }
+    fn between(old: &Rigid3, new: &Rigid3) -> Self {
+        let turn = Rotation3::from_matrix_unchecked(new.rotation_matrix() * old.rotation_matrix().transpose()).scaled_axis();
+        Self { turn, shift: new.center() - old.center() }
     }
 
-    fn apply(&self, pose: &Pose) -> Pose {
-        Pose { rotation: Rotation3::from_scaled_axis(self.turn).into_inner() * pose.rotation, center_world: pose.center_world + self.shift }
+    fn apply(&self, pose: &Rigid3) -> Rigid3 {
+        Rigid3::from_rotation_center(
+            Rotation3::from_scaled_axis(self.turn).into_inner() * pose.rotation_matrix(),
+            pose.center() + self.shift,
+        )
     }
 }
 
@@ -287,7 +286,7 @@ mod tests {
 
     #[test]
     fn a_cameras_path_moves_by_a_line_in_time_through_its_corrections() {
-        let old = Pose::from_angle_axis(Vector3::new(0.1, -0.2, 0.05), Vector3::new(1.0, 2.0, 3.0));
+        let old = Rigid3::from_angle_axis_center(Vector3::new(0.1, -0.2, 0.05), Vector3::new(1.0, 2.0, 3.0));
         let correction = |angle: f64, shift: f64| Correction { turn: Vector3::new(0.0, angle, 0.0), shift: Vector3::new(shift, 0.0, 0.0) };
         // On a line: reproduced at every frame, samples or not.
         let line = CorrectionLine::fit(&[(2, correction(0.01, 0.1)), (6, correction(0.03, 0.5)), (10, correction(0.05, 0.9))]);
@@ -308,9 +307,9 @@ mod tests {
         assert_eq!(still.at(40), correction(0.02, 0.3));
         // Applied: the turn before the pose, the shift to the centre.
         let moved = correction(0.02, 0.3).apply(&old);
-        let want = Rotation3::from_scaled_axis(Vector3::new(0.0, 0.02, 0.0)).into_inner() * old.rotation;
+        let want = Rotation3::from_scaled_axis(Vector3::new(0.0, 0.02, 0.0)).into_inner() * old.rotation_matrix();
         assert!(
-            (moved.rotation - want).norm() < 1e-12 && (moved.center_world - old.center_world - Vector3::new(0.3, 0.0, 0.0)).norm() < 1e-12
+            (moved.rotation_matrix() - want).norm() < 1e-12 && (moved.center() - old.center() - Vector3::new(0.3, 0.0, 0.0)).norm() < 1e-12
         );
     }
 }

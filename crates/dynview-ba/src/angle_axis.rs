@@ -1,5 +1,6 @@
-//! Angle-axis rotations and the exact derivative of a rotated point with respect to the
-//! angle-axis vector.
+//! The optimiser's rotation parameter: angle-axis rotations (Rodrigues) and the exact
+//! derivative of a rotated point with respect to the angle-axis vector (the right Jacobian of
+//! SO(3)).
 //!
 //! With `a` the angle-axis vector, `theta = |a|` and `[a]x` its cross-product matrix:
 //! `R(a) = I + sin(theta)/theta [a]x + (1 - cos(theta))/theta^2 [a]x^2` (Rodrigues) and the

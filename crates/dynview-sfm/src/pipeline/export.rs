@@ -11,9 +11,11 @@ use dynview_core::scene::manifest::{FORMAT_NAME, FORMAT_VERSION};
 use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, SceneWriter, StartView};
 use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
+use crate::dense::static_cloud::{StaticCloud, StaticOptions, build_static_cloud, candidate_steps};
 use crate::error::{SfmError, SfmResult};
-use crate::static_cloud::{StaticCloud, StaticOptions, build_static_cloud, candidate_steps};
-use crate::timesteps::{SETTINGS_FILE, StepSettings, cloud_path, frame_path, is_step_done, read_cloud, resized_intrinsics, working_size};
+use crate::pipeline::timesteps::{
+    SETTINGS_FILE, StepSettings, cloud_path, frame_path, is_step_done, read_cloud, resized_intrinsics, working_size,
+};
 use crate::work::WorkDir;
 
 /// Share of points cut at each end of each axis when the quantisation box is chosen, so that a
@@ -140,7 +142,7 @@ fn open_source(root: &Path) -> SfmResult<Source> {
 /// Writes the scene package `scene_dir` (named `name`) from the prepared steps of `sources`
 /// (prep output folders of one event: equal `poses.json` and step settings, every time step
 /// prepared in at least one of them). With `statics`, static points accumulated across time
-/// ([`crate::static_cloud`]) are lent to every step where they agree with its frames.
+/// ([`crate::dense::static_cloud`]) are lent to every step where they agree with its frames.
 pub fn export_package(
     sources: &[PathBuf],
     scene_dir: &Path,
@@ -355,7 +357,7 @@ fn choose_bounds(source_of: &[&Source], event: &EventPoses) -> SfmResult<Bounds>
     let mut total = 0;
     for (t, s) in source_of.iter().enumerate() {
         let path = cloud_path(&s.work, t);
-        total += crate::timesteps::cloud_point_count(std::fs::metadata(&path).map_err(SfmError::io(&path))?.len());
+        total += crate::pipeline::timesteps::cloud_point_count(std::fs::metadata(&path).map_err(SfmError::io(&path))?.len());
     }
     let stride = total.div_ceil(BOUNDS_SAMPLES).max(1);
     let mut axes: [Vec<f32>; 3] = Default::default();
