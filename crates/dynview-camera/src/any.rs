@@ -79,7 +79,7 @@ impl Camera {
         with_model!(self, m => m.normalized_from_pixel(pixel))
     }
 
-    /// See [`Model::to_opencv`].
+    /// The same camera as an [`OpenCv`] model (every model here is a special case of it).
     pub fn to_opencv(&self) -> OpenCv {
         with_model!(self, m => m.to_opencv())
     }

@@ -7,7 +7,8 @@
 //! `y' = y + y radial + 2 p2 x y + p1 (r2 + 2 y^2)`,
 //! `u = fx x' + cx`, `v = fy y' + cy`.
 
-use crate::{CameraModel, Model, Pinhole, UNDISTORT_ITERATIONS, params_array};
+use crate::model::{Model, UNDISTORT_ITERATIONS, params_array};
+use crate::{CameraModel, Pinhole, Radial, SimplePinhole, SimpleRadial};
 
 /// OpenCV's distortion coefficients `k1, k2, p1, p2` (all zero: no distortion), acting on
 /// normalized coordinates.
@@ -111,8 +112,45 @@ impl Model for OpenCv {
     fn normalized_from_pixel(&self, pixel: [f64; 2]) -> [f64; 2] {
         self.undistort(self.pinhole.normalized_from_pixel(pixel))
     }
+}
 
-    fn to_opencv(&self) -> OpenCv {
+// Every model is a special case of OpenCV's; the conversions live here, beside the type they
+// make, so that the models themselves need not know it.
+
+impl OpenCv {
+    /// The model itself (every camera model has `to_opencv`).
+    pub fn to_opencv(&self) -> OpenCv {
         *self
+    }
+}
+
+impl Pinhole {
+    /// The same camera as an [`OpenCv`] model, without distortion.
+    pub fn to_opencv(&self) -> OpenCv {
+        OpenCv { pinhole: *self, distortion: OpenCvDistortion::default() }
+    }
+}
+
+impl SimplePinhole {
+    /// The same camera as an [`OpenCv`] model, without distortion.
+    pub fn to_opencv(&self) -> OpenCv {
+        self.to_pinhole().to_opencv()
+    }
+}
+
+impl Radial {
+    /// The same camera as an [`OpenCv`] model (its `k1`, `k2`; no tangential terms).
+    pub fn to_opencv(&self) -> OpenCv {
+        OpenCv {
+            pinhole: Pinhole { fx: self.f, fy: self.f, cx: self.cx, cy: self.cy },
+            distortion: OpenCvDistortion { k1: self.k1, k2: self.k2, ..OpenCvDistortion::default() },
+        }
+    }
+}
+
+impl SimpleRadial {
+    /// The same camera as an [`OpenCv`] model (its `k` as `k1`).
+    pub fn to_opencv(&self) -> OpenCv {
+        self.as_radial().to_opencv()
     }
 }

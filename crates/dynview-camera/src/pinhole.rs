@@ -2,7 +2,8 @@
 //!
 //! `u = fx x + cx`, `v = fy y + cy` for the normalized point `(x, y) = (X/Z, Y/Z)`.
 
-use crate::{CameraModel, Model, OpenCv, OpenCvDistortion, params_array};
+use crate::CameraModel;
+use crate::model::{Model, params_array};
 
 /// The pinhole model in pixels. Parameter order `fx, fy, cx, cy`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -69,9 +70,5 @@ impl Model for Pinhole {
     #[inline]
     fn normalized_from_pixel(&self, pixel: [f64; 2]) -> [f64; 2] {
         [(pixel[0] - self.cx) / self.fx, (pixel[1] - self.cy) / self.fy]
-    }
-
-    fn to_opencv(&self) -> OpenCv {
-        OpenCv { pinhole: *self, distortion: OpenCvDistortion::default() }
     }
 }

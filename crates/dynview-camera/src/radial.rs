@@ -5,7 +5,8 @@
 //! For the normalized point `(x, y) = (X/Z, Y/Z)` and `r2 = x^2 + y^2`:
 //! `d = 1 + k1 r2 + k2 r2^2`, `u = f d x + cx`, `v = f d y + cy`.
 
-use crate::{CameraModel, Model, OpenCv, OpenCvDistortion, Pinhole, params_array, undistort_radial};
+use crate::model::{Model, params_array, undistort_radial};
+use crate::{CameraModel, Pinhole};
 
 /// Number of parameters of the model, `f, cx, cy, k1, k2`.
 pub const PARAM_COUNT: usize = 5;
@@ -115,12 +116,5 @@ impl Model for Radial {
 
     fn normalized_from_pixel(&self, pixel: [f64; 2]) -> [f64; 2] {
         self.undistort([(pixel[0] - self.cx) / self.f, (pixel[1] - self.cy) / self.f])
-    }
-
-    fn to_opencv(&self) -> OpenCv {
-        OpenCv {
-            pinhole: Pinhole { fx: self.f, fy: self.f, cx: self.cx, cy: self.cy },
-            distortion: OpenCvDistortion { k1: self.k1, k2: self.k2, ..OpenCvDistortion::default() },
-        }
     }
 }

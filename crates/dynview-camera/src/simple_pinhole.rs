@@ -2,7 +2,8 @@
 //!
 //! `u = f x + cx`, `v = f y + cy` for the normalized point `(x, y) = (X/Z, Y/Z)`.
 
-use crate::{CameraModel, Model, OpenCv, Pinhole, params_array};
+use crate::model::{Model, params_array};
+use crate::{CameraModel, Pinhole};
 
 /// The pinhole model with equal focal lengths. Parameter order `f, cx, cy`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -48,9 +49,5 @@ impl Model for SimplePinhole {
 
     fn normalized_from_pixel(&self, pixel: [f64; 2]) -> [f64; 2] {
         self.to_pinhole().normalized_from_pixel(pixel)
-    }
-
-    fn to_opencv(&self) -> OpenCv {
-        self.to_pinhole().to_opencv()
     }
 }

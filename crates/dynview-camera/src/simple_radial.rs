@@ -3,7 +3,8 @@
 //! For the normalized point `(x, y) = (X/Z, Y/Z)` and `r2 = x^2 + y^2`:
 //! `d = 1 + k r2`, `u = f d x + cx`, `v = f d y + cy`.
 
-use crate::{CameraModel, Model, OpenCv, Radial, params_array};
+use crate::model::{Model, params_array};
+use crate::{CameraModel, Radial};
 
 /// The pinhole model with one radial distortion term. Parameter order `f, cx, cy, k`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -21,7 +22,7 @@ pub struct SimpleRadial {
 impl SimpleRadial {
     /// The same camera as `RADIAL` with `k2 = 0`, whose formulas it shares (`0 * r2^2` adds
     /// exactly zero, so the results are bit for bit those of `1 + k r2`).
-    fn as_radial(&self) -> Radial {
+    pub(crate) fn as_radial(&self) -> Radial {
         Radial { f: self.f, cx: self.cx, cy: self.cy, k1: self.k, k2: 0.0 }
     }
 }
@@ -52,9 +53,5 @@ impl Model for SimpleRadial {
 
     fn normalized_from_pixel(&self, pixel: [f64; 2]) -> [f64; 2] {
         self.as_radial().normalized_from_pixel(pixel)
-    }
-
-    fn to_opencv(&self) -> OpenCv {
-        self.as_radial().to_opencv()
     }
 }

@@ -22,11 +22,3 @@ pub mod datasets;
 pub mod eval;
 pub mod paths;
 pub mod runs;
-
-/// COLMAP text models as poses (formerly `sfm_data`; the path `dynview-sfm`'s tests use).
-pub use datasets::colmap_models as sfm_data;
-/// The SfM benchmark's datasets (formerly `sfm_datasets`; the path `dynview-sfm`'s tests use).
-pub use datasets::sfm as sfm_datasets;
-/// The SfM benchmark's reconstructions (formerly `sfm_runners`; the path `dynview-sfm`'s tests
-/// use).
-pub use runs::sfm as sfm_runners;

@@ -7,9 +7,9 @@
 use std::sync::atomic::AtomicBool;
 
 use dynview_eval::align::{PoseEvalOptions, evaluate_poses};
-use dynview_eval::sfm_data::{poses_from_colmap, read_colmap_text};
-use dynview_eval::sfm_datasets::prepare;
-use dynview_eval::sfm_runners::OURS_MODEL_DIR;
+use dynview_eval::datasets::colmap_models::{poses_from_colmap, read_colmap_text};
+use dynview_eval::datasets::sfm::prepare;
+use dynview_eval::runs::sfm::OURS_MODEL_DIR;
 use dynview_sfm::{PrepOptions, Stage, run};
 
 #[test]

@@ -6,9 +6,9 @@
 use std::sync::atomic::AtomicBool;
 
 use dynview_eval::align::{PoseEvalOptions, evaluate_poses};
-use dynview_eval::sfm_data::{poses_from_colmap, read_colmap_text};
-use dynview_eval::sfm_datasets::prepare;
-use dynview_eval::sfm_runners::OURS_MODEL_DIR;
+use dynview_eval::datasets::colmap_models::{poses_from_colmap, read_colmap_text};
+use dynview_eval::datasets::sfm::prepare;
+use dynview_eval::runs::sfm::OURS_MODEL_DIR;
 use dynview_interchange::poses::{CameraPoses, EventPoses, FramePose};
 use dynview_sfm::{PrepOptions, Stage, run};
 
@@ -79,7 +79,7 @@ fn every_view_of_the_ring_as_its_own_camera_is_registered() {
     let files = ring_views(&dataset.images_dir);
     let input = dir.path().join("cameras");
     let names = one_frame_cameras(&files.iter().collect::<Vec<_>>(), &input, |i| format!("cam{i:02}"));
-    let mut truth = dynview_eval::sfm_data::Poses::new();
+    let mut truth = dynview_eval::datasets::colmap_models::Poses::new();
     for (file, camera) in files.iter().zip(&names) {
         let name = file.strip_prefix(&dataset.images_dir).expect("inside the dataset").to_string_lossy().replace('\\', "/");
         truth.insert(format!("{camera}/00000.png"), dataset.ground_truth[&name]);

@@ -9,7 +9,7 @@ use std::sync::atomic::AtomicBool;
 use nalgebra::Vector3;
 use serde::Serialize;
 
-use dynview_camera::{Model, Radial, Rigid3};
+use dynview_camera::{Radial, Rigid3};
 use dynview_core::StageProgress;
 use dynview_core::scene::manifest::PoseEntry;
 use dynview_interchange::poses::{CameraPoses, EventPoses, FramePose, POSES_FILE};

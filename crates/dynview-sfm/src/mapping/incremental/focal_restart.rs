@@ -11,7 +11,7 @@
 
 use dynview_camera::Radial;
 
-use super::{Mapper, longer_side_px, median_focal_factor};
+use super::{FocalRestart, Mapper, longer_side_px, median_focal_factor};
 use crate::error::SfmResult;
 
 /// How far (as a fraction) a camera's focal may lie from the median of the other cameras'
@@ -20,20 +20,6 @@ use crate::error::SfmResult;
 /// whom to try, and the cost decides; each try is a bundle adjustment of the whole model (at
 /// 10%, arc12x60's 36 keyframes took 14.2 s instead of 7.5 to come back to the same optimum).
 const OUTLYING_FOCAL_FRACTION: f64 = 0.2;
-
-/// A camera whose focal length, solved again from the others' median, fit better and ended
-/// more than 2% (`MOVED_FOCAL_FRACTION`) from where it had settled.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct FocalRestart {
-    /// The intrinsics set.
-    pub camera: usize,
-    /// Where its focal length had settled (px).
-    pub settled_px: f64,
-    /// The start it was solved from: the other cameras' median (px).
-    pub restarted_px: f64,
-    /// The adjustment's cost from where it had settled and from the restart.
-    pub cost: [f64; 2],
-}
 
 /// How far (as a fraction) a restarted focal length must end from where it had settled for
 /// the restart to count as a different solution (and be reported): restarts that return to the
