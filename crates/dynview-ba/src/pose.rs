@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 
 /// One image's pose as the optimiser's unknowns.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct ImagePose {
+pub(crate) struct PoseParameters {
     /// `camera_from_world` rotation as an angle-axis vector: direction is the axis, norm the
     /// angle in radians.
     pub angle_axis: [f64; 3],
@@ -16,7 +16,7 @@ pub(crate) struct ImagePose {
     pub center_world: [f64; 3],
 }
 
-impl ImagePose {
+impl PoseParameters {
     /// The parameters of a `camera_from_world` pose.
     pub(crate) fn from_rigid(camera_from_world: &Rigid3) -> Self {
         Self { angle_axis: camera_from_world.angle_axis().into(), center_world: camera_from_world.center().into() }

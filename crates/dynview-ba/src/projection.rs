@@ -6,7 +6,7 @@ use dynview_camera::{Model, Radial, Rigid3};
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, SMatrix, Vector2, Vector3};
 
 use crate::angle_axis::{right_jacobian, rotation_from_angle_axis};
-use crate::pose::ImagePose;
+use crate::pose::PoseParameters;
 use crate::problem::Problem;
 
 /// Number of intrinsic parameters, in the `RADIAL` model's order `[f, cx, cy, k1, k2]`.
@@ -22,7 +22,7 @@ pub(crate) struct ImageFrame {
 
 impl ImageFrame {
     /// Precomputes the rotation and its right Jacobian.
-    pub(crate) fn new(pose: &ImagePose) -> Self {
+    pub(crate) fn new(pose: &PoseParameters) -> Self {
         let angle_axis = Vector3::from(pose.angle_axis);
         let camera_from_world = rotation_from_angle_axis(&angle_axis);
         Self {
@@ -50,14 +50,14 @@ pub(crate) fn pixel_from_camera(camera: &Radial, point_camera: &Vector3<f64>) ->
 /// Projects a world point into an image as the solver does (through the pose's angle-axis
 /// parameters); `None` when the point is not in front of the camera.
 pub fn pixel_from_world(camera: &Radial, camera_from_world: &Rigid3, point_world: &[f64; 3]) -> Option<[f64; 2]> {
-    let point_camera = ImageFrame::new(&ImagePose::from_rigid(camera_from_world)).point_camera(&Vector3::from(*point_world));
+    let point_camera = ImageFrame::new(&PoseParameters::from_rigid(camera_from_world)).point_camera(&Vector3::from(*point_world));
     pixel_from_camera(camera, &point_camera).map(|pixel| [pixel.x, pixel.y])
 }
 
 /// Per observation, the Euclidean reprojection error in pixels; `f64::INFINITY` when the point
 /// is not in front of the camera and `f64::NAN` when the observation's indices are out of range.
 pub fn reprojection_errors_px(problem: &Problem) -> Vec<f64> {
-    let frames: Vec<ImageFrame> = problem.images.iter().map(|pose| ImageFrame::new(&ImagePose::from_rigid(pose))).collect();
+    let frames: Vec<ImageFrame> = problem.images.iter().map(|pose| ImageFrame::new(&PoseParameters::from_rigid(pose))).collect();
     problem
         .observations
         .iter()
@@ -124,8 +124,8 @@ mod tests {
 
     /// The pose, point and camera of one observation's parameters flattened as
     /// `[angle_axis(3), center(3), point(3), intrinsics(5)]`.
-    fn unpack(parameters: &[f64; 14]) -> (ImagePose, Vector3<f64>, Radial) {
-        let pose = ImagePose {
+    fn unpack(parameters: &[f64; 14]) -> (PoseParameters, Vector3<f64>, Radial) {
+        let pose = PoseParameters {
             angle_axis: [parameters[0], parameters[1], parameters[2]],
             center_world: [parameters[3], parameters[4], parameters[5]],
         };
@@ -179,7 +179,7 @@ mod tests {
     fn jacobians_match_central_differences_for_a_point_at_the_far_side() {
         // A rotation of nearly pi about y looks back at the origin from +z.
         let parameters = [0.0, 3.0, 0.0, 0.2, -0.1, 5.0, 0.3, 0.1, 0.5, 900.0, 400.0, 300.0, -0.1, 0.01];
-        let pose = ImagePose { angle_axis: [0.0, 3.0, 0.0], center_world: [0.2, -0.1, 5.0] };
+        let pose = PoseParameters { angle_axis: [0.0, 3.0, 0.0], center_world: [0.2, -0.1, 5.0] };
         let camera = Radial { f: 900.0, cx: 400.0, cy: 300.0, k1: -0.1, k2: 0.01 };
         assert!(pixel_from_world(&camera, &pose.to_rigid(), &[0.3, 0.1, 0.5]).is_some());
         check(parameters);
@@ -188,7 +188,7 @@ mod tests {
     #[test]
     fn projection_follows_the_documented_model() {
         let camera = Radial { f: 500.0, cx: 320.0, cy: 240.0, k1: 0.1, k2: 0.01 };
-        let pose = ImagePose { angle_axis: [0.0; 3], center_world: [0.0, 0.0, -2.0] }.to_rigid();
+        let pose = PoseParameters { angle_axis: [0.0; 3], center_world: [0.0, 0.0, -2.0] }.to_rigid();
         let pixel = pixel_from_world(&camera, &pose, &[0.2, -0.4, 2.0]).expect("in front");
         let (x, y) = (0.2 / 4.0, -0.4 / 4.0);
         let r2: f64 = x * x + y * y;

@@ -14,7 +14,7 @@ use nalgebra::{Vector2, Vector3};
 use super::block_cholesky::{BlockPattern, BlockSlot};
 use super::ordering::BlockGraph;
 use crate::options::Options;
-use crate::pose::ImagePose;
+use crate::pose::PoseParameters;
 use crate::problem::Problem;
 use crate::projection::{ImageFrame, pixel_from_camera};
 
@@ -115,7 +115,7 @@ impl Layout {
             .collect();
 
         // Observations whose point is in front of the camera at the start.
-        let frames: Vec<ImageFrame> = problem.images.iter().map(|pose| ImageFrame::new(&ImagePose::from_rigid(pose))).collect();
+        let frames: Vec<ImageFrame> = problem.images.iter().map(|pose| ImageFrame::new(&PoseParameters::from_rigid(pose))).collect();
         let used: Vec<bool> = problem
             .observations
             .iter()

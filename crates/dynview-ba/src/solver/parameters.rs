@@ -4,7 +4,7 @@ use dynview_camera::Radial;
 use nalgebra::Vector3;
 
 use super::layout::{Layout, NodeKind};
-use crate::pose::ImagePose;
+use crate::pose::PoseParameters;
 use crate::problem::Problem;
 
 /// A copy of the problem's optimisable values.
@@ -13,7 +13,7 @@ pub(crate) struct Parameters {
     /// Camera intrinsics.
     pub cameras: Vec<Radial>,
     /// Image poses, as the optimiser parametrises them.
-    pub images: Vec<ImagePose>,
+    pub images: Vec<PoseParameters>,
     /// Points in world coordinates.
     pub points_world: Vec<[f64; 3]>,
 }
@@ -34,7 +34,7 @@ impl Parameters {
     pub(crate) fn from_problem(problem: &Problem) -> Self {
         Self {
             cameras: problem.cameras.clone(),
-            images: problem.images.iter().map(ImagePose::from_rigid).collect(),
+            images: problem.images.iter().map(PoseParameters::from_rigid).collect(),
             points_world: problem.points_world.clone(),
         }
     }
@@ -45,7 +45,7 @@ impl Parameters {
     pub(crate) fn write_to(self, problem: &mut Problem) {
         problem.cameras = self.cameras;
         for (pose, parameters) in problem.images.iter_mut().zip(self.images) {
-            if parameters != ImagePose::from_rigid(pose) {
+            if parameters != PoseParameters::from_rigid(pose) {
                 *pose = parameters.to_rigid();
             }
         }

@@ -12,7 +12,7 @@ use crate::loss::Loss;
 use crate::options::Options;
 use dynview_camera::{Radial, Rigid3};
 
-use crate::pose::ImagePose;
+use crate::pose::PoseParameters;
 use crate::problem::{Observation, Problem, SmoothnessPrior};
 use crate::projection::{ImageFrame, pixel_from_camera, pixel_from_world};
 
@@ -28,7 +28,8 @@ fn small_problem() -> Problem {
     let images: Vec<Rigid3> = (0..5)
         .map(|i| {
             let t = i as f64;
-            ImagePose { angle_axis: [0.02 * t, -0.1 + 0.05 * t, 0.01], center_world: [0.4 * t - 0.8, 0.1 * t, -5.0 + 0.05 * t] }.to_rigid()
+            PoseParameters { angle_axis: [0.02 * t, -0.1 + 0.05 * t, 0.01], center_world: [0.4 * t - 0.8, 0.1 * t, -5.0 + 0.05 * t] }
+                .to_rigid()
         })
         .collect();
     let points_world: Vec<[f64; 3]> = (0..12)
