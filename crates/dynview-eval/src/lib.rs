@@ -5,7 +5,7 @@
 //! - [`paths`] and [`align`] (similarity alignment and the pose accuracy of a reconstruction):
 //!   shared helpers;
 //! - [`datasets`]: the synthetic layouts, the SfM benchmark's datasets and the real captures
-//!   (Panoptic's arc and Pose2Sim's lab), with their ground truth;
+//!   (Panoptic's two arcs and Pose2Sim's lab), with their ground truth;
 //! - [`runs`]: running `dynview prep`, our SfM and COLMAP, and reading what they wrote;
 //! - [`eval`]: render quality of every method on the synthetic event's held-out cameras (from
 //!   the ground-truth package and through the whole `dynview prep`) and leave-one-camera-out on

@@ -17,7 +17,8 @@ enum Command {
     /// Quality of the renderer and its baselines on the synthetic event's held-out cameras,
     /// from the ground-truth package and through the full pipeline (`docs/results/eval.md`).
     Eval(eval::scoring::Options),
-    /// Leave-one-camera-out on the real captures, Panoptic's arc and Pose2Sim's lab
+    /// Leave-one-camera-out on the real captures, Panoptic's two arcs and Pose2Sim's lab,
+    /// scored raw and colour-corrected, over whole frames and their static and moving pixels
     /// (`docs/results/real.md`).
     EvalReal(eval::real::Options),
     /// Milliseconds per frame of the full method (at 480x270, 960x540 and 1920x1080 unless

@@ -14,6 +14,9 @@ use crate::paths::{command_line as describe, shared_data};
 /// nearly full size; 540 gives 540x953 frames).
 pub const WORKING_WIDTH_PX: u32 = 540;
 
+/// Frames of every camera's video.
+pub const FRAMES: u32 = 100;
+
 /// The capture's folder.
 pub fn source_dir() -> PathBuf {
     shared_data().join("pose2sim-multiperson")

@@ -267,8 +267,9 @@ fn pose2sim(images_dir: &Path) -> anyhow::Result<(Poses, CameraIntrinsics)> {
 }
 
 fn panoptic(images_dir: &Path) -> anyhow::Result<(Poses, CameraIntrinsics)> {
-    let calibration = crate::datasets::panoptic::calibration(None)?;
-    let source = crate::datasets::panoptic::source_dir().join("cams");
+    let arc = crate::datasets::panoptic::PanopticArc::First;
+    let calibration = crate::datasets::panoptic::calibration(arc, None)?;
+    let source = arc.source_dir().join("cams");
     make_once(images_dir, |out| {
         for camera in &calibration.cameras {
             for frame in PANOPTIC_FRAMES {

@@ -1,20 +1,24 @@
-//! `cargo xtask eval --real`: leave-one-camera-out on the real captures ([`RealCapture`]). For
-//! each camera k left out, `dynview prep` runs on the others (calibrated poses, the first frames),
-//! and camera k's view is rendered at every time step with the full method and the baselines,
-//! and compared with camera k's real frame; the floor is the nearest input camera's own frame
-//! shown as is (what a viewer would show without any synthesis).
+//! `cargo xtask eval --real`: leave-one-camera-out on the real captures ([`RealCapture`]: two
+//! Panoptic arcs and Pose2Sim). For each camera k left out, `dynview prep` runs on the others
+//! (calibrated poses, all frames unless told), and camera k's view is rendered at every time
+//! step with the full method and the baselines, and compared with camera k's real frame; the
+//! floor is the nearest input camera's own frame shown as is (what a viewer would show without
+//! any synthesis). The measures, raw and colour-corrected, over the whole frame and over its
+//! static and moving pixels, are in [`scores`]; the report's text in [`report`].
 //!
 //! Camera k's intrinsics, pose and reference frames come from a package prepared the same way
 //! with all cameras: same working size, same undistortion, same (calibrated) world, so no
 //! alignment is needed. Results in `docs/results/real.md` and `real_strip_<capture>_<camera>.png`.
 
+mod report;
+pub mod scores;
+
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 use dynview_core::display::colorize_depth;
-use dynview_core::metrics::{FlickerSum, psnr, ssim};
 use dynview_core::render::sparse::{SplatMaps, project_cloud};
 use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer};
 use dynview_core::scene::ScenePackage;
@@ -27,9 +31,9 @@ use crate::eval::plane_view::plane_view;
 use crate::paths::{results_dir, workspace_root};
 use crate::runs::prep::{PrepRun, cloud_point_counts, prep_args_suffix, prep_once, stage_seconds};
 use crate::runs::programs::dynview_binary;
+use report::{header, markdown};
+use scores::{MOVING_DILATION_PX, MOVING_THRESHOLD, Score, Sums, moving_mask, temporal_median};
 
-/// Frames of each camera used by default (the captures have 75 and 100).
-const DEFAULT_FRAMES: u32 = 20;
 /// Methods rendered, the full method first.
 const METHODS: [Method; 4] = [Method::Full, Method::NoTemporal, Method::Blend, Method::BestView];
 /// The floor's label: the nearest input camera's frame shown as is.
@@ -48,9 +52,14 @@ pub struct Options {
     /// the others.
     #[arg(long, value_enum)]
     pub capture: Vec<RealCapture>,
-    /// Frames of each camera used, from the first.
-    #[arg(long, default_value_t = DEFAULT_FRAMES, value_parser = clap::value_parser!(u32).range(2..))]
-    pub frames: u32,
+    /// Frames of each camera used, from the first (all of them when not given: 75 on the
+    /// Panoptic arcs, 100 on Pose2Sim).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(2..))]
+    pub frames: Option<u32>,
+    /// A camera to leave out (repeatable; every interior camera of each capture when not
+    /// given). The captures without any of them are skipped.
+    #[arg(long = "held-out", value_name = "CAMERA")]
+    pub held_out: Vec<String>,
     /// Redo the prep runs even when their packages exist.
     #[arg(long)]
     pub fresh: bool,
@@ -79,14 +88,6 @@ fn parse_params(json: &str) -> Result<RenderParams, String> {
     Ok(params)
 }
 
-/// PSNR, SSIM and flicker of one way of showing the held-out camera, averaged over time.
-struct Score {
-    label: &'static str,
-    psnr_db: f64,
-    ssim: f64,
-    flicker: f64,
-}
-
 /// Scores of one held-out camera.
 struct CameraResult {
     name: String,
@@ -101,6 +102,8 @@ struct CameraResult {
     /// Median relative depth error (%) of the full method and of the blend's push-pull depth
     /// against the reference package's points as the held-out camera sees them.
     depth_error_pct: [f64; 2],
+    /// Mean share of the frame's pixels that move ([`scores::moving_mask`]), %.
+    moving_pct: f64,
 }
 
 /// The leave-one-out evaluation: writes `real.md` and one strip per held-out camera into
@@ -108,25 +111,26 @@ struct CameraResult {
 pub fn run(options: Options) -> anyhow::Result<()> {
     let captures = if options.capture.is_empty() { RealCapture::ALL.to_vec() } else { options.capture.clone() };
     let work = workspace_root().join(work_folder(&options.prep_args));
+    let mut known = Vec::new();
+    for &capture in &captures {
+        known.extend(capture.cameras()?);
+    }
+    if let Some(unknown) = options.held_out.iter().find(|c| !known.contains(c)) {
+        bail!("--held-out {unknown}: no such camera in {}", captures.iter().map(|c| c.label()).collect::<Vec<_>>().join(", "));
+    }
     for capture in captures {
-        let section = evaluate_capture(capture, &options, &work.join(capture.label()))?;
+        let held_out = held_out_cameras(capture, &options.held_out)?;
+        if held_out.is_empty() {
+            println!("==> {}: none of the cameras given with --held-out, skipped", capture.label());
+            continue;
+        }
+        let section = evaluate_capture(capture, &options, &work.join(capture.label()), &held_out)?;
         println!("\n{section}");
         let path = section_path(&work, capture);
         dynview_core::fsutil::write_atomic(&path, section.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
     }
     let mut report = String::from("# Leave-one-camera-out on real captures\n\n");
-    report.push_str(
-        "For each camera left out, `dynview prep` runs on the others with their calibrated poses, and the left-out camera is \
-         rendered at each time step from that package and compared with its real frame. Its intrinsics, pose and reference frames \
-         come from a package prepared the same way from all cameras (same undistortion and size), as filmed: the package's color \
-         balance reaches only the renderer's inputs. PSNR and SSIM are averaged over \
-         the time steps, on the whole frame; flicker is the mean frame-to-frame change of the output where the real frame does not \
-         change, minus the real frame's own (x1000, lower is steadier). The floor is the nearest input camera's frame shown as is, \
-         as filmed (ranked as the renderer ranks views): a rendering worse than it is worse than showing no synthesis at all. The plane view \
-         is an experiment: that same input warped with one plane fitted to the sparse depth and nothing else (the full method \
-         pulls its depth toward such a plane only where points are scarce, `lambda_plane`). What the figures show, and what was \
-         tried: [real_findings.md](real_findings.md).\n\n",
-    );
+    report.push_str(&header());
     for capture in RealCapture::ALL {
         let path = section_path(&work, capture);
         match std::fs::read_to_string(&path) {
@@ -143,6 +147,16 @@ pub fn run(options: Options) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The cameras of `capture` to leave out: its interior ones, or those of `requested` it has
+/// (none when it has none of them).
+fn held_out_cameras(capture: RealCapture, requested: &[String]) -> anyhow::Result<Vec<String>> {
+    if requested.is_empty() {
+        return capture.held_out();
+    }
+    let cameras = capture.cameras()?;
+    Ok(requested.iter().filter(|c| cameras.contains(c)).cloned().collect())
+}
+
 /// The work folder under the workspace: `target/eval/real`, or one named after the extra prep
 /// arguments (so that runs with different arguments keep their own prepared steps).
 fn work_folder(prep_args: &[String]) -> String {
@@ -155,10 +169,11 @@ fn section_path(work: &Path, capture: RealCapture) -> PathBuf {
 
 /// Prepares the packages of `capture` in `root` and scores every held-out camera; returns the
 /// report's section and writes the strips.
-fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path) -> anyhow::Result<String> {
-    let frames_dir = root.join(format!("frames{}", options.frames));
-    println!("==> {}: first {} frames into {}", capture.label(), options.frames, frames_dir.display());
-    capture.write_frames(&frames_dir, options.frames)?;
+fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path, held_out_cameras: &[String]) -> anyhow::Result<String> {
+    let frames = options.frames.map_or(capture.frame_count(), |f| f.min(capture.frame_count()));
+    let frames_dir = root.join(format!("frames{frames}"));
+    println!("==> {}: first {frames} frames into {}", capture.label(), frames_dir.display());
+    capture.write_frames(&frames_dir, frames)?;
     let cameras = capture.cameras()?;
     let dynview = dynview_binary()?;
     let mut prep_args = vec!["--working-width".to_string(), capture.working_width_px().to_string()];
@@ -168,13 +183,13 @@ fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path) -> any
     capture.write_poses(&all_poses, None)?;
     let mut args = vec!["--poses".to_string(), all_poses.display().to_string()];
     args.extend(prep_args.iter().cloned());
-    let reference_run = prep_once(&dynview, &frames_dir, &root.join(format!("all{}", options.frames)), &args, options.fresh)?;
+    let reference_run = prep_once(&dynview, &frames_dir, &root.join(format!("all{frames}")), &args, options.fresh)?;
     let reference = open(&reference_run)?;
 
     let mut results = Vec::new();
-    for held_out in capture.held_out()? {
-        let others: Vec<&str> = cameras.iter().filter(|c| **c != held_out).map(String::as_str).collect();
-        let dir = root.join(format!("without_{held_out}_{}", options.frames));
+    for held_out in held_out_cameras {
+        let others: Vec<&str> = cameras.iter().filter(|c| *c != held_out).map(String::as_str).collect();
+        let dir = root.join(format!("without_{held_out}_{frames}"));
         let input = dir.join("input");
         for camera in &others {
             copy_folder_once(&frames_dir.join(camera), &input.join(camera))?;
@@ -185,12 +200,13 @@ fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path) -> any
         args.extend(prep_args.iter().cloned());
         let run = prep_once(&dynview, &input, &dir.join("out"), &args, options.fresh)?;
         let package = open(&run)?;
-        let (result, strip) = evaluate_camera(&held_out, &reference, &package, &run, &options.params.clone().unwrap_or_default())?;
-        write_strip(&options.out.join(strip_name(capture, &held_out)), &strip)?;
+        let (result, strip) = evaluate_camera(held_out, &reference, &package, &run, &options.params.clone().unwrap_or_default())?;
+        write_strip(&options.out.join(strip_name(capture, held_out)), &strip)?;
         results.push(result);
     }
     let reference_secs: f64 = stage_seconds(&reference_run.out)?.iter().map(|(_, s)| s).sum();
-    Ok(markdown(capture, &results, options, &reference, reference_secs))
+    let size = reference.manifest().cameras.first().map_or((0, 0), |c| (c.width, c.height));
+    Ok(markdown(capture, &results, options, frames, size, reference_secs))
 }
 
 fn strip_name(capture: RealCapture, camera: &str) -> String {
@@ -219,33 +235,10 @@ fn copy_folder_once(from: &Path, to: &Path) -> anyhow::Result<()> {
 /// The panels of a strip: real frame, nearest input as is, blend, full method, its depth.
 type Strip = [RgbRaster; 5];
 
-/// Running sums of one way of showing the held-out camera.
-#[derive(Default)]
-struct Sums {
-    psnr_db: f64,
-    ssim: f64,
-    flicker: FlickerSum,
-    previous: Option<RgbRaster>,
-}
-
-impl Sums {
-    fn add(&mut self, shown: RgbRaster, truth: &RgbRaster, truth_before: Option<&RgbRaster>) {
-        self.psnr_db += psnr(&shown, truth);
-        self.ssim += ssim(&shown, truth);
-        if let (Some(before), Some(truth_before)) = (&self.previous, truth_before) {
-            self.flicker.add(before, &shown, truth_before, truth);
-        }
-        self.previous = Some(shown);
-    }
-
-    fn score(&self, label: &'static str, steps: u32) -> Score {
-        let n = f64::from(steps.max(1));
-        Score { label, psnr_db: self.psnr_db / n, ssim: self.ssim / n, flicker: self.flicker.value().unwrap_or(f64::NAN) }
-    }
-}
-
 /// Renders camera `held_out` of `reference` from `package` at every time step with each of
 /// [`METHODS`] and shows the nearest input as is; returns the scores and the middle frame's strip.
+/// The moving pixels of each frame are those that differ from the camera's temporal median over
+/// the time steps ([`scores::moving_mask`]).
 fn evaluate_camera(
     held_out: &str,
     reference: &ScenePackage,
@@ -260,6 +253,11 @@ fn evaluate_camera(
         .position(|c| c.name == held_out)
         .with_context(|| format!("{}: no camera {held_out}", reference.root().display()))?;
     let steps = reference.time_step_count().min(package.time_step_count());
+    // Every real frame first, for the temporal median (8 bits a channel, as stored).
+    let truths: Vec<image::RgbImage> = (0..steps).map(|t| reference.read_frame(k, t).map(|f| f.to_rgb8())).collect::<Result<_, _>>()?;
+    let median_frame =
+        temporal_median(&truths).with_context(|| format!("{}: no frame of camera {held_out}", reference.root().display()))?;
+    let mut moving_share = 0.0;
     let mut renderers: Vec<StreamingRenderer> = METHODS.iter().map(|_| StreamingRenderer::new()).collect();
     // The methods', the plane view's, then the floor's.
     let mut sums: Vec<Sums> = (0..METHODS.len() + 2).map(|_| Sums::default()).collect();
@@ -271,7 +269,9 @@ fn evaluate_camera(
     let blend_index = METHODS.iter().position(|&m| m == Method::Blend).unwrap_or(0);
     for t in 0..steps {
         let camera = reference.camera(k, t)?;
-        let truth = reference.read_frame(k, t)?;
+        let truth = RgbRaster::from_rgb8(&truths[t as usize]);
+        let moving = moving_mask(&truth, &median_frame, MOVING_THRESHOLD, MOVING_DILATION_PX);
+        moving_share += moving.data.iter().filter(|&&m| m > 0.0).count() as f64 / moving.data.len().max(1) as f64;
         // What the held-out camera's own frame implies: the points of the package prepared with
         // it, as it sees them (z-buffered, the renderer's consistency filter applied).
         let mut own = project_cloud(&reference.read_cloud(t)?, &camera);
@@ -307,18 +307,35 @@ fn evaluate_camera(
             let blend = &shown[METHODS.iter().position(|&m| m == Method::Blend).unwrap_or(0)].0;
             strip = Some([truth.clone(), floor.clone(), blend.clone(), full.0.clone(), colorize_depth(&full.1)]);
         }
-        for (m, (color, _)) in shown.into_iter().enumerate() {
-            sums[m].add(color, &truth, truth_before.as_ref());
-        }
-        sums[METHODS.len()].add(plane.unwrap_or_else(|| floor.clone()), &truth, truth_before.as_ref());
-        sums[METHODS.len() + 1].add(floor, &truth, truth_before.as_ref());
+        // In the order of `sums`; scored in parallel (SSIM twice per image is the slow part).
+        let mut outputs: Vec<RgbRaster> = shown.into_iter().map(|(color, _)| color).collect();
+        outputs.push(plane.unwrap_or_else(|| floor.clone()));
+        outputs.push(floor);
+        std::thread::scope(|scope| {
+            for (sum, output) in sums.iter_mut().zip(outputs) {
+                let (truth, truth_before, moving) = (&truth, truth_before.as_ref(), &moving);
+                scope.spawn(move || sum.add(output, truth, truth_before, moving));
+            }
+        });
         truth_before = Some(truth);
     }
-    let mut scores: Vec<Score> = METHODS.iter().zip(&sums).map(|(m, s)| s.score(m.label(), steps)).collect();
-    scores.push(sums[METHODS.len()].score(PLANE_VIEW, steps));
-    scores.push(sums[METHODS.len() + 1].score(FLOOR, steps));
+    let mut scores: Vec<Score> = METHODS.iter().zip(&sums).map(|(m, s)| s.score(m.label())).collect();
+    scores.push(sums[METHODS.len()].score(PLANE_VIEW));
+    scores.push(sums[METHODS.len() + 1].score(FLOOR));
     for s in &scores {
-        println!("{held_out} held out, {}: PSNR {:.2} dB, SSIM {:.4}, flicker {:.2}", s.label, s.psnr_db, s.ssim, s.flicker * 1000.0);
+        println!(
+            "{held_out} held out, {}: PSNR {:.2} dB (colour-corrected {:.2}), SSIM {:.4} ({:.4}), static / moving PSNR {:.2} / {:.2} dB ({:.2} / {:.2}), flicker {:.2}",
+            s.label,
+            s.psnr_db.raw,
+            s.psnr_db.corrected,
+            s.ssim.raw,
+            s.ssim.corrected,
+            s.static_psnr_db.raw,
+            s.moving_psnr_db.raw,
+            s.static_psnr_db.corrected,
+            s.moving_psnr_db.corrected,
+            s.flicker * 1000.0
+        );
     }
     let n = f64::from(steps.max(1));
     let prep_secs = stage_seconds(&run.out)?.iter().map(|(_, s)| s).sum();
@@ -332,6 +349,7 @@ fn evaluate_camera(
         ms_per_frame: render_secs * 1000.0 / n,
         points_per_step,
         depth_error_pct,
+        moving_pct: moving_share * 100.0 / n,
     };
     Ok((result, strip.context("no time step rendered")?))
 }
@@ -380,84 +398,6 @@ fn write_strip(path: &Path, panels: &Strip) -> anyhow::Result<()> {
     }
 }
 
-fn markdown(capture: RealCapture, results: &[CameraResult], options: &Options, reference: &ScenePackage, reference_secs: f64) -> String {
-    let mut s = String::new();
-    let size = reference.manifest().cameras.first().map_or((0, 0), |c| (c.width, c.height));
-    let _ = writeln!(s, "## {}\n", capture.label());
-    let _ = writeln!(
-        s,
-        "{} First {} frames, prepared at {}x{} (`--working-width {}`); the reference package of all cameras took {reference_secs:.0} s \
-         of prep.\n",
-        capture.description(),
-        options.frames,
-        size.0,
-        size.1,
-        capture.working_width_px()
-    );
-    let labels: Vec<&str> = results.first().map(|r| r.scores.iter().map(|x| x.label).collect()).unwrap_or_default();
-    let _ = writeln!(
-        s,
-        "| held-out camera | {} |",
-        labels.iter().map(|l| format!("{l} PSNR (dB) / SSIM / flicker")).collect::<Vec<_>>().join(" | ")
-    );
-    let _ = writeln!(s, "| --- |{}", " ---: |".repeat(labels.len()));
-    let cell = |x: &Score| format!("{:.2} / {:.4} / {:.2}", x.psnr_db, x.ssim, x.flicker * 1000.0);
-    for r in results {
-        let _ = writeln!(s, "| {} | {} |", r.name, r.scores.iter().map(cell).collect::<Vec<_>>().join(" | "));
-    }
-    let n = results.len().max(1) as f64;
-    let means: Vec<String> = (0..labels.len())
-        .map(|i| {
-            let mean = |f: &dyn Fn(&Score) -> f64| results.iter().map(|r| f(&r.scores[i])).sum::<f64>() / n;
-            format!("**{:.2} / {:.4} / {:.2}**", mean(&|x| x.psnr_db), mean(&|x| x.ssim), mean(&|x| x.flicker * 1000.0))
-        })
-        .collect();
-    let _ = writeln!(s, "| **mean** | {} |", means.join(" | "));
-    let _ = writeln!(
-        s,
-        "\n| held-out camera | nearest input | points per step | depth error, full / blend (median %) | last prep run (s) | full ms/frame (CPU) |"
-    );
-    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | ---: |");
-    for r in results {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {:.0} | {:.1} / {:.1} | {:.0} | {:.0} |",
-            r.name, r.nearest, r.points_per_step, r.depth_error_pct[0], r.depth_error_pct[1], r.prep_secs, r.ms_per_frame
-        );
-    }
-    let _ = writeln!(
-        s,
-        "\nPoints per step include the static points lent to the step. The depth error compares the rendered depth with what the \
-         held-out camera's own frame implies: the points of the reference package (prepared with it) that it sees, z-buffered and \
-         filtered as the renderer filters points, at every time step. The blend's depth is the push-pull filled sparse depth. The last prep run is the one that wrote the package; one \
-         that reused the prepared steps of an earlier run counts only what it redid (`--fresh` times whole runs).\n\n\
-         Strips (middle time step): real frame | nearest input as is | blend | full | depth of full.\n"
-    );
-    for r in results {
-        let _ = writeln!(s, "![{}]({})", r.name, strip_name(capture, &r.name));
-    }
-    let _ = writeln!(
-        s,
-        "\nReproduce: `cargo xtask eval --real --capture {} --frames {}{}{}` (work in `{}/{}/`; `--fresh` redoes the prep runs).\n",
-        capture.label(),
-        options.frames,
-        options.prep_args.iter().map(|a| format!(" --prep-arg={a}")).collect::<String>(),
-        changed_params(options.params.as_ref()).map(|json| format!(" --params '{json}'")).unwrap_or_default(),
-        work_folder(&options.prep_args),
-        capture.label()
-    );
-    s
-}
-
-/// The renderer parameters that differ from the defaults, as JSON; `None` when none do.
-fn changed_params(params: Option<&RenderParams>) -> Option<String> {
-    let params = serde_json::to_value(params?).ok()?;
-    let defaults = serde_json::to_value(RenderParams::default()).ok()?;
-    let (serde_json::Value::Object(params), serde_json::Value::Object(defaults)) = (params, defaults) else { return None };
-    let changed: serde_json::Map<String, serde_json::Value> = params.into_iter().filter(|(k, v)| defaults.get(k) != Some(v)).collect();
-    (!changed.is_empty()).then(|| serde_json::Value::Object(changed).to_string())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -479,7 +419,5 @@ mod tests {
         assert_eq!(parse_params(file.to_str().unwrap()).unwrap().sparse_footprint_px, 1);
         assert!(parse_params(r#"{"relaxation": 3}"#).unwrap_err().contains("relaxation"));
         assert!(parse_params("{not json").unwrap_err().contains("renderer parameters"));
-        assert_eq!(changed_params(Some(&RenderParams::default())), None);
-        assert_eq!(changed_params(parse_params(r#"{"lambda_plane": 0}"#).ok().as_ref()).as_deref(), Some(r#"{"lambda_plane":0.0}"#));
     }
 }
