@@ -1,6 +1,9 @@
 //! Dense points: a time step's sparse points grown by PatchMatch stereo ([`densify`]), and the
 //! static points accumulated across time and lent to the steps that agree with them
-//! ([`static_cloud`]).
+//! ([`static_cloud`]); the background plates of the cameras that stand still ([`plates`]).
 
 pub mod densify;
+pub mod plates;
 pub mod static_cloud;
+
+pub use plates::{Plate, PlateEstimator, PlateOptions};
