@@ -11,6 +11,7 @@
 //! alignment is needed. Results in `docs/results/real.md` and `real_strip_<capture>_<camera>.png`.
 
 mod report;
+mod run;
 pub mod scores;
 
 use std::fmt::Write as _;
@@ -28,14 +29,14 @@ use dynview_core::{RgbRaster, ScalarRaster};
 use crate::align::median;
 use crate::datasets::real_captures::RealCapture;
 use crate::eval::plane_view::plane_view;
-use crate::paths::{results_dir, workspace_root};
-use crate::runs::prep::{PrepRun, cloud_point_counts, prep_args_suffix, prep_once, stage_seconds};
+use crate::paths::workspace_root;
+use crate::runs::prep::{PrepRun, cloud_point_counts, prep_once, stage_seconds};
 use crate::runs::programs::dynview_binary;
 use report::{header, markdown};
+pub use run::Options;
+use run::{CameraResult, METHODS, strip_name, work_folder};
 use scores::{MOVING_DILATION_PX, MOVING_THRESHOLD, Score, Sums, moving_mask, temporal_median};
 
-/// Methods rendered, the full method first.
-const METHODS: [Method; 4] = [Method::Full, Method::NoTemporal, Method::Blend, Method::BestView];
 /// The floor's label: the nearest input camera's frame shown as is.
 const FLOOR: &str = "nearest input as is";
 /// The experimental fallback's label ([`crate::eval::plane_view`]).
@@ -44,67 +45,6 @@ const PLANE_VIEW: &str = "plane view";
 const STRIP_MAX_BYTES: usize = 600_000;
 /// Width of one strip panel to start from, pixels (shrunk until the PNG fits).
 const STRIP_PANEL_WIDTH_PX: u32 = 320;
-
-/// Options of `dynview-eval eval-real` (`cargo xtask eval --real`).
-#[derive(Debug, clap::Args)]
-pub struct Options {
-    /// The captures to evaluate (all when not given); the report keeps the last results of
-    /// the others.
-    #[arg(long, value_enum)]
-    pub capture: Vec<RealCapture>,
-    /// Frames of each camera used, from the first (all of them when not given: 75 on the
-    /// Panoptic arcs, 100 on Pose2Sim).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(2..))]
-    pub frames: Option<u32>,
-    /// A camera to leave out (repeatable; every interior camera of each capture when not
-    /// given). The captures without any of them are skipped.
-    #[arg(long = "held-out", value_name = "CAMERA")]
-    pub held_out: Vec<String>,
-    /// Redo the prep runs even when their packages exist.
-    #[arg(long)]
-    pub fresh: bool,
-    /// An extra argument for every `dynview prep` run (repeatable; e.g. `--prep-arg=--no-static`
-    /// to compare). The runs then work in a folder of their own, named after the arguments.
-    #[arg(long = "prep-arg", allow_hyphen_values = true)]
-    pub prep_args: Vec<String>,
-    /// Renderer parameters that differ from the defaults, as JSON or a JSON file (the fields of
-    /// `RenderParams`, e.g. `--params '{"lambda_plane": 0}'` to compare).
-    #[arg(long, value_parser = parse_params)]
-    pub params: Option<RenderParams>,
-    /// Folder of the written results.
-    #[arg(long, default_value_os_t = results_dir())]
-    pub out: PathBuf,
-}
-
-/// Renderer parameters from JSON, or from a JSON file when `json` names one (as `eval --params`).
-fn parse_params(json: &str) -> Result<RenderParams, String> {
-    let text = if std::path::Path::new(json).is_file() {
-        std::fs::read_to_string(json).map_err(|e| format!("{json}: {e}"))?
-    } else {
-        json.to_string()
-    };
-    let params: RenderParams = serde_json::from_str(&text).map_err(|e| format!("renderer parameters: {e}"))?;
-    params.validate().map_err(|e| e.to_string())?;
-    Ok(params)
-}
-
-/// Scores of one held-out camera.
-struct CameraResult {
-    name: String,
-    /// The methods' scores in [`METHODS`] order, then the plane view's and the floor's.
-    scores: Vec<Score>,
-    /// The input camera the floor shows (the best ranked at the middle time step).
-    nearest: String,
-    prep_secs: f64,
-    ms_per_frame: f64,
-    /// Mean points per time step of the package of the other cameras.
-    points_per_step: f64,
-    /// Median relative depth error (%) of the full method and of the blend's push-pull depth
-    /// against the reference package's points as the held-out camera sees them.
-    depth_error_pct: [f64; 2],
-    /// Mean share of the frame's pixels that move ([`scores::moving_mask`]), %.
-    moving_pct: f64,
-}
 
 /// The leave-one-out evaluation: writes `real.md` and one strip per held-out camera into
 /// `options.out`.
@@ -157,12 +97,6 @@ fn held_out_cameras(capture: RealCapture, requested: &[String]) -> anyhow::Resul
     Ok(requested.iter().filter(|c| cameras.contains(c)).cloned().collect())
 }
 
-/// The work folder under the workspace: `target/eval/real`, or one named after the extra prep
-/// arguments (so that runs with different arguments keep their own prepared steps).
-fn work_folder(prep_args: &[String]) -> String {
-    format!("target/eval/real{}", prep_args_suffix(prep_args))
-}
-
 fn section_path(work: &Path, capture: RealCapture) -> PathBuf {
     work.join(capture.label()).join("section.md")
 }
@@ -207,10 +141,6 @@ fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path, held_o
     let reference_secs: f64 = stage_seconds(&reference_run.out)?.iter().map(|(_, s)| s).sum();
     let size = reference.manifest().cameras.first().map_or((0, 0), |c| (c.width, c.height));
     Ok(markdown(capture, &results, options, frames, size, reference_secs))
-}
-
-fn strip_name(capture: RealCapture, camera: &str) -> String {
-    format!("real_strip_{}_{camera}.png", capture.label())
 }
 
 fn open(run: &PrepRun) -> anyhow::Result<ScenePackage> {
@@ -400,6 +330,7 @@ fn write_strip(path: &Path, panels: &Strip) -> anyhow::Result<()> {
 
 #[cfg(test)]
 mod tests {
+    use super::run::parse_params;
     use super::*;
 
     #[test]

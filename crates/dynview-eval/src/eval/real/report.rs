@@ -6,8 +6,8 @@ use std::fmt::Write as _;
 
 use dynview_core::render::RenderParams;
 
+use super::run::{CameraResult, Options, strip_name, work_folder};
 use super::scores::{MOVING_DILATION_PX, MOVING_THRESHOLD, RawAndCorrected, Score};
-use super::{CameraResult, Options, strip_name, work_folder};
 use crate::datasets::real_captures::RealCapture;
 
 /// The report's opening paragraphs (after its title).
