@@ -1,6 +1,6 @@
 //! `cargo xtask demo`: install what is missing, build, make the sample event, run `dynview prep`
 //! on its videos and serve the viewer with the result (and the event's ground-truth package
-//! beside it). `--real` prepares and serves the Pose2Sim capture instead (see `demo_real`).
+//! beside it). `--real` prepares and serves the real captures instead (see `demo_real`).
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -22,7 +22,8 @@ pub struct DemoArgs {
     /// Remake the sample event and redo prep.
     #[arg(long)]
     pub fresh: bool,
-    /// The real Pose2Sim capture instead, prepared with its calibration and with our SfM.
+    /// The real captures instead (Panoptic's two arcs, Pose2Sim), each prepared with its
+    /// calibration and with our SfM.
     #[arg(long)]
     pub real: bool,
     /// Port to listen on first (the next free one is taken when it is busy).

@@ -1,8 +1,9 @@
-//! `cargo xtask demo --real`: the Pose2Sim capture (4 portrait videos, 100 frames) prepared
-//! twice, with the Qualisys calibration's poses (`pose2sim-calibrated`) and with our own
-//! structure from motion (`pose2sim-sfm`), under `target/demo/`. A preparation that fails is
-//! reported and skipped (our SfM finds no initial pair on this wide-baseline capture today);
-//! the ones that succeed are served.
+//! `cargo xtask demo --real`: the real captures of the shared data, each prepared twice under
+//! `target/demo/`: with its calibration's poses (`NAME-calibrated`) and with our own structure
+//! from motion (`NAME-sfm`), side by side. Panoptic's two basketball arcs (8 and 10 tripod
+//! cameras, 75 frames) come first, then Pose2Sim's lab (4 portrait videos, 100 frames). A
+//! preparation that fails is reported and skipped (our SfM finds no initial pair on Pose2Sim's
+//! wide baseline today); the ones that succeed are served.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -12,48 +13,75 @@ use anyhow::bail;
 use crate::dynview_prep::run_prep;
 use crate::util::{run_step, workspace_root};
 
-/// Working width of prep's frames for the portrait 1088x1920 videos (540x953 frames).
-const WORKING_WIDTH_PX: u32 = 540;
-
-/// The capture's folder in the shared data beside the checkout.
-fn source_dir() -> PathBuf {
-    workspace_root().join("../shared/data/pose2sim-multiperson")
+/// One real capture of the shared data, as the demo prepares it.
+struct Capture {
+    /// The scenes' name prefix (`NAME-calibrated`, `NAME-sfm`).
+    name: &'static str,
+    /// Its folder under `../shared/data`.
+    folder: &'static str,
+    /// The input prep reads, inside the folder (videos or one image folder per camera).
+    input: &'static str,
+    /// Working width of prep's frames, pixels.
+    working_width_px: u32,
 }
 
-/// Prepares both packages (prep skips finished stages; `fresh` starts over) and returns the
-/// scenes to serve, by URL name.
+/// The captures, in the order they are prepared and listed: the Panoptic arcs first (the
+/// paper's regime), then Pose2Sim (1088x1920 portrait videos, 540x953 frames).
+const CAPTURES: [Capture; 3] = [
+    Capture { name: "panoptic", folder: "panoptic-basketball-arc", input: "cams", working_width_px: 640 },
+    Capture { name: "panoptic-arc2", folder: "panoptic-basketball-arc2", input: "cams", working_width_px: 640 },
+    Capture { name: "pose2sim", folder: "pose2sim-multiperson", input: "videos", working_width_px: 540 },
+];
+
+/// Prepares every capture twice (prep skips finished stages; `fresh` starts over) and returns
+/// the scenes to serve, by URL name.
 pub fn prepare(dynview: &Path, fresh: bool) -> anyhow::Result<Vec<(String, PathBuf)>> {
     let demo = workspace_root().join("target/demo");
-    let poses = demo.join("pose2sim-calibration.json");
-    let mut import = Command::new(dynview);
-    import.arg("import").arg(source_dir().join("calibration/Calib.qca.txt")).arg("--out").arg(&poses);
-    run_step("the Qualisys calibration as poses.json (dynview import)", import)?;
-    let videos = source_dir().join("videos");
-    let width = ["--working-width".to_string(), WORKING_WIDTH_PX.to_string()];
-    let calibrated_args = [vec!["--poses".to_string(), poses.display().to_string()], width.to_vec()].concat();
-    let runs = [("pose2sim-calibrated", calibrated_args), ("pose2sim-sfm", width.to_vec())];
     let mut scenes = Vec::new();
     let mut failures = Vec::new();
-    for (name, args) in runs {
-        let out = demo.join(name);
-        match run_prep(dynview, &videos, &out, &args, fresh, &format!("{name}: dynview prep on {}", videos.display())) {
-            Ok(scene) => {
-                let mut info = Command::new(dynview);
-                info.arg("info").arg(&scene);
-                run_step(&format!("check the {name} package"), info)?;
-                scenes.push((name.to_string(), scene));
-            }
-            Err(e) => {
-                eprintln!("\n!!! {name}: dynview prep failed; going on without it.\n{e:#}\n");
-                failures.push(name);
+    for capture in &CAPTURES {
+        let source = workspace_root().join("../shared/data").join(capture.folder);
+        let poses = calibration(dynview, capture, &source, &demo)?;
+        let input = source.join(capture.input);
+        let width = vec!["--working-width".to_string(), capture.working_width_px.to_string()];
+        let calibrated = [vec!["--poses".to_string(), poses.display().to_string()], width.clone()].concat();
+        for (kind, args) in [("calibrated", calibrated), ("sfm", width)] {
+            let name = format!("{}-{kind}", capture.name);
+            let out = demo.join(&name);
+            match run_prep(dynview, &input, &out, &args, fresh, &format!("{name}: dynview prep on {}", input.display())) {
+                Ok(scene) => {
+                    let mut info = Command::new(dynview);
+                    info.arg("info").arg(&scene);
+                    run_step(&format!("check the {name} package"), info)?;
+                    scenes.push((name, scene));
+                }
+                Err(e) => {
+                    eprintln!("\n!!! {name}: dynview prep failed; going on without it.\n{e:#}\n");
+                    failures.push(name);
+                }
             }
         }
     }
     if scenes.is_empty() {
-        bail!("no Pose2Sim package could be prepared ({} failed; see the logs above)", failures.join(", "));
+        bail!("no real capture could be prepared ({} failed; see the logs above)", failures.join(", "));
     }
     if !failures.is_empty() {
         println!("\nnot served (prep failed): {}", failures.join(", "));
     }
     Ok(scenes)
+}
+
+/// The poses `prep --poses` reads for `capture`: Panoptic's COLMAP model as it is, Pose2Sim's
+/// Qualisys calibration converted by `dynview import` into `demo`.
+fn calibration(dynview: &Path, capture: &Capture, source: &Path, demo: &Path) -> anyhow::Result<PathBuf> {
+    let qualisys = source.join("calibration/Calib.qca.txt");
+    if !qualisys.is_file() {
+        return Ok(source.join("calibration"));
+    }
+    std::fs::create_dir_all(demo)?;
+    let poses = demo.join(format!("{}-calibration.json", capture.name));
+    let mut import = Command::new(dynview);
+    import.arg("import").arg(&qualisys).arg("--out").arg(&poses);
+    run_step(&format!("the {} calibration as poses.json (dynview import)", capture.name), import)?;
+    Ok(poses)
 }

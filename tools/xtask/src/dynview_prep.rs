@@ -1,5 +1,5 @@
-//! Running `dynview prep` for the demos (`demo` on the sample event, `demo_real` on the
-//! Pose2Sim capture): one prep run, reported as a step.
+//! Running `dynview prep` for the demos (`demo` on the sample event, `demo_real` on the real
+//! captures): one prep run, reported as a step.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
