@@ -65,7 +65,7 @@ impl Rigid3 {
     /// For a `camera_from_world` transform: the camera centre in the world, `C = -R^T t`, as a
     /// nalgebra vector (the value of [`Rigid3::camera_center_world`]).
     pub fn center(&self) -> Vector3<f64> {
-        -self.rotation_matrix().transpose() * self.translation_vector()
+        self.matrices().center_world
     }
 
     /// The rotation matrix and camera centre, for projecting many points.

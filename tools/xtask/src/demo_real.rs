@@ -23,14 +23,42 @@ struct Capture {
     input: &'static str,
     /// Working width of prep's frames, pixels.
     working_width_px: u32,
+    /// Its calibration, inside the folder.
+    calibration: Calibration,
+}
+
+/// How a capture's calibration reaches `prep --poses`.
+enum Calibration {
+    /// A COLMAP model folder, read as it is.
+    Colmap(&'static str),
+    /// A Qualisys file, converted by `dynview import` first.
+    Qualisys(&'static str),
 }
 
 /// The captures, in the order they are prepared and listed: the Panoptic arcs first (the
 /// paper's regime), then Pose2Sim (1088x1920 portrait videos, 540x953 frames).
 const CAPTURES: [Capture; 3] = [
-    Capture { name: "panoptic", folder: "panoptic-basketball-arc", input: "cams", working_width_px: 640 },
-    Capture { name: "panoptic-arc2", folder: "panoptic-basketball-arc2", input: "cams", working_width_px: 640 },
-    Capture { name: "pose2sim", folder: "pose2sim-multiperson", input: "videos", working_width_px: 540 },
+    Capture {
+        name: "panoptic",
+        folder: "panoptic-basketball-arc",
+        input: "cams",
+        working_width_px: 640,
+        calibration: Calibration::Colmap("calibration"),
+    },
+    Capture {
+        name: "panoptic-arc2",
+        folder: "panoptic-basketball-arc2",
+        input: "cams",
+        working_width_px: 640,
+        calibration: Calibration::Colmap("calibration"),
+    },
+    Capture {
+        name: "pose2sim",
+        folder: "pose2sim-multiperson",
+        input: "videos",
+        working_width_px: 540,
+        calibration: Calibration::Qualisys("calibration/Calib.qca.txt"),
+    },
 ];
 
 /// Prepares every capture twice (prep skips finished stages; `fresh` starts over) and returns
@@ -71,13 +99,13 @@ pub fn prepare(dynview: &Path, fresh: bool) -> anyhow::Result<Vec<(String, PathB
     Ok(scenes)
 }
 
-/// The poses `prep --poses` reads for `capture`: Panoptic's COLMAP model as it is, Pose2Sim's
-/// Qualisys calibration converted by `dynview import` into `demo`.
+/// The poses `prep --poses` reads for `capture`: a COLMAP model as it is, a Qualisys
+/// calibration converted by `dynview import` into `demo`.
 fn calibration(dynview: &Path, capture: &Capture, source: &Path, demo: &Path) -> anyhow::Result<PathBuf> {
-    let qualisys = source.join("calibration/Calib.qca.txt");
-    if !qualisys.is_file() {
-        return Ok(source.join("calibration"));
-    }
+    let qualisys = match capture.calibration {
+        Calibration::Colmap(model) => return Ok(source.join(model)),
+        Calibration::Qualisys(file) => source.join(file),
+    };
     std::fs::create_dir_all(demo)?;
     let poses = demo.join(format!("{}-calibration.json", capture.name));
     let mut import = Command::new(dynview);
