@@ -69,6 +69,47 @@ fn gpu_frames_match_cpu_frames_with_and_without_the_temporal_terms() {
     }
 }
 
+#[test]
+fn gpu_frames_match_cpu_frames_with_background_plates() {
+    let ctx = GpuContext::new_blocking().unwrap_or_else(|e| panic!("{e}"));
+    let package = ScenePackage::open(small_event().join("scene")).unwrap();
+    let path = parse_path(&std::fs::read(small_event().join("camera_path.json")).unwrap(), "camera_path.json", None).unwrap();
+    let frame = &path[0];
+    let params = RenderParams::default();
+    let plain = package.time_step_inputs(frame.time.time_step(package.time_step_count()), params.levels).unwrap();
+    // Plates unlike the frames (colors inverted in the left half), so that using them shows;
+    // the cloud's second half taken as the static scene.
+    let mut inputs = plain.clone();
+    inputs.views = inputs
+        .views
+        .into_iter()
+        .map(|v| {
+            let mut plate = v.levels[0].clone();
+            let width = plate.width;
+            for (i, p) in plate.data.iter_mut().enumerate() {
+                if i % width < width / 2 {
+                    *p = p.map(|c| 1.0 - c);
+                }
+            }
+            v.with_plate(plate)
+        })
+        .collect();
+    inputs.static_points = inputs.cloud.len() / 2;
+    let renderer = GpuRenderer::new(&ctx);
+    let cpu = render_frame(&params, &frame.camera, &inputs, None, &mut RenderHooks::default()).unwrap();
+    let gpu = download_rgb(&ctx, &renderer.render(&ctx, &params, &frame.camera, &GpuInputs::upload(&ctx, &inputs).unwrap(), None).unwrap());
+    let (db, mad) = (psnr(&gpu, &cpu.color), mean_abs_difference(&gpu, &cpu.color));
+    eprintln!("with plates: GPU vs CPU {db:.1} dB, mean abs difference {:.3}/255", mad * 255.0);
+    assert!(db >= MIN_PSNR_DB, "GPU vs CPU {db:.1} dB");
+    assert!(mad <= MAX_MEAN_ABS_DIFFERENCE, "mean abs difference {:.3}/255", mad * 255.0);
+    // The plates were used, on both.
+    let cpu_plain = render_frame(&params, &frame.camera, &plain, None, &mut RenderHooks::default()).unwrap();
+    let gpu_plain =
+        download_rgb(&ctx, &renderer.render(&ctx, &params, &frame.camera, &GpuInputs::upload(&ctx, &plain).unwrap(), None).unwrap());
+    assert!(psnr(&cpu.color, &cpu_plain.color) < 30.0, "the plates changed nothing on the CPU");
+    assert!(psnr(&gpu, &gpu_plain) < 30.0, "the plates changed nothing on the GPU");
+}
+
 /// A device, the renderer, the small event's first path camera and time step 0 uploaded.
 struct Setup {
     ctx: GpuContext,

@@ -240,7 +240,8 @@ fn warps_and_visibility_on_the_gpu_match_the_cpu() {
     let depth_gpu = GpuImage::upload(&ctx, &depth.data, w, h, 1).unwrap();
     let input_gpu = GpuImage::upload(&ctx, input.data.as_flattened(), 160, 90, 3).unwrap();
     let second = GpuImage::upload(&ctx, rgb_image(w, h, 22).data.as_flattened(), w, h, 3).unwrap();
-    let gpu = kernels.warp_views(&ctx, &novel, &depth_gpu, &[(input_camera, &input_gpu), (novel, &second)], 0.01).unwrap();
+    let gpu =
+        kernels.warp_views(&ctx, &novel, &depth_gpu, &[(input_camera, &input_gpu, None), (novel, &second, None)], 0.01, None).unwrap();
     let colors = gpu.colors.download(&ctx).unwrap();
     let visibilities = gpu.visibility.download(&ctx).unwrap();
     let valid = gpu.valid.download(&ctx).unwrap();

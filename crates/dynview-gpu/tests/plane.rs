@@ -79,7 +79,7 @@ fn inputs(w: u32, h: u32) -> TimeStepInputs {
             InputView::new(cam, ray_cast(&cam).1, 4)
         })
         .collect();
-    TimeStepInputs { cloud: sparse_cloud(), views }
+    TimeStepInputs { cloud: sparse_cloud(), views, static_points: 0 }
 }
 
 #[test]

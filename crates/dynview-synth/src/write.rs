@@ -289,6 +289,7 @@ fn write_package(
             intrinsics: rig.input(c, 0.0).intrinsics,
             poses: (0..config.frames).map(|t| PoseEntry::from(rig.input(c, config.time_s(t)).camera_from_world)).collect(),
             color_balance: None,
+            plate: false,
         })
         .map(|mut camera: CameraEntry| {
             camera.compact_poses(); // a tripod: one pose

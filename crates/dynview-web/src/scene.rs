@@ -6,10 +6,11 @@ use std::cell::{Cell, RefCell};
 use std::rc::Rc;
 
 use dynview_core::points::PointCloud;
-use dynview_core::render::TimeStepInputs;
+use dynview_core::raster::RgbRaster;
+use dynview_core::render::{InputView, TimeStepInputs};
 use dynview_core::scene::cloud::{self, CloudIndex};
 use dynview_core::scene::limits::{MAX_FRAME_FILE_BYTES, MAX_MANIFEST_BYTES};
-use dynview_core::scene::manifest::MANIFEST_FILE;
+use dynview_core::scene::manifest::{FrameFormat, MANIFEST_FILE};
 use dynview_core::scene::video::{FrameIndex, index_byte_length};
 use dynview_core::scene::yuv::{PlaneLayout, Yuv420};
 use dynview_core::scene::{Manifest, decode_frame};
@@ -75,6 +76,8 @@ pub struct RemoteScene {
     video: Option<FrameIndex>,
     /// The static cloud the steps borrow from (empty in a version 1 clouds file).
     statics: Rc<PointCloud>,
+    /// Per camera, its background plate (color-balanced) when the package has one.
+    plates: Vec<Option<RgbRaster>>,
 }
 
 /// The compressed frames a decoder needs to show one frame of one camera's video.
@@ -152,8 +155,21 @@ impl RemoteScene {
             }
             None => None,
         };
+        // The background plates: read once, here.
+        let mut plates = Vec::with_capacity(manifest.cameras.len());
+        for (c, entry) in manifest.cameras.iter().enumerate() {
+            if !entry.plate {
+                plates.push(None);
+                continue;
+            }
+            let file = manifest.plate_relative_path(c);
+            let bytes = source.start(&file, None, MAX_FRAME_FILE_BYTES)?.bytes().await?;
+            count(bytes.len());
+            let plate = decode_frame(&bytes, FrameFormat::Jpeg, entry.width, entry.height, &source.display_name(&file)).map_err(invalid)?;
+            plates.push(Some(manifest.balanced_plate(c, plate)));
+        }
         let cache = RefCell::new(StepCache { steps: Vec::new(), budget_bytes: DEFAULT_CACHE_BUDGET_BYTES });
-        Ok(Self { source, manifest, cloud_index, cache, stats, video, statics })
+        Ok(Self { source, manifest, cloud_index, cache, stats, video, statics, plates })
     }
 
     /// The validated manifest.
@@ -201,6 +217,20 @@ impl RemoteScene {
     }
 
     /// Reads and decodes the cloud of step `t`.
+    /// Camera `c`'s input view at step `t`, with its plate when it has one.
+    fn input_view(&self, c: usize, t: u32, image: RgbRaster, levels: usize) -> InputView {
+        let view = self.manifest.input_view(c, t, image, levels);
+        match &self.plates[c] {
+            Some(plate) => view.with_plate(plate.clone()),
+            None => view,
+        }
+    }
+
+    /// How many of step `t`'s points (at the end of its cloud) are borrowed static points.
+    fn static_points(&self, t: u32) -> usize {
+        self.cloud_index.steps[t as usize].borrowed_count as usize
+    }
+
     async fn load_cloud(&self, t: u32) -> Result<PointCloud, ReadError> {
         let entry = self.cloud_index.steps[t as usize];
         let clouds_file = &self.manifest.clouds.file;
@@ -274,10 +304,10 @@ impl RemoteScene {
                 ))
             })?;
             self.count(0, 1);
-            let image = dynview_core::raster::RgbRaster::from_rgb8(&yuv.to_rgb8());
-            views.push(self.manifest.input_view(c, t, image, levels));
+            let image = RgbRaster::from_rgb8(&yuv.to_rgb8());
+            views.push(self.input_view(c, t, image, levels));
         }
-        let inputs = Rc::new(TimeStepInputs { cloud, views });
+        let inputs = Rc::new(TimeStepInputs { cloud, views, static_points: self.static_points(t) });
         self.cache.borrow_mut().insert(t, inputs.clone());
         Ok(inputs)
     }
@@ -313,10 +343,10 @@ impl RemoteScene {
             let entry = &self.manifest.cameras[c];
             let name = self.source.display_name(&self.manifest.frame_relative_path(c, t));
             let image = decode_frame(&bytes, self.manifest.frame_format, entry.width, entry.height, &name).map_err(invalid)?;
-            views.push(self.manifest.input_view(c, t, image, levels));
+            views.push(self.input_view(c, t, image, levels));
             progress(self.stats.get(), c as u32 + 1, total);
         }
-        let inputs = Rc::new(TimeStepInputs { cloud, views });
+        let inputs = Rc::new(TimeStepInputs { cloud, views, static_points: self.static_points(t) });
         self.cache.borrow_mut().insert(t, inputs.clone());
         Ok(inputs)
     }

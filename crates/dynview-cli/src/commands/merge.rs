@@ -23,6 +23,10 @@ pub struct MergeArgs {
     /// Each time step keeps only its own points (no static points accumulated across time).
     #[arg(long)]
     no_static: bool,
+    /// No static cloud grown by stereo on the background plates of the cameras that stand
+    /// still (by default it replaces the static points found across time, which seed it).
+    #[arg(long)]
+    no_plates: bool,
     /// Store every camera's frames as they are: no color balance between the cameras (by
     /// default each camera's colors are mapped to the response the cameras share, estimated
     /// from the points they see in common).
@@ -38,6 +42,7 @@ pub fn run_merge(args: MergeArgs) -> anyhow::Result<()> {
     let bars = StageBars::new();
     let options = dynview_sfm::pipeline::export::PackageOptions {
         static_cloud: (!args.no_static).then(dynview_sfm::dense::static_cloud::StaticOptions::default),
+        plates: (!args.no_plates).then(dynview_sfm::dense::plate_cloud::PlateCloudOptions::default),
         video: args.frames_as.video(),
         format_v1: args.frames_as.format_v1(),
         color_balance: !args.no_color_balance,

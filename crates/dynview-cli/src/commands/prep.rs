@@ -105,6 +105,10 @@ pub struct Args {
     /// Each time step keeps only its own points (no static points accumulated across time).
     #[arg(long)]
     no_static: bool,
+    /// No static cloud grown by stereo on the background plates of the cameras that stand
+    /// still (by default it replaces the static points found across time, which seed it).
+    #[arg(long)]
+    no_plates: bool,
     /// Store every camera's frames as they are: no color balance between the cameras (by
     /// default each camera's colors are mapped to the response the cameras share, estimated
     /// from the points they see in common).
@@ -166,6 +170,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     options.steps.working_width = args.working_width;
     if args.no_static {
         options.package.static_cloud = None;
+    }
+    if args.no_plates {
+        options.package.plates = None;
     }
     options.package.video = args.frames_as.video();
     options.package.format_v1 = args.frames_as.format_v1();

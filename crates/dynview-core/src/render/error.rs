@@ -25,6 +25,28 @@ pub enum RenderError {
         /// Camera height.
         camera_height: u32,
     },
+    /// An input view's background plate differs in size from its frame.
+    #[error("input view {index}: plate is {width}x{height}, its frame {frame_width}x{frame_height}")]
+    PlateSize {
+        /// The view.
+        index: usize,
+        /// Plate width.
+        width: usize,
+        /// Plate height.
+        height: usize,
+        /// Frame width.
+        frame_width: usize,
+        /// Frame height.
+        frame_height: usize,
+    },
+    /// More static points than points in the cloud.
+    #[error("the time step says {static_points} of its points are static, but it has {points}")]
+    StaticPoints {
+        /// Static points claimed.
+        static_points: usize,
+        /// Points in the cloud.
+        points: usize,
+    },
     /// The output camera is empty or too large.
     #[error("output size {width}x{height} is not in 1..=16384")]
     OutputSize {

@@ -17,12 +17,27 @@ pub struct InputView {
     pub camera: Camera,
     /// The frame at each level, finest first.
     pub levels: Vec<RgbRaster>,
+    /// The camera's background plate (the static scene, nothing in front; issue 33) at each
+    /// level, finest first, when the camera stands still and the package has one.
+    pub plate: Option<Vec<RgbRaster>>,
 }
 
 impl InputView {
     /// Builds the pyramid of `image` (which must match `camera`'s size).
     pub fn new(camera: Camera, image: RgbRaster, levels: usize) -> Self {
-        Self { camera, levels: pyramid::build(image, levels.max(1)) }
+        Self { camera, levels: pyramid::build(image, levels.max(1)), plate: None }
+    }
+
+    /// The view with its background plate (the size of its frame), as a pyramid of as many
+    /// levels as the frame's.
+    pub fn with_plate(mut self, plate: RgbRaster) -> Self {
+        self.plate = Some(pyramid::build(plate, self.levels.len()));
+        self
+    }
+
+    /// The plate at `level` (the coarsest available when beyond), if the view has one.
+    pub(super) fn plate_at(&self, level: usize) -> Option<&RgbRaster> {
+        self.plate.as_ref().map(|p| &p[level.min(p.len() - 1)])
     }
 
     /// The camera and frame at `level` (the coarsest available when beyond).
@@ -39,13 +54,16 @@ pub struct TimeStepInputs {
     pub cloud: PointCloud,
     /// All input views at this time step (the renderer ranks and picks `params.views`).
     pub views: Vec<InputView>,
+    /// How many of the cloud's points, at its end, belong to the static scene (lent by the
+    /// package's static cloud); the others are the step's own. 0 when unknown.
+    pub static_points: usize,
 }
 
 impl TimeStepInputs {
     /// Bytes the decoded inputs hold: the pyramids' f32 RGB pixels and the cloud's points (a
     /// f32 position and an 8-bit color each, 15 bytes). What a cache of time steps counts.
     pub fn decoded_bytes(&self) -> usize {
-        let pixels: usize = self.views.iter().flat_map(|v| v.levels.iter()).map(|l| l.data.len()).sum();
+        let pixels: usize = self.views.iter().flat_map(|v| v.levels.iter().chain(v.plate.iter().flatten())).map(|l| l.data.len()).sum();
         pixels * std::mem::size_of::<[f32; 3]>() + self.cloud.len() * 15
     }
 }
@@ -68,6 +86,20 @@ pub(super) fn check_inputs(params: &RenderParams, camera: &Camera, inputs: &Time
                 camera_height: v.camera.height_px,
             });
         }
+        if let Some(plate) = v.plate.as_ref().and_then(|p| p.first())
+            && (plate.width, plate.height) != (img.width, img.height)
+        {
+            return Err(RenderError::PlateSize {
+                index,
+                width: plate.width,
+                height: plate.height,
+                frame_width: img.width,
+                frame_height: img.height,
+            });
+        }
+    }
+    if inputs.static_points > inputs.cloud.len() {
+        return Err(RenderError::StaticPoints { static_points: inputs.static_points, points: inputs.cloud.len() });
     }
     let (w, h) = (camera.width_px, camera.height_px);
     if w == 0 || h == 0 || w > 16_384 || h > 16_384 {

@@ -12,6 +12,7 @@ use super::levels::{FALLBACK_COLOR, FALLBACK_DEPTH, LevelViews, color_terms, dep
 use super::outputs::{LevelPreview, LevelSolution, PreviousFrame, RenderOutput, previous_camera};
 use super::params::{Method, RenderParams};
 use super::plane::{InverseDepthPlane, faded_weights, support_coverage};
+use super::plates;
 use super::pushpull;
 use super::pyramid::{self, Pixel, camera_at};
 use super::solve::{GridSystem, Norm};
@@ -45,6 +46,9 @@ pub struct FrameJob<I, P> {
     init_weights: Vec<f32>,
     /// The plane the depth is pulled toward (`lambda_plane`), fitted once per frame.
     plane: Option<InverseDepthPlane>,
+    /// Where the novel view shows the static scene, at full size (views with a background plate
+    /// give its color there); `None` without static points or plates.
+    static_mask: Option<ScalarRaster>,
     /// The level the next step solves; `None` once done.
     next_level: Option<usize>,
     depth: ScalarRaster,
@@ -67,6 +71,9 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
         let plane = (params.method.is_variational() && params.lambda_plane > 0.0)
             .then(|| InverseDepthPlane::fit_points(&camera, &inputs.borrow().cloud.positions_world, previous_plane.as_ref()))
             .flatten();
+        let with_plates = inputs.borrow().views.iter().any(|v| v.plate.is_some());
+        let static_mask =
+            with_plates.then(|| plates::static_mask(&params, &inputs.borrow().cloud, inputs.borrow().static_points, &camera)).flatten();
         Ok(Self {
             params,
             camera,
@@ -75,6 +82,7 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
             chosen,
             init_weights,
             plane,
+            static_mask,
             next_level,
             depth: ScalarRaster::filled(1, 1, FALLBACK_DEPTH),
             color: RgbRaster::filled(1, 1, FALLBACK_COLOR),
@@ -139,7 +147,7 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
         let color = match params.method {
             Method::Splat => sparse_color,
             Method::BestView => {
-                let mut views = LevelViews::new(inputs, &self.chosen[..1], 0);
+                let mut views = LevelViews::new(inputs, &self.chosen[..1], 0, self.static_mask.as_ref());
                 views.update(camera, &depth, params, watch);
                 // The single view wherever it lands; push-pull of it elsewhere.
                 let warp = &views.warps[0];
@@ -154,7 +162,7 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
                 fill
             }
             _ => {
-                let mut views = LevelViews::new(inputs, &self.chosen, 0);
+                let mut views = LevelViews::new(inputs, &self.chosen, 0, self.static_mask.as_ref());
                 views.update(camera, &depth, params, watch);
                 views.blend(&sparse_color, &vec![1.0; self.chosen.len()])
             }
@@ -192,7 +200,7 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
             .and_then(|p| p.levels.get(level))
             .map(|l| warp_frame(&camera_at(&previous_camera(previous), l.color.width, l.color.height), &l.depth, &l.color, &cam));
         watch.lap(Stage::Sparse);
-        let mut views = LevelViews::new(inputs, &self.chosen, level);
+        let mut views = LevelViews::new(inputs, &self.chosen, level, self.static_mask.as_ref());
         if level + 1 == params.levels {
             // Coarsest level: push-pull filled sparse depth, then the visibility-tested blend
             // of the warped views (push-pull filled sparse color where no view sees).

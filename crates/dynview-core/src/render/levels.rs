@@ -4,6 +4,7 @@
 
 use super::inputs::TimeStepInputs;
 use super::params::RenderParams;
+use super::plates;
 use super::pushpull;
 use super::solve::{ColorTerms, ColorView, DepthTerms};
 use super::sparse::{SplatMaps, project_cloud};
@@ -22,14 +23,29 @@ pub const FALLBACK_COLOR: Rgb = [0.5, 0.5, 0.5];
 /// Per-level state of the views: warps, visibility and weights.
 pub(super) struct LevelViews<'a> {
     views: Vec<(Camera, &'a RgbRaster)>,
+    /// Each view's background plate at this level, if it has one.
+    plates: Vec<Option<&'a RgbRaster>>,
+    /// The novel view's static mask at full size ([`super::plates::static_mask`]).
+    static_mask: Option<&'a ScalarRaster>,
+    /// That mask at this level's size, once known.
+    level_mask: Option<ScalarRaster>,
     pub(super) warps: Vec<ViewWarp>,
     /// False once the depth changed since the warps were computed.
     fresh: bool,
 }
 
 impl<'a> LevelViews<'a> {
-    pub(super) fn new(inputs: &'a TimeStepInputs, chosen: &[usize], level: usize) -> Self {
-        Self { views: chosen.iter().map(|&s| inputs.views[s].at(level)).collect(), warps: Vec::new(), fresh: false }
+    /// The chosen views at `level`; where `static_mask` says a novel pixel shows the static
+    /// scene, a view with a plate gives the plate's color there.
+    pub(super) fn new(inputs: &'a TimeStepInputs, chosen: &[usize], level: usize, static_mask: Option<&'a ScalarRaster>) -> Self {
+        Self {
+            views: chosen.iter().map(|&s| inputs.views[s].at(level)).collect(),
+            plates: chosen.iter().map(|&s| inputs.views[s].plate_at(level)).collect(),
+            static_mask: static_mask.filter(|_| chosen.iter().any(|&s| inputs.views[s].plate.is_some())),
+            level_mask: None,
+            warps: Vec::new(),
+            fresh: false,
+        }
     }
 
     /// Marks the warps stale (the depth changed).
@@ -45,6 +61,19 @@ impl<'a> LevelViews<'a> {
         self.fresh = true;
         let views = &self.views;
         self.warps = crate::par::map_range(views.len(), |s| warp_view(camera, depth, &views[s].0, views[s].1));
+        if let Some(mask) = self.static_mask {
+            let level_mask = self.level_mask.get_or_insert_with(|| plates::mask_at(mask, depth.width, depth.height));
+            let plates = &self.plates;
+            let plate_warps = crate::par::map_range(views.len(), |s| plates[s].map(|p| warp_view(camera, depth, &views[s].0, p).color));
+            for (warp, plate) in self.warps.iter_mut().zip(plate_warps) {
+                let Some(plate) = plate else { continue };
+                for ((color, plate), &stat) in warp.color.iter_mut().zip(plate).zip(&level_mask.data) {
+                    if stat > 0.5 {
+                        *color = plate;
+                    }
+                }
+            }
+        }
         watch.lap(Stage::Warp);
         let tol = params.visibility_tolerance;
         let sizes: Vec<usize> = views.iter().map(|(_, img)| img.data.len()).collect();

@@ -25,6 +25,7 @@ mod levels;
 mod outputs;
 mod params;
 pub mod plane;
+pub mod plates;
 pub mod pushpull;
 pub mod pyramid;
 pub mod solve;

@@ -80,6 +80,14 @@ pub struct RenderParams {
     /// point within it. A point held at a single pixel is a spike in the membrane of the depth
     /// energy; over a patch it carries its depth to its neighbours. See `docs/RENDERER.md`.
     pub sparse_footprint_px: usize,
+    /// Radius in pixels (at the finest level, halved per level) by which the step's own points
+    /// nearer than the static scene are grown into the region where views keep their frames
+    /// (ours, issue 33; 0 = no background plates). Elsewhere the novel pixel shows the static
+    /// scene, and each view that has a background plate gives the plate's color there rather
+    /// than its frame's, so that something standing in front of the static scene in one view
+    /// (and out of the novel view) is not painted onto it. Needs a package with plates and a
+    /// static cloud; the GPU renderer does not apply it yet. See `docs/RENDERER.md`.
+    pub plate_moving_dilation_px: usize,
     /// `lambda_P`: color data term per view (paper Eq. rendering_color; 5 to 20, default 10).
     pub lambda_p: f32,
     /// Exponent `gamma` of the view's rank in the color energy where no point supports the
@@ -156,6 +164,7 @@ impl Default for RenderParams {
             lambda_plane: 0.1,
             plane_support: 0.002,
             sparse_footprint_px: 2,
+            plate_moving_dilation_px: 6,
             lambda_p: 10.0,
             view_rank_exponent: 1.0,
             view_rank_support: 0.01,
@@ -231,6 +240,9 @@ impl RenderParams {
         }
         if self.sparse_footprint_px > 16 {
             return bad("sparse_footprint_px", format!("must be at most 16, found {}", self.sparse_footprint_px));
+        }
+        if self.plate_moving_dilation_px > 64 {
+            return bad("plate_moving_dilation_px", format!("must be at most 64, found {}", self.plate_moving_dilation_px));
         }
         if !(1..=16).contains(&self.views) {
             return bad("views", format!("must be in 1..=16, found {}", self.views));

@@ -1,7 +1,8 @@
 //! The streaming renderers on a small synthetic scene (a textured plane seen by three input
 //! cameras, its sparse points on it): the level-at-a-time renderer gives coarse levels first,
 //! finishes with the very frame of the whole-frame renderer, and uses the previous frame only
-//! when streaming and until a jump.
+//! when streaming and until a jump; and the background plates keep what stands in front of the
+//! static scene in the inputs off it.
 
 use std::rc::Rc;
 
@@ -69,7 +70,48 @@ fn inputs(levels: usize) -> Rc<TimeStepInputs> {
             cloud.colors.push(texture(x, y).map(|c| (c * 255.0).round() as u8));
         }
     }
-    Rc::new(TimeStepInputs { cloud, views })
+    Rc::new(TimeStepInputs { cloud, views, static_points: 0 })
+}
+
+#[test]
+fn with_plates_what_stands_in_front_of_the_static_scene_in_the_inputs_is_not_painted_onto_it() {
+    let levels = RenderParams::default().levels;
+    let clean = inputs(levels);
+    // Something dark stands in front of the plane's centre, seen by two of the three views and
+    // out of the novel view (no point of it): they show it where the plane's centre is.
+    let mut occluded = (*clean).clone();
+    for view in occluded.views.iter_mut().take(2) {
+        let (centre, _) = view.camera.project_world(DVec3::ZERO).expect("in front");
+        let mut frame = view.levels[0].clone();
+        for (i, p) in frame.data.iter_mut().enumerate() {
+            if DVec2::new((i % frame.width) as f64, (i / frame.width) as f64).distance(centre) < 8.0 {
+                *p = [0.05; 3];
+            }
+        }
+        *view = InputView::new(view.camera, frame, levels);
+    }
+    // The same, each view with its background plate (what it shows without the dark thing), and
+    // every point the static scene's.
+    let mut with_plates = occluded.clone();
+    for (view, clean) in with_plates.views.iter_mut().zip(&clean.views) {
+        *view = view.clone().with_plate(clean.levels[0].clone());
+    }
+    with_plates.static_points = with_plates.cloud.len();
+    let novel = camera_looking_at_origin(DVec3::new(0.0, 0.0, -3.8));
+    let truth = view_of_plane(&novel);
+    let params = RenderParams::default();
+    let error = |inputs: &TimeStepInputs| {
+        let out = render_frame(&params, &novel, inputs, None, &mut RenderHooks::default()).unwrap();
+        // Mean absolute error over the centre, where the dark thing lands.
+        let (w, h) = (novel.width_px as usize, novel.height_px as usize);
+        let centre: Vec<usize> =
+            (0..w * h).filter(|&i| ((i % w) as f64 - w as f64 / 2.0).hypot((i / w) as f64 - h as f64 / 2.0) < 6.0).collect();
+        centre.iter().map(|&i| (0..3).map(|k| (out.color.data[i][k] - truth.data[i][k]).abs()).sum::<f32>() / 3.0).sum::<f32>()
+            / centre.len() as f32
+    };
+    let (without, with) = (error(&occluded), error(&with_plates));
+    assert!(without > 0.1, "the dark thing shows without plates (mean error {without})");
+    assert!(with < 0.02, "with plates the plane shows (mean error {with}, {without} without)");
 }
 
 /// The virtual camera of frame `i` of a short pan.

@@ -22,6 +22,8 @@ pub const FRAMES_INDEX_FILE: &str = "frames.idx";
 /// The folder holding the input frames: `frames/<camera>/<t:05>.<ext>` (images) or
 /// `frames/<camera>.ivf` (video).
 pub const FRAMES_DIR: &str = "frames";
+/// Folder of the cameras' background plates in a package.
+pub const PLATES_DIR: &str = "plates";
 
 /// A world-to-camera pose as stored: row-major rotation and translation (OpenCV convention).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -64,6 +66,11 @@ pub struct CameraEntry {
     /// Optional in both format versions (readers that predate it ignore it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub color_balance: Option<ColorTransform>,
+    /// Whether the package holds this camera's background plate, `plates/<name>.jpg` at
+    /// `width x height` (a camera that stands still; issue 33). Optional in both format
+    /// versions (readers that predate it ignore it).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub plate: bool,
 }
 
 impl CameraEntry {
@@ -333,6 +340,14 @@ impl Manifest {
         InputView::new(self.camera_at(camera, t), frame, levels)
     }
 
+    /// Camera `camera`'s background plate as the renderer reads it: its color balance applied.
+    pub fn balanced_plate(&self, camera: usize, mut plate: RgbRaster) -> RgbRaster {
+        if let Some(balance) = &self.cameras[camera].color_balance {
+            balance.apply_to(&mut plate);
+        }
+        plate
+    }
+
     /// The posed camera `camera` at time step `t` (both must be in range).
     pub fn camera_at(&self, camera: usize, t: u32) -> Camera {
         let entry = &self.cameras[camera];
@@ -360,6 +375,11 @@ impl Manifest {
     /// Relative path of a camera's video inside a video package: `frames/<camera>.ivf`.
     pub fn video_relative_path(&self, camera: usize) -> String {
         format!("{FRAMES_DIR}/{}.{}", self.cameras[camera].name, self.frame_format.extension())
+    }
+
+    /// Relative path of a camera's background plate: `plates/<camera>.jpg`.
+    pub fn plate_relative_path(&self, camera: usize) -> String {
+        format!("{PLATES_DIR}/{}.jpg", self.cameras[camera].name)
     }
 
     /// Relative path of a frame file inside an image package: `frames/<camera>/<t:05>.<ext>`.

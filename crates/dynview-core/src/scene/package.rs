@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex};
 use super::cloud::{self, CloudIndex};
 use super::error::{SceneError, SceneResult};
 use super::limits::{MAX_FRAME_FILE_BYTES, MAX_MANIFEST_BYTES};
-use super::manifest::{MANIFEST_FILE, Manifest};
+use super::manifest::{FrameFormat, MANIFEST_FILE, Manifest};
 use super::video::FrameIndex;
 use super::video_files::VideoFrames;
 use crate::camera::Camera;
@@ -29,6 +29,8 @@ pub struct ScenePackage {
     video: Option<VideoFrames>,
     /// The static cloud, read at the first step that needs it (version 2 clouds).
     statics: Mutex<Option<Arc<PointCloud>>>,
+    /// The cameras' background plates, color-balanced, read at the first step that needs them.
+    plates: Mutex<Vec<Option<Arc<RgbRaster>>>>,
 }
 
 fn read_limited(path: &Path, limit: u64) -> SceneResult<Vec<u8>> {
@@ -83,7 +85,7 @@ impl ScenePackage {
         file.read_exact(&mut index_bytes[cloud::HEADER_BYTES..]).map_err(|e| SceneError::io(&clouds_path, e))?;
         let cloud_index = CloudIndex::parse(&index_bytes, file_length, &clouds_name)?;
         let video = if manifest.frame_format.is_video() { Some(VideoFrames::open(&root, &manifest)?) } else { None };
-        Ok(Self { root, manifest, cloud_index, video, statics: Mutex::new(None) })
+        Ok(Self { root, manifest, cloud_index, video, statics: Mutex::new(None), plates: Mutex::new(Vec::new()) })
     }
 
     /// The package folder.
@@ -280,11 +282,37 @@ impl ScenePackage {
     /// pyramid.
     pub fn time_step_inputs(&self, t: u32, levels: usize) -> SceneResult<crate::render::TimeStepInputs> {
         let cloud = self.read_cloud(t)?;
+        let static_points = self.step_entry(t)?.1.borrowed_count as usize;
         let frames = crate::par::map_range(self.camera_count(), |c| self.read_frame(c, t));
         let mut views = Vec::with_capacity(frames.len());
         for (c, frame) in frames.into_iter().enumerate() {
-            views.push(self.manifest.input_view(c, t, frame?, levels));
+            let view = self.manifest.input_view(c, t, frame?, levels);
+            views.push(match self.plate(c)? {
+                Some(plate) => view.with_plate(plate.as_ref().clone()),
+                None => view,
+            });
         }
-        Ok(crate::render::TimeStepInputs { cloud, views })
+        Ok(crate::render::TimeStepInputs { cloud, views, static_points })
+    }
+
+    /// Camera `camera`'s background plate, color-balanced as its frames are (`None` when the
+    /// package has none for it), read once.
+    pub fn plate(&self, camera: usize) -> SceneResult<Option<Arc<RgbRaster>>> {
+        let Some(entry) = self.manifest.cameras.get(camera).filter(|e| e.plate) else {
+            return Ok(None);
+        };
+        let mut cached = self.plates.lock().map_err(|_| SceneError::invalid(&entry.name, "plate", "an earlier read failed"))?;
+        if cached.len() != self.manifest.cameras.len() {
+            *cached = vec![None; self.manifest.cameras.len()];
+        }
+        if let Some(plate) = &cached[camera] {
+            return Ok(Some(plate.clone()));
+        }
+        let path = self.root.join(self.manifest.plate_relative_path(camera));
+        let bytes = read_limited(&path, MAX_FRAME_FILE_BYTES)?;
+        let plate = decode_frame(&bytes, FrameFormat::Jpeg, entry.width, entry.height, &path.display().to_string())?;
+        let plate = Arc::new(self.manifest.balanced_plate(camera, plate));
+        cached[camera] = Some(plate.clone());
+        Ok(Some(plate))
     }
 }

@@ -18,6 +18,7 @@ pub fn small_manifest(cameras: usize, steps: u32) -> Manifest {
                 intrinsics: Intrinsics::from_vertical_fov(1.0, 8, 6),
                 poses: vec![PoseEntry::from(pose); steps as usize],
                 color_balance: None,
+                plate: false,
             }
         })
         .collect::<Vec<_>>();

@@ -95,6 +95,48 @@ fn a_cameras_color_balance_reaches_the_renderer_and_nothing_else() {
 }
 
 #[test]
+fn plates_reach_the_renderer_balanced_with_the_steps_static_points() {
+    use crate::color_balance::ColorTransform;
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("scene");
+    let mut manifest = small_manifest(2, 2);
+    manifest.version = super::manifest::FORMAT_VERSION;
+    let balance = ColorTransform { gain: [0.5, 1.0, 1.0], offset: [0.1, 0.0, -0.1] };
+    manifest.cameras[0].color_balance = Some(balance);
+    let mut writer = SceneWriter::create(&dir, manifest).unwrap();
+    // A flat plate (JPEG keeps it exact) for camera 0 only.
+    let plate = image::RgbImage::from_pixel(8, 6, image::Rgb([200, 100, 40]));
+    writer.write_plate(0, &plate).unwrap();
+    let wrong = writer.write_plate(1, &image::RgbImage::new(4, 4)).unwrap_err().to_string();
+    assert!(wrong.contains("plates/") && wrong.contains("expected 8x6"), "{wrong}");
+    writer.set_static_cloud(&cloud_for_step(3)).unwrap();
+    for t in 0..2 {
+        for c in 0..2 {
+            writer.write_frame(c, t, &frame_for(c, t)).unwrap();
+        }
+        writer.push_cloud_borrowing(&cloud_for_step(t), &[1, 4, 6]).unwrap();
+    }
+    writer.finish().unwrap();
+    let package = ScenePackage::open(&dir).unwrap();
+    assert!(package.manifest().cameras[0].plate && !package.manifest().cameras[1].plate);
+    let inputs = package.time_step_inputs(1, 2).unwrap();
+    assert_eq!(inputs.static_points, 3);
+    assert_eq!(inputs.cloud.len(), cloud_for_step(1).len() + 3);
+    let seen = &inputs.views[0].plate.as_ref().expect("camera 0's plate")[0];
+    let expected = balance.apply([200.0 / 255.0, 100.0 / 255.0, 40.0 / 255.0]).map(|v| v.clamp(0.0, 1.0));
+    assert!(seen.data.iter().all(|p| (0..3).all(|k| (p[k] - expected[k]).abs() < 2.0 / 255.0)), "{:?}", seen.data[0]);
+    assert!(inputs.views[1].plate.is_none());
+    // A plate file of the wrong size is an error naming it.
+    let path = dir.join("plates").join("cam0.jpg");
+    let mut bytes = Vec::new();
+    image::RgbImage::new(4, 4).write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Jpeg).unwrap();
+    fs::write(&path, bytes).unwrap();
+    let package = ScenePackage::open(&dir).unwrap();
+    let error = package.time_step_inputs(0, 2).unwrap_err().to_string();
+    assert!(error.contains("cam0.jpg"), "{error}");
+}
+
+#[test]
 fn a_color_balance_out_of_range_is_named() {
     for (field, gain, offset) in
         [("gain[1]", f32::NAN, 0.0), ("gain[1]", 0.0, 0.0), ("gain[1]", 40.0, 0.0), ("offset[1]", 1.0, f32::INFINITY)]

@@ -110,6 +110,29 @@ impl SceneWriter {
         fs::write(&path, bytes).map_err(|e| SceneError::io(&path, e))
     }
 
+    /// Writes `camera`'s background plate (`plates/<camera>.jpg`, the camera's frame size) and
+    /// marks it in the manifest.
+    pub fn write_plate(&mut self, camera: usize, plate: &image::RgbImage) -> SceneResult<()> {
+        let Some(entry) = self.manifest.cameras.get(camera) else {
+            return Err(SceneError::invalid("scene.json", "cameras", format!("no camera {camera} for a plate")));
+        };
+        let rel = self.manifest.plate_relative_path(camera);
+        if plate.dimensions() != (entry.width, entry.height) {
+            return Err(SceneError::invalid(
+                rel,
+                "(image size)",
+                format!("{:?}, expected {}x{}", plate.dimensions(), entry.width, entry.height),
+            ));
+        }
+        let bytes = encode_frame(plate, super::manifest::FrameFormat::Jpeg, &rel)?;
+        let dir = self.staging_dir.join(super::manifest::PLATES_DIR);
+        fs::create_dir_all(&dir).map_err(|e| SceneError::io(&dir, e))?;
+        let path = self.staging_dir.join(&rel);
+        fs::write(&path, bytes).map_err(|e| SceneError::io(&path, e))?;
+        self.manifest.cameras[camera].plate = true;
+        Ok(())
+    }
+
     /// Writes an already encoded frame of `camera` at time step `t` as is, after checking
     /// from its header that it is an image of the package's format and size. A video package
     /// takes an image of any format and encodes it into the camera's video.

@@ -31,7 +31,10 @@ pub(crate) const PUSHPULL_PULL: Shader = shader!("pushpull_pull.wgsl");
 /// Push-pull hole filling: the push (the coarser fill where a level is unknown).
 pub(crate) const PUSHPULL_PUSH: Shader = shader!("pushpull_push.wgsl", "common/bilinear.wgsl");
 /// Backward warps of the input views and their visibility.
-pub(crate) const WARP: Shader = shader!("warp.wgsl", "common/float_bits.wgsl", "common/outside.wgsl", "common/linear.wgsl");
+pub(crate) const WARP: Shader =
+    shader!("warp.wgsl", "common/warp_sample.wgsl", "common/float_bits.wgsl", "common/outside.wgsl", "common/linear.wgsl");
+/// The background plates' colors where the novel view shows the static scene.
+pub(crate) const WARP_PLATE: Shader = shader!("warp_plate.wgsl", "common/warp_sample.wgsl", "common/float_bits.wgsl");
 /// `w_P^s` of every view.
 pub(crate) const PROJECTION_WEIGHTS: Shader = shader!("assemble/projection_weights.wgsl", "assemble/params.wgsl", "common/agreement.wgsl");
 /// `w_D` and the sparse attachment `lambda_PC w_H`.
@@ -82,6 +85,7 @@ pub const SHADERS: &[(&str, &str)] = &[
     PUSHPULL_PULL,
     PUSHPULL_PUSH,
     WARP,
+    WARP_PLATE,
     PROJECTION_WEIGHTS,
     DEPTH_WEIGHTS,
     DEPTH_SYSTEM,

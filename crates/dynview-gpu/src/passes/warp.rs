@@ -40,8 +40,8 @@ struct WarpParams {
     input_height: u32,
     tolerance: f32,
     offset: u32,
-    _pad1: u32,
-    _pad2: u32,
+    mask_width: u32,
+    mask_height: u32,
     m_row0: [f32; 4],
     m_row1: [f32; 4],
     m_row2: [f32; 4],
@@ -54,6 +54,8 @@ pub struct WarpKernels {
     clear_zbuf: Kernel,
     warp: Kernel,
     visible: Kernel,
+    /// The plates' colors where the novel view shows the static scene (`warp_plate.wgsl`).
+    warp_plate: Kernel,
 }
 
 impl WarpKernels {
@@ -61,22 +63,28 @@ impl WarpKernels {
     pub fn new(ctx: &GpuContext) -> Self {
         let module = shaders::module(&ctx.device, shaders::WARP);
         let bindings = [true, true, false, false, false, false, false, false];
+        let plate_module = shaders::module(&ctx.device, shaders::WARP_PLATE);
         Self {
             clear_zbuf: Kernel::new(&ctx.device, &module, "clear_zbuf", &bindings, 64),
             warp: Kernel::new(&ctx.device, &module, "warp", &bindings, 8),
             visible: Kernel::new(&ctx.device, &module, "visible", &bindings, 8),
+            warp_plate: Kernel::new(&ctx.device, &plate_module, "warp_plate", &[true, true, true, false], 8),
         }
     }
 
-    /// Warps each input (an RGB image seen by its camera) into `novel` with z-depth `depth`,
-    /// and tests visibility with relative depth `tolerance`.
+    /// Warps each input (an RGB image seen by its camera, with its background plate if it has
+    /// one) into `novel` with z-depth `depth`, and tests visibility with relative depth
+    /// `tolerance`. With `static_mask` (the novel view's at full size,
+    /// `dynview_core::render::plates::static_mask`), a view with a plate gives the plate's color
+    /// where the mask marks the static scene.
     pub fn warp_views(
         &self,
         ctx: &GpuContext,
         novel: &Camera,
         depth: &GpuImage,
-        inputs: &[(Camera, &GpuImage)],
+        inputs: &[(Camera, &GpuImage, Option<&GpuImage>)],
         tolerance: f32,
+        static_mask: Option<&GpuImage>,
     ) -> Result<GpuWarps, GpuError> {
         let (w, h) = (depth.width, depth.height);
         if (w, h) != (novel.width_px as usize, novel.height_px as usize) || depth.channels != 1 {
@@ -98,13 +106,23 @@ impl WarpKernels {
         let depth_in_input = GpuImage::zeroed(ctx, w, h, 1)?;
         let _frame = ctx.frame();
         let mut zbufs = Vec::with_capacity(inputs.len());
-        for (s, (input_camera, input)) in inputs.iter().enumerate() {
+        let (mask_width, mask_height) = static_mask.map_or((0, 0), |m| (m.width as u32, m.height as u32));
+        for (s, (input_camera, input, plate)) in inputs.iter().enumerate() {
             if (input.width, input.height, input.channels) != (input_camera.width_px as usize, input_camera.height_px as usize, 3) {
                 return Err(GpuError::Size(format!(
                     "input frame {s} is {}x{}x{} for a {}x{} camera",
                     input.width, input.height, input.channels, input_camera.width_px, input_camera.height_px
                 )));
             }
+            if let Some(plate) = plate
+                && (plate.width, plate.height, plate.channels) != (input.width, input.height, 3)
+            {
+                return Err(GpuError::Size(format!(
+                    "plate {s} is {}x{}x{} for a {}x{} frame",
+                    plate.width, plate.height, plate.channels, input.width, input.height
+                )));
+            }
+
             let (m, e) = PixelTransfer::new(novel, input_camera).coefficients();
             let ((colors, offset), (visibility, _), (valid, _)) = (out.colors.locate(s), out.visibility.locate(s), out.valid.locate(s));
             let params = WarpParams {
@@ -114,8 +132,8 @@ impl WarpKernels {
                 input_height: input.height as u32,
                 tolerance,
                 offset: offset as u32,
-                _pad1: 0,
-                _pad2: 0,
+                mask_width,
+                mask_height,
                 m_row0: [m[0], m[1], m[2], 0.0],
                 m_row1: [m[3], m[4], m[5], 0.0],
                 m_row2: [m[6], m[7], m[8], 0.0],
@@ -137,6 +155,9 @@ impl WarpKernels {
             self.clear_zbuf.dispatch(ctx, uniform, &buffers, input.width * input.height, 1);
             self.warp.dispatch(ctx, uniform, &buffers, w, h);
             self.visible.dispatch(ctx, uniform, &buffers, w, h);
+            if let (Some(plate), Some(mask)) = (plate, static_mask) {
+                self.warp_plate.dispatch(ctx, uniform, &[&depth.buffer, &plate.buffer, &mask.buffer, &colors.buffer], w, h);
+            }
         }
         Ok(out)
     }
@@ -146,9 +167,12 @@ impl WarpKernels {
 #[cfg(test)]
 pub(crate) fn wgsl_mirrors() -> Vec<crate::device::shader_layout::Mirror> {
     use crate::device::shader_layout::mirror;
-    vec![mirror!(
-        shaders::WARP,
-        "Params",
-        WarpParams { width, height, input_width, input_height, tolerance, offset, _pad1, _pad2, m_row0, m_row1, m_row2, e }
-    )]
+    let fields = |shader| {
+        mirror!(
+            shader,
+            "Params",
+            WarpParams { width, height, input_width, input_height, tolerance, offset, mask_width, mask_height, m_row0, m_row1, m_row2, e }
+        )
+    };
+    vec![fields(shaders::WARP), fields(shaders::WARP_PLATE)]
 }

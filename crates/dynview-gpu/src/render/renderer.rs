@@ -4,8 +4,9 @@
 use dynview_core::camera::Camera;
 use dynview_core::render::plane::{InverseDepthPlane, WorldPlane};
 use dynview_core::render::pyramid::{camera_at, level_sizes};
-use dynview_core::render::weights;
 use dynview_core::render::{FALLBACK_COLOR, FALLBACK_DEPTH, Method, RenderParams, TimeStepInputs};
+use dynview_core::render::{plates, weights};
+use dynview_core::scene::PointCloud;
 use dynview_core::view_ranking::{ChosenViews, choose_views};
 
 use crate::device::context::GpuContext;
@@ -29,24 +30,30 @@ pub struct GpuInputs {
     positions_world: Vec<[f32; 3]>,
     /// Per view: its full-resolution camera and its frame per level (finest first).
     views: Vec<(Camera, Vec<GpuImage>)>,
+    /// Per view: its background plate per level (finest first), if it has one.
+    plates: Vec<Option<Vec<GpuImage>>>,
+    /// The cloud and how many of its points (at its end) are static, kept on the host for the
+    /// static mask of the plates (`render::plates::static_mask`); `None` when no view has a
+    /// plate.
+    plate_cloud: Option<(PointCloud, usize)>,
 }
 
 impl GpuInputs {
     /// Uploads `inputs` (pyramids as built by dynview-core).
     pub fn upload(ctx: &GpuContext, inputs: &TimeStepInputs) -> Result<Self, GpuError> {
-        let views = inputs
-            .views
-            .iter()
-            .map(|v| {
-                let levels = v.levels.iter().map(|l| GpuImage::upload(ctx, l.data.as_flattened(), l.width, l.height, 3)).collect::<Result<
-                    Vec<_>,
-                    _,
-                >>(
-                )?;
-                Ok((v.camera, levels))
-            })
-            .collect::<Result<Vec<_>, GpuError>>()?;
-        Ok(Self { cloud: GpuCloud::upload(ctx, &inputs.cloud)?, positions_world: inputs.cloud.positions_world.clone(), views })
+        let upload_levels = |levels: &[dynview_core::RgbRaster]| {
+            levels.iter().map(|l| GpuImage::upload(ctx, l.data.as_flattened(), l.width, l.height, 3)).collect::<Result<Vec<_>, _>>()
+        };
+        let views = inputs.views.iter().map(|v| Ok((v.camera, upload_levels(&v.levels)?))).collect::<Result<Vec<_>, GpuError>>()?;
+        let plates = inputs.views.iter().map(|v| v.plate.as_deref().map(upload_levels).transpose()).collect::<Result<Vec<_>, _>>()?;
+        let plate_cloud = plates.iter().any(Option::is_some).then(|| (inputs.cloud.clone(), inputs.static_points));
+        Ok(Self {
+            cloud: GpuCloud::upload(ctx, &inputs.cloud)?,
+            positions_world: inputs.cloud.positions_world.clone(),
+            views,
+            plates,
+            plate_cloud,
+        })
     }
 }
 
@@ -149,6 +156,12 @@ impl GpuRenderer {
         let plane = (params.lambda_plane > 0.0)
             .then(|| InverseDepthPlane::fit_points(camera, &inputs.positions_world, previous_plane.as_ref()))
             .flatten();
+        // Where the novel view shows the static scene, views with a plate give its color.
+        let static_mask =
+            match inputs.plate_cloud.as_ref().and_then(|(cloud, statics)| plates::static_mask(params, cloud, *statics, camera)) {
+                Some(mask) => Some(GpuImage::upload(ctx, &mask.data, mask.width, mask.height, 1)?),
+                None => None,
+            };
         let mut state: Option<(GpuImage, GpuImage)> = None;
         let mut solutions = Vec::with_capacity(params.levels);
         let mut view_weight = None;
@@ -168,12 +181,13 @@ impl GpuRenderer {
                 Some((prev_camera, (d, c))) => Some(self.splat.warp_frame(ctx, &camera_at(&prev_camera, c.width, c.height), d, c, &cam)?),
                 None => None,
             };
-            let view_images: Vec<(Camera, &GpuImage)> = chosen
+            let view_images: Vec<(Camera, &GpuImage, Option<&GpuImage>)> = chosen
                 .iter()
                 .map(|&s| {
                     let (view_camera, levels) = &inputs.views[s];
                     let image = &levels[level.min(levels.len() - 1)];
-                    (camera_at(view_camera, image.width, image.height), image)
+                    let plate = inputs.plates[s].as_ref().map(|p| &p[level.min(p.len() - 1)]);
+                    (camera_at(view_camera, image.width, image.height), image, plate)
                 })
                 .collect();
             // Initial guess: push-pull filled sparse depth at the coarsest level, the upsampled
@@ -190,7 +204,7 @@ impl GpuRenderer {
                 Some((depth, color)) => (self.images.upsample(ctx, &depth, w, h)?, self.images.upsample(ctx, &color, w, h)?),
             };
             ctx.set_stage(level, "warp");
-            let mut warps = self.warps.warp_views(ctx, &cam, &depth, &view_images, params.visibility_tolerance)?;
+            let mut warps = self.warps.warp_views(ctx, &cam, &depth, &view_images, params.visibility_tolerance, static_mask.as_ref())?;
             ctx.set_stage(level, "weights");
             let color = self.blend.blend(ctx, &warps, &fallback_color, &blend_weights)?;
             ctx.set_stage(level, "temporal");
@@ -237,7 +251,7 @@ impl GpuRenderer {
                 ctx.set_stage(level, "depth solve");
                 self.solver.solve_on_gpu(ctx, &sys, &depth, params.depth_sweeps, params.relaxation)?;
                 ctx.set_stage(level, "warp");
-                warps = self.warps.warp_views(ctx, &cam, &depth, &view_images, params.visibility_tolerance)?;
+                warps = self.warps.warp_views(ctx, &cam, &depth, &view_images, params.visibility_tolerance, static_mask.as_ref())?;
                 ctx.set_stage(level, "weights");
                 let w_p = self.assemble.projection_weights(ctx, params, &color, &warps)?;
                 if let Some(unsupported) = &unsupported {

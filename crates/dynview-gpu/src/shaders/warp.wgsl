@@ -5,25 +5,9 @@
 // Entry points, in order: clear_zbuf (over input pixels), warp (over novel pixels),
 // visible (over novel pixels). Color, visibility and validity are written at `offset` into
 // buffers that stack the views (the view's first pixel in its chunk of views, views.rs).
+// The uniform block and the sample position are common/warp_sample.wgsl's, shared with
+// warp_plate.wgsl.
 
-struct Params {
-    width: u32,
-    height: u32,
-    input_width: u32,
-    input_height: u32,
-    // Relative depth tolerance of the visibility test.
-    tolerance: f32,
-    offset: u32,
-    _pad1: u32,
-    _pad2: u32,
-    // The pixel transfer novel -> input: h = depth * M [x, y, 1] + e (rows of M in xyz).
-    m_row0: vec4<f32>,
-    m_row1: vec4<f32>,
-    m_row2: vec4<f32>,
-    e: vec4<f32>,
-};
-
-@group(0) @binding(0) var<uniform> params: Params;
 // Novel-view z-depth.
 @group(0) @binding(1) var<storage, read> depth: array<f32>;
 // The input frame, RGB floats.
@@ -70,46 +54,22 @@ fn warp(@builtin(global_invocation_id) id: vec3<u32>) {
     if (!(d > 0.0 && d <= MAX_FINITE)) {
         return;
     }
-    let fx = f32(x);
-    let fy = f32(y);
-    // As RowTransfer: the row's y folded in first, then the x terms.
-    let base = vec3<f32>(params.m_row0.y * fy + params.m_row0.z, params.m_row1.y * fy + params.m_row1.z, params.m_row2.y * fy + params.m_row2.z);
-    let hz = d * (params.m_row2.x * fx + base.z) + params.e.z;
-    if (!(hz > 1e-6)) {
+    let at = warp_sample(x, y, d);
+    if (!at.inside) {
         return;
     }
-    let inv = 1.0 / hz;
-    let u = (d * (params.m_row0.x * fx + base.x) + params.e.x) * inv;
-    let v = (d * (params.m_row1.x * fx + base.y) + params.e.y) * inv;
-    let wf = f32(params.input_width);
-    let hf = f32(params.input_height);
-    if (!(u >= -0.5 && v >= -0.5 && u < wf - 0.5 && v < hf - 0.5)) {
-        return;
-    }
-    let uc = clamp(u, 0.0, wf - 1.0);
-    let vc = clamp(v, 0.0, hf - 1.0);
-    let x0 = u32(uc);
-    let y0 = u32(vc);
-    let tx = uc - f32(x0);
-    let ty = vc - f32(y0);
-    var dx = 0u;
-    if (x0 + 1u < params.input_width) {
-        dx = 1u;
-    }
-    var dy = 0u;
-    if (y0 + 1u < params.input_height) {
-        dy = params.input_width;
-    }
-    let i00 = y0 * params.input_width + x0;
     for (var k = 0u; k < 3u; k = k + 1u) {
-        let a = pixel(i00, k);
-        let b = pixel(i00 + dx, k);
-        let c = pixel(i00 + dy, k);
-        let e = pixel(i00 + dy + dx, k);
-        let top = a + (b - a) * tx;
-        let bottom = c + (e - c) * tx;
-        color[o * 3u + k] = top + (bottom - top) * ty;
+        let a = pixel(at.i00, k);
+        let b = pixel(at.i00 + at.dx, k);
+        let c = pixel(at.i00 + at.dy, k);
+        let e = pixel(at.i00 + at.dy + at.dx, k);
+        let top = a + (b - a) * at.tx;
+        let bottom = c + (e - c) * at.tx;
+        color[o * 3u + k] = top + (bottom - top) * at.ty;
     }
+    let u = at.u;
+    let v = at.v;
+    let hz = at.hz;
     let ui = min(u32(u + 0.5), params.input_width - 1u);
     let vi = min(u32(v + 0.5), params.input_height - 1u);
     let t = vi * params.input_width + ui;

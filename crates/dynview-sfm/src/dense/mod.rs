@@ -1,8 +1,10 @@
 //! Dense points: a time step's sparse points grown by PatchMatch stereo ([`densify`]), and the
 //! static points accumulated across time and lent to the steps that agree with them
-//! ([`static_cloud`]); the background plates of the cameras that stand still ([`plates`]).
+//! ([`static_cloud`]); the background plates of the cameras that stand still ([`plates`]) and the static cloud grown
+//! from them ([`plate_cloud`]).
 
 pub mod densify;
+pub mod plate_cloud;
 pub mod plates;
 pub mod static_cloud;
 

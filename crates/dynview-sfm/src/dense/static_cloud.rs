@@ -102,7 +102,7 @@ pub fn candidate_steps(steps: usize, n: usize) -> Vec<usize> {
 
 /// Bilinear sample of `image` at `pixel` (pixel centres at integers), in `[0, 1]`; `None`
 /// outside the image.
-fn sample(image: &image::RgbImage, x: f64, y: f64) -> Option<[f32; 3]> {
+pub(super) fn sample(image: &image::RgbImage, x: f64, y: f64) -> Option<[f32; 3]> {
     let (w, h) = (f64::from(image.width()), f64::from(image.height()));
     if !(x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0) {
         return None;
@@ -137,7 +137,13 @@ type OwnColors = Vec<Option<[f32; 3]>>;
 
 /// How many of the cameras that saw candidate `i` (`own[i * cameras + c]`) show its color at step
 /// `t` (frames `frames`, cameras `at_t`).
-fn agreeing_cameras(point: DVec3, own: &[Option<[f32; 3]>], at_t: &[Camera], frames: &[image::RgbImage], tolerance: f32) -> usize {
+pub(super) fn agreeing_cameras(
+    point: DVec3,
+    own: &[Option<[f32; 3]>],
+    at_t: &[Camera],
+    frames: &[image::RgbImage],
+    tolerance: f32,
+) -> usize {
     own.iter()
         .zip(at_t.iter().zip(frames))
         .filter(|(own, (camera, frame))| {

@@ -11,6 +11,7 @@ use dynview_core::scene::manifest::{FORMAT_NAME, FORMAT_VERSION};
 use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, SceneWriter, StartView};
 use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
+use crate::dense::plate_cloud::{PlateCloudOptions, estimate_plates, plate_cloud};
 use crate::dense::static_cloud::{StaticCloud, StaticOptions, build_static_cloud, candidate_steps};
 use crate::error::{SfmError, SfmResult};
 use crate::pipeline::timesteps::{
@@ -37,6 +38,11 @@ pub const COLOR_BITS: u32 = 6;
 pub struct PackageOptions {
     /// The static cloud lent to every step (`None`: each step keeps only its own points).
     pub static_cloud: Option<StaticOptions>,
+    /// Grow the static cloud by stereo on the background plates of the cameras that stand still
+    /// ([`crate::dense::plate_cloud`]; `None`: the static points found across time only). Needs
+    /// `static_cloud`, whose points seed it.
+    #[serde(default = "default_plates")]
+    pub plates: Option<PlateCloudOptions>,
     /// The frames as one VP9 video per camera (format v2), or as JPEG files when `None`.
     pub video: Option<VideoSettings>,
     /// Write format v1 (JPEG frames, every step's points in full, static points lent to each),
@@ -53,9 +59,19 @@ fn yes() -> bool {
     true
 }
 
+fn default_plates() -> Option<PlateCloudOptions> {
+    Some(PlateCloudOptions::default())
+}
+
 impl Default for PackageOptions {
     fn default() -> Self {
-        Self { static_cloud: Some(StaticOptions::default()), video: Some(VideoSettings::default()), format_v1: false, color_balance: true }
+        Self {
+            static_cloud: Some(StaticOptions::default()),
+            plates: default_plates(),
+            video: Some(VideoSettings::default()),
+            format_v1: false,
+            color_balance: true,
+        }
     }
 }
 
@@ -75,6 +91,9 @@ pub struct ExportReport {
     /// Static points accumulated across time (`None` without the static cloud).
     #[serde(default)]
     pub static_points: Option<usize>,
+    /// Points of the static cloud grown from the background plates (`None` without plates).
+    #[serde(default)]
+    pub plate_points: Option<usize>,
     /// Static points lent to the steps, summed over steps (each step's own points excluded).
     #[serde(default)]
     pub borrowed_points: usize,
@@ -208,15 +227,30 @@ pub fn export_package(
     if let Some(video) = &options.video {
         manifest.set_video_frames(video.keyframe_interval);
     }
-    let static_cloud = match statics {
+    let mut static_cloud = match statics {
         Some(options) => Some(static_cloud(&source_of, &manifest, options, progress)?),
         None => None,
     };
+    let mut plate_points = None;
+    let mut plates = Vec::new();
+    if let (Some(across_time), Some(options)) = (&static_cloud, &options.plates) {
+        let (grown, estimated) = static_cloud_from_plates(&source_of, &manifest, &across_time.points, options, progress)?;
+        if let Some(grown) = grown {
+            plate_points = Some(grown.points.len());
+            static_cloud = Some(grown);
+            plates = estimated;
+        }
+    }
     let mut warnings = warnings;
     let color_samples = if options.color_balance { balance_colors(&source_of, &mut manifest, &mut warnings, progress)? } else { 0 };
     let color_changes =
         manifest.cameras.iter().filter_map(|c| c.color_balance.map(|b| (c.name.clone(), 255.0 * b.largest_change()))).collect();
     let mut writer = SceneWriter::create_with(scene_dir, manifest, options.video.unwrap_or_default())?;
+    for (c, plate) in plates.iter().enumerate() {
+        if let Some(plate) = plate {
+            writer.write_plate(c, &plate.image)?;
+        }
+    }
     let mut report = ExportReport {
         time_steps: steps,
         cameras: event.cameras.len(),
@@ -224,6 +258,7 @@ pub fn export_package(
         color_changes,
         warnings,
         static_points: static_cloud.as_ref().map(|s| s.points.len()),
+        plate_points,
         ..ExportReport::default()
     };
     let (lo, hi) = (bounds.min.map(|v| v as f32), bounds.max.map(|v| v as f32));
@@ -349,6 +384,30 @@ fn static_cloud(source_of: &[&Source], manifest: &Manifest, options: &StaticOpti
     Ok(statics)
 }
 
+/// The background plates of the cameras that stand still (`None` for the others) and the static
+/// cloud grown from them, seeded with `seeds` (the static points found across time); no cloud
+/// when fewer than two cameras stand still or there are no seeds.
+fn static_cloud_from_plates(
+    source_of: &[&Source],
+    manifest: &Manifest,
+    seeds: &dynview_core::scene::PointCloud,
+    options: &PlateCloudOptions,
+    progress: StageProgress,
+) -> SfmResult<(Option<StaticCloud>, Vec<Option<crate::dense::Plate>>)> {
+    let cameras: Vec<Vec<dynview_core::Camera>> =
+        (0..manifest.cameras.len()).map(|c| (0..manifest.time_step_count).map(|t| manifest.camera_at(c, t)).collect()).collect();
+    let frames_at = |t: usize| {
+        progress("plates", t as u64, source_of.len() as u64);
+        work_frames(source_of[t], manifest, t)
+    };
+    let plates = estimate_plates(&cameras, frames_at, &options.plates)?;
+    progress("plates", source_of.len() as u64, source_of.len() as u64);
+    progress("static cloud from plates", 0, 1);
+    let grown = plate_cloud(&cameras, &plates, seeds, |t| work_frames(source_of[t], manifest, t), options)?;
+    progress("static cloud from plates", 1, 1);
+    Ok((grown, plates))
+}
+
 /// The quantisation box: per axis the [`BOUNDS_TAIL_FRACTION`] quantiles of every step's
 /// points, widened by [`BOUNDS_MARGIN_FRACTION`]; the camera centres' box when there are no
 /// points.
@@ -405,6 +464,7 @@ fn manifest(event: &EventPoses, settings: &StepSettings, bounds: Bounds, name: &
                 intrinsics: resized_intrinsics(&c.intrinsics, (c.width, c.height), (width, height)),
                 poses: c.frames.iter().map(|f| f.camera_from_world.unwrap_or(dynview_core::Rigid3::IDENTITY.into())).collect(),
                 color_balance: None,
+                plate: false,
             }
         })
         .collect();

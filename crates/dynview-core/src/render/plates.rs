@@ -1,0 +1,151 @@
+//! Background plates in the renderer (issue 33): where the novel pixel shows the static scene,
+//! each view with a plate gives the plate's color rather than its frame's.
+//!
+//! A view that sees someone standing in front of the static scene, out of the novel view (beside
+//! the virtual camera, or behind it), paints that person onto the static surface when its frame
+//! is warped with the static surface's depth: no novel pixel carries the person's depth, so the
+//! visibility test cannot know. The view's plate shows what that view sees behind the person.
+//!
+//! Which novel pixels show the static scene: the step's own points (the points it found itself,
+//! moving things among them) and the static points it borrows are splatted separately into the
+//! novel view, each over its footprint; a pixel where an own point lies nearer than the static
+//! surface (by [`NEARER_MARGIN`]) shows something in front of it, and that region is grown by
+//! `plate_moving_dilation_px`. Everywhere else is static. Where the step has no static points, or
+//! no view a plate, nothing changes.
+
+use super::params::RenderParams;
+use super::sparse::project_cloud;
+use crate::camera::Camera;
+use crate::points::PointCloud;
+use crate::raster::{Raster, ScalarRaster};
+
+/// Relative depth by which an own point must lie nearer than the static surface to count as in
+/// front of it.
+pub const NEARER_MARGIN: f32 = 0.03;
+
+/// The static mask of the novel view `camera` at full size (1 where the pixel shows the static
+/// scene, 0 where something stands in front of it), from a cloud whose last `static_points`
+/// points are static. `None` when there is no static point or the plates are off.
+pub fn static_mask(params: &RenderParams, cloud: &PointCloud, static_points: usize, camera: &Camera) -> Option<ScalarRaster> {
+    if params.plate_moving_dilation_px == 0 || static_points == 0 || static_points > cloud.len() {
+        return None;
+    }
+    let split = cloud.len() - static_points;
+    let own = project_cloud(&cloud.select(0..split), camera).with_footprint(params.sparse_footprint_px);
+    let statics = project_cloud(&cloud.select(split..cloud.len()), camera).with_footprint(params.sparse_footprint_px);
+    let data = own
+        .depth
+        .data
+        .iter()
+        .zip(&statics.depth.data)
+        .map(|(&own, &stat)| if own.is_finite() && own < stat * (1.0 - NEARER_MARGIN) { 1.0 } else { 0.0 })
+        .collect();
+    let nearer = Raster { width: own.depth.width, height: own.depth.height, data };
+    let mut mask = dilated(&nearer, params.plate_moving_dilation_px);
+    mask.data.iter_mut().for_each(|v| *v = 1.0 - *v);
+    Some(mask)
+}
+
+/// `mask` at `width x height` by nearest sampling (the pixel whose area holds the sample's).
+pub fn mask_at(mask: &ScalarRaster, width: usize, height: usize) -> ScalarRaster {
+    if (mask.width, mask.height) == (width, height) {
+        return mask.clone();
+    }
+    let data = (0..width * height)
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            mask.data[(y * mask.height / height) * mask.width + x * mask.width / width]
+        })
+        .collect();
+    Raster { width, height, data }
+}
+
+/// The maximum of `mask` over a square window of side `2 radius + 1` (rows, then columns).
+fn dilated(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
+    let (w, h) = (mask.width, mask.height);
+    let mut rows = vec![0.0f32; w * h];
+    for y in 0..h {
+        let row = &mask.data[y * w..(y + 1) * w];
+        for x in 0..w {
+            rows[y * w + x] = row[x.saturating_sub(radius)..(x + radius + 1).min(w)].iter().fold(0.0, |a, &b| a.max(b));
+        }
+    }
+    let mut out = vec![0.0f32; w * h];
+    for x in 0..w {
+        for y in 0..h {
+            out[y * w + x] = (y.saturating_sub(radius)..(y + radius + 1).min(h)).map(|k| rows[k * w + x]).fold(0.0, f32::max);
+        }
+    }
+    Raster { width: w, height: h, data: out }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Intrinsics, Rigid3};
+
+    fn camera() -> Camera {
+        Camera {
+            intrinsics: Intrinsics { fx: 40.0, fy: 40.0, cx: 19.5, cy: 14.5 },
+            camera_from_world: Rigid3::IDENTITY,
+            width_px: 40,
+            height_px: 30,
+        }
+    }
+
+    /// A wall of static points at z = 10 over the whole view, and one own point at z = 5 in
+    /// front of pixel (10, 10) plus one own point on the wall at pixel (30, 20).
+    fn cloud() -> (PointCloud, usize) {
+        let cam = camera();
+        let mut cloud = PointCloud::default();
+        let at = |x: f64, y: f64, z: f64| {
+            let p = cam.unproject_world(glam::DVec2::new(x, y), z);
+            [p.x as f32, p.y as f32, p.z as f32]
+        };
+        cloud.positions_world.push(at(10.0, 10.0, 5.0));
+        cloud.positions_world.push(at(30.0, 20.0, 10.0));
+        let mut statics = 0;
+        for y in 0..30 {
+            for x in 0..40 {
+                cloud.positions_world.push(at(f64::from(x), f64::from(y), 10.0));
+                statics += 1;
+            }
+        }
+        cloud.colors = vec![[128; 3]; cloud.positions_world.len()];
+        (cloud, statics)
+    }
+
+    #[test]
+    fn pixels_near_an_own_point_in_front_of_the_static_scene_are_not_static() {
+        let (cloud, statics) = cloud();
+        let params = RenderParams { plate_moving_dilation_px: 3, sparse_footprint_px: 1, ..RenderParams::default() };
+        let mask = static_mask(&params, &cloud, statics, &camera()).expect("static points and plates on");
+        let at = |x: usize, y: usize| mask.data[y * 40 + x];
+        // The point in front, its footprint (1) and the dilation (3): 4 pixels each way.
+        assert_eq!(at(10, 10), 0.0);
+        assert_eq!(at(14, 10), 0.0);
+        assert_eq!(at(10, 6), 0.0);
+        assert_eq!(at(15, 10), 1.0);
+        assert_eq!(at(10, 15), 1.0);
+        // An own point on the static surface itself leaves its pixels static.
+        assert_eq!(at(30, 20), 1.0);
+        assert_eq!(mask.data.iter().filter(|&&v| v == 0.0).count(), 81, "a 9x9 square");
+    }
+
+    #[test]
+    fn no_static_points_or_plates_off_means_no_mask() {
+        let (cloud, statics) = cloud();
+        assert!(static_mask(&RenderParams::default(), &cloud, 0, &camera()).is_none());
+        let off = RenderParams { plate_moving_dilation_px: 0, ..RenderParams::default() };
+        assert!(static_mask(&off, &cloud, statics, &camera()).is_none());
+        assert!(static_mask(&RenderParams::default(), &cloud, cloud.len() + 1, &camera()).is_none());
+    }
+
+    #[test]
+    fn masks_are_sampled_at_each_level() {
+        let mask = Raster { width: 4, height: 2, data: vec![1.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0] };
+        let half = mask_at(&mask, 2, 1);
+        assert_eq!(half.data, vec![1.0, 1.0]);
+        assert_eq!(mask_at(&mask, 4, 2).data, mask.data);
+    }
+}
