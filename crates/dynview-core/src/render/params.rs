@@ -86,7 +86,7 @@ pub struct RenderParams {
     /// scene, and each view that has a background plate gives the plate's color there rather
     /// than its frame's, so that something standing in front of the static scene in one view
     /// (and out of the novel view) is not painted onto it. Needs a package with plates and a
-    /// static cloud; the GPU renderer does not apply it yet. See `docs/RENDERER.md`.
+    /// static cloud; CPU and GPU alike. See `docs/RENDERER.md`.
     pub plate_moving_dilation_px: usize,
     /// `lambda_P`: color data term per view (paper Eq. rendering_color; 5 to 20, default 10).
     pub lambda_p: f32,

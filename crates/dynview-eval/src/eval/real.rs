@@ -162,8 +162,9 @@ fn copy_folder_once(from: &Path, to: &Path) -> anyhow::Result<()> {
     std::fs::rename(&partial, to).with_context(|| format!("cannot rename {} to {}", partial.display(), to.display()))
 }
 
-/// The panels of a strip: real frame, nearest input as is, blend, full method, its depth.
-type Strip = [RgbRaster; 5];
+/// The panels of a strip: real frame, nearest input as is, blend, full method, its depth, and
+/// the nearest input's background plate (black without one).
+type Strip = [RgbRaster; 6];
 
 /// Renders camera `held_out` of `reference` from `package` at every time step with each of
 /// [`METHODS`] and shows the nearest input as is; returns the scores and the middle frame's strip.
@@ -235,7 +236,11 @@ fn evaluate_camera(
             nearest.clone_from(&package.manifest().cameras[j].name);
             let full = &shown[0];
             let blend = &shown[METHODS.iter().position(|&m| m == Method::Blend).unwrap_or(0)].0;
-            strip = Some([truth.clone(), floor.clone(), blend.clone(), full.0.clone(), colorize_depth(&full.1)]);
+            let plate = match package.plate(j)? {
+                Some(plate) => resized(plate.as_ref().clone(), truth.width, truth.height),
+                None => RgbRaster::filled(truth.width, truth.height, [0.0; 3]),
+            };
+            strip = Some([truth.clone(), floor.clone(), blend.clone(), full.0.clone(), colorize_depth(&full.1), plate]);
         }
         // In the order of `sums`; scored in parallel (SSIM twice per image is the slow part).
         let mut outputs: Vec<RgbRaster> = shown.into_iter().map(|(color, _)| color).collect();

@@ -6,8 +6,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use opencv::calib3d;
-use opencv::core::{Mat, Vector};
-use opencv::imgcodecs;
+use opencv::core::Mat;
 use opencv::prelude::*;
 use rayon::prelude::*;
 
@@ -18,7 +17,7 @@ use dynview_core::fsutil::write_atomic;
 use dynview_interchange::poses::{CameraPoses, EventPoses};
 
 use crate::error::{SfmError, SfmResult};
-use crate::input::frames::{EventFrames, WORK_FRAME_JPEG_QUALITY, read_bgr};
+use crate::input::frames::{EventFrames, WORK_FRAME_EXTENSION, encode_work_frame, read_bgr};
 
 /// Reads a `poses.json` file, a COLMAP model folder (text or binary), a Qualisys or a
 /// Middlebury calibration (detected: `dynview_interchange::import`).
@@ -89,7 +88,7 @@ pub fn known_intrinsics(calibration: &[&CameraPoses]) -> KnownCameras {
 }
 
 /// Undistorts the frames of every camera whose calibration has a distortion into
-/// `out_dir/<camera>/<t:05>.jpg` (same camera matrix, no distortion); returns the frame list
+/// `out_dir/<camera>/<t:05>.png` (same camera matrix, no distortion, lossless); returns the frame list
 /// with those files. Finished frames are not redone.
 pub fn undistort_frames(
     frames: &EventFrames,
@@ -117,17 +116,14 @@ pub fn undistort_frames(
             .enumerate()
             .map(|(t, source)| {
                 SfmError::check_interrupt(interrupt)?;
-                let path = dir.join(format!("{t:05}.jpg"));
+                let path = dir.join(format!("{t:05}.{WORK_FRAME_EXTENSION}"));
                 let stamp_path = dir.join(format!(".{t:05}.calibration"));
                 if !(path.is_file() && std::fs::read_to_string(&stamp_path).is_ok_and(|s| s == stamp)) {
                     let image = read_bgr(source)?;
                     let mut undistorted = Mat::default();
                     calib3d::undistort(&image, &mut undistorted, &matrix, &distortion, &matrix)
                         .map_err(SfmError::cv("undistorting a frame"))?;
-                    let mut bytes = Vector::<u8>::new();
-                    let params = Vector::<i32>::from_slice(&[imgcodecs::IMWRITE_JPEG_QUALITY, WORK_FRAME_JPEG_QUALITY]);
-                    imgcodecs::imencode(".jpg", &undistorted, &mut bytes, &params).map_err(SfmError::cv("encoding a frame"))?;
-                    write_atomic(&path, bytes.as_slice()).map_err(SfmError::io(&path))?;
+                    write_atomic(&path, encode_work_frame(&undistorted)?.as_slice()).map_err(SfmError::io(&path))?;
                     write_atomic(&stamp_path, stamp.as_bytes()).map_err(SfmError::io(&stamp_path))?;
                 }
                 progress(&label, done.fetch_add(1, Ordering::Relaxed) + 1, total);

@@ -22,10 +22,20 @@ use crate::error::{SfmError, SfmResult};
 pub const VIDEO_EXTENSIONS: &[&str] = &["mp4", "mov", "avi", "mkv", "webm", "m4v", "mpg", "mpeg"];
 /// File extensions read as frames of an image-sequence folder.
 pub const IMAGE_EXTENSIONS: &[&str] = &["png", "jpg", "jpeg", "tif", "tiff", "bmp", "webp"];
-/// JPEG quality of the work frames: the frames decoded from videos (and the undistorted frames
-/// of [`crate::input::calibration`]), which features are extracted from and the package frames
-/// made from; high, so that compression adds little to what the video's did.
-pub const WORK_FRAME_JPEG_QUALITY: i32 = 95;
+/// File extension of the work frames: the frames decoded from videos, the undistorted frames of
+/// [`crate::input::calibration`] and the steps' working-size frames. PNG, lossless: a frame is
+/// decoded once and compressed again only by the package's own encode (issue 33).
+pub const WORK_FRAME_EXTENSION: &str = "png";
+/// PNG compression level of the work frames (0-9): fast, the files are temporary.
+const WORK_FRAME_PNG_COMPRESSION: i32 = 1;
+
+/// Encodes a work frame (8-bit BGR) losslessly, as [`WORK_FRAME_EXTENSION`].
+pub fn encode_work_frame(frame: &Mat) -> SfmResult<Vector<u8>> {
+    let mut bytes = Vector::<u8>::new();
+    let params = Vector::<i32>::from_slice(&[imgcodecs::IMWRITE_PNG_COMPRESSION, WORK_FRAME_PNG_COMPRESSION]);
+    imgcodecs::imencode(&format!(".{WORK_FRAME_EXTENSION}"), frame, &mut bytes, &params).map_err(SfmError::cv("encoding a work frame"))?;
+    Ok(bytes)
+}
 /// Most frames read from one camera (a hostile input cannot fill the disk).
 pub const MAX_FRAMES: usize = 100_000;
 
@@ -169,7 +179,7 @@ pub fn read_bgr(path: &Path) -> SfmResult<Mat> {
     Ok(image)
 }
 
-/// Decodes `video` into `out_dir/<t:05>.jpg`; returns the frame files. A finished camera (its
+/// Decodes `video` into `out_dir/<t:05>.png`; returns the frame files. A finished camera (its
 /// `done.json` names the same video size) is not decoded again.
 fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: StageProgress, interrupt: &AtomicBool) -> SfmResult<Vec<PathBuf>> {
     let decode = |problem: String| SfmError::Decode { path: video.to_path_buf(), problem };
@@ -179,7 +189,7 @@ fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: StageProgr
         && let Ok((bytes, count)) = serde_json::from_str::<(u64, usize)>(&text)
         && bytes == video_bytes
     {
-        let files: Vec<PathBuf> = (0..count).map(|t| out_dir.join(format!("{t:05}.jpg"))).collect();
+        let files: Vec<PathBuf> = (0..count).map(|t| out_dir.join(format!("{t:05}.{WORK_FRAME_EXTENSION}"))).collect();
         if files.iter().all(|f| f.is_file()) {
             return Ok(files);
         }
@@ -199,7 +209,6 @@ fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: StageProgr
     fs::create_dir_all(out_dir).map_err(SfmError::io(out_dir))?;
     let mut files = Vec::new();
     let mut frame = Mat::default();
-    let params = Vector::<i32>::from_slice(&[imgcodecs::IMWRITE_JPEG_QUALITY, WORK_FRAME_JPEG_QUALITY]);
     let mut size = None;
     while capture.read(&mut frame).map_err(|e| decode(e.to_string()))? {
         if frame.empty() {
@@ -213,10 +222,8 @@ fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: StageProgr
         if files.len() >= MAX_FRAMES {
             return Err(decode(format!("more than {MAX_FRAMES} frames")));
         }
-        let path = out_dir.join(format!("{:05}.jpg", files.len()));
-        let mut bytes = Vector::<u8>::new();
-        imgcodecs::imencode(".jpg", &frame, &mut bytes, &params).map_err(SfmError::cv("encoding a frame as JPEG"))?;
-        write_atomic(&path, bytes.as_slice()).map_err(SfmError::io(&path))?;
+        let path = out_dir.join(format!("{:05}.{WORK_FRAME_EXTENSION}", files.len()));
+        write_atomic(&path, encode_work_frame(&frame)?.as_slice()).map_err(SfmError::io(&path))?;
         files.push(path);
         progress(&format!("decode {camera}"), files.len() as u64, expected.max(files.len() as u64));
     }

@@ -1,7 +1,7 @@
 //! The scene package from prepared time steps (METHOD.md Part 1 step 5): `prep` writes it at
 //! the end of a whole run, and `dynview merge` from the outputs of several range runs
 //! (`prep --frames A..B`), which must share the pose stage. The package is the same either way:
-//! bounds come from the points of every step, frames are copied byte for byte.
+//! bounds come from the points of every step, frames are encoded once, from the steps' lossless frames.
 
 use std::path::{Path, PathBuf};
 
@@ -288,7 +288,16 @@ pub fn export_package(
         for (c, camera) in event.cameras.iter().enumerate() {
             let path = frame_path(&s.work, &camera.name, t);
             let bytes = std::fs::read(&path).map_err(SfmError::io(&path))?;
-            writer.write_encoded_frame(c, t as u32, &bytes)?;
+            if writer.manifest().frame_format.is_video() {
+                // Its one lossy encode: the video.
+                writer.write_encoded_frame(c, t as u32, &bytes)?;
+            } else {
+                // Its one lossy encode: the package's image format.
+                let image = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
+                    .map_err(|e| SfmError::WorkFile { path: path.clone(), problem: format!("cannot decode the frame: {e}") })?
+                    .to_rgb8();
+                writer.write_frame(c, t as u32, &image)?;
+            }
         }
         let mut cloud = read_cloud(&cloud_path(&s.work, t))?;
         let mut borrowed_indices = Vec::new();
@@ -361,7 +370,7 @@ fn work_frames(source: &Source, manifest: &Manifest, t: usize) -> SfmResult<Vec<
         .map(|entry| {
             let path = frame_path(&source.work, &entry.name, t);
             let bytes = std::fs::read(&path).map_err(SfmError::io(&path))?;
-            Ok(image::load_from_memory_with_format(&bytes, image::ImageFormat::Jpeg)
+            Ok(image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
                 .map_err(|e| SfmError::WorkFile { path: path.clone(), problem: format!("cannot decode the frame: {e}") })?
                 .to_rgb8())
         })

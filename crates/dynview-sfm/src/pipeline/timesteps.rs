@@ -8,8 +8,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
-use opencv::core::{Mat, Size, Vector};
-use opencv::imgcodecs;
+use opencv::core::{Mat, Size};
 use opencv::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -23,7 +22,7 @@ use dynview_interchange::poses::EventPoses;
 use crate::dense::densify::{DensifyOptions, densify};
 use crate::error::{SfmError, SfmResult};
 use crate::features::sift::FeatureOptions;
-use crate::input::frames::{EventFrames, read_bgr};
+use crate::input::frames::{EventFrames, WORK_FRAME_EXTENSION, encode_work_frame, read_bgr};
 use crate::mapping::points::{PointOptions, TimestepView, timestep_points};
 use crate::work::WorkDir;
 
@@ -33,8 +32,9 @@ pub const STEPS_DIR: &str = "steps";
 pub const SETTINGS_FILE: &str = "steps/settings.json";
 const CLOUD_MAGIC: &[u8; 8] = b"DVSTEP01";
 const POINT_BYTES: usize = 15;
-/// JPEG quality of the package frames (the scene package's own, `dynview_core::scene::frame`).
-pub const PACKAGE_FRAME_JPEG_QUALITY: i32 = dynview_core::scene::frame::JPEG_QUALITY as i32;
+/// Revision of what a step writes: a step done by an older revision is done again (2: the
+/// working-size frames are PNG, no longer JPEG).
+pub const STEP_REVISION: u32 = 2;
 
 /// How each time step is processed.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -121,7 +121,7 @@ pub fn cloud_path(work: &WorkDir, t: usize) -> PathBuf {
 
 /// Path of a step's package frame for camera `name`.
 pub fn frame_path(work: &WorkDir, name: &str, t: usize) -> PathBuf {
-    work.join(format!("{STEPS_DIR}/frames/{name}/{t:05}.jpg"))
+    work.join(format!("{STEPS_DIR}/frames/{name}/{t:05}.{WORK_FRAME_EXTENSION}"))
 }
 
 fn marker_name(t: usize) -> String {
@@ -131,12 +131,14 @@ fn marker_name(t: usize) -> String {
 /// What a step depends on: the settings and, per camera, its name, frame, intrinsics and pose.
 #[derive(Serialize)]
 struct StepKey<'a> {
+    revision: u32,
     settings: &'a StepSettings,
     cameras: Vec<(&'a str, &'a str, dynview_core::Intrinsics, Option<PoseEntry>)>,
 }
 
 fn step_key<'a>(event: &'a EventPoses, settings: &'a StepSettings, t: usize) -> StepKey<'a> {
     StepKey {
+        revision: STEP_REVISION,
         settings,
         cameras: event
             .cameras
@@ -289,7 +291,7 @@ fn run_step(work: &WorkDir, files: &[&[PathBuf]], event: &EventPoses, settings: 
     })
 }
 
-/// Resizes (area filter) and writes a package frame as JPEG.
+/// Resizes (area filter) and writes a package frame, losslessly (the package encodes it once).
 fn write_frame(image: &Mat, size: (u32, u32), path: &Path) -> SfmResult<()> {
     let mut resized = Mat::default();
     let source = if (image.cols() as u32, image.rows() as u32) == size {
@@ -300,10 +302,7 @@ fn write_frame(image: &Mat, size: (u32, u32), path: &Path) -> SfmResult<()> {
             .map_err(SfmError::cv("resizing a frame"))?;
         &resized
     };
-    let mut bytes = Vector::<u8>::new();
-    let params = Vector::<i32>::from_slice(&[imgcodecs::IMWRITE_JPEG_QUALITY, PACKAGE_FRAME_JPEG_QUALITY]);
-    imgcodecs::imencode(".jpg", source, &mut bytes, &params).map_err(SfmError::cv("encoding a frame as JPEG"))?;
-    dynview_core::fsutil::write_atomic(path, bytes.as_slice()).map_err(SfmError::io(path))
+    dynview_core::fsutil::write_atomic(path, encode_work_frame(source)?.as_slice()).map_err(SfmError::io(path))
 }
 
 #[cfg(test)]

@@ -89,7 +89,7 @@ pub(super) fn markdown(
          held-out camera's own frame implies: the points of the reference package (prepared with it) that it sees, z-buffered and \
          filtered as the renderer filters points, at every time step. The blend's depth is the push-pull filled sparse depth. The last prep run is the one that wrote the package; one \
          that reused the prepared steps of an earlier run counts only what it redid (`--fresh` times whole runs).\n\n\
-         Strips (middle time step): real frame | nearest input as is | blend | full | depth of full.\n"
+         Strips (middle time step): real frame | nearest input as is | blend | full | depth of full | the nearest input's background plate (as the renderer reads it: colour-balanced; black without one).\n"
     );
     for r in results {
         let _ = writeln!(s, "![{}]({})", r.name, strip_name(capture, &r.name));
