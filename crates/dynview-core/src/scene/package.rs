@@ -250,10 +250,13 @@ fn dir_size(path: &Path) -> SceneResult<u64> {
 }
 
 impl ScenePackage {
-    /// Full check of the package: decodes every cloud (checksums) and reads the header of every
-    /// frame file (existence and size), or decodes every frame of every video.
+    /// Full check of the package: decodes every plate and every cloud (checksums) and reads the
+    /// header of every frame file (existence and size), or decodes every frame of every video.
     /// `progress(done, total)` follows the work.
     pub fn verify(&self, mut progress: impl FnMut(u64, u64)) -> SceneResult<()> {
+        for camera in 0..self.camera_count() {
+            self.stored_plate(camera)?;
+        }
         let steps = u64::from(self.time_step_count());
         let video_frames = if self.video.is_some() { steps * self.camera_count() as u64 } else { 0 };
         let total = steps + video_frames;
@@ -295,6 +298,17 @@ impl ScenePackage {
         Ok(crate::render::TimeStepInputs { cloud, views, static_points })
     }
 
+    /// Camera `camera`'s background plate as stored (`None` when the package has none for it),
+    /// its size checked.
+    pub fn stored_plate(&self, camera: usize) -> SceneResult<Option<RgbRaster>> {
+        let Some(entry) = self.manifest.cameras.get(camera).filter(|e| e.plate) else {
+            return Ok(None);
+        };
+        let path = self.root.join(self.manifest.plate_relative_path(camera));
+        let bytes = read_limited(&path, MAX_FRAME_FILE_BYTES)?;
+        decode_frame(&bytes, FrameFormat::Jpeg, entry.width, entry.height, &path.display().to_string()).map(Some)
+    }
+
     /// Camera `camera`'s background plate, color-balanced as its frames are (`None` when the
     /// package has none for it), read once.
     pub fn plate(&self, camera: usize) -> SceneResult<Option<Arc<RgbRaster>>> {
@@ -308,9 +322,7 @@ impl ScenePackage {
         if let Some(plate) = &cached[camera] {
             return Ok(Some(plate.clone()));
         }
-        let path = self.root.join(self.manifest.plate_relative_path(camera));
-        let bytes = read_limited(&path, MAX_FRAME_FILE_BYTES)?;
-        let plate = decode_frame(&bytes, FrameFormat::Jpeg, entry.width, entry.height, &path.display().to_string())?;
+        let Some(plate) = self.stored_plate(camera)? else { return Ok(None) };
         let plate = Arc::new(self.manifest.balanced_plate(camera, plate));
         cached[camera] = Some(plate.clone());
         Ok(Some(plate))

@@ -1,5 +1,6 @@
 //! Rewriting a package in another format: frames as video or images, format v2 or v1 (for
-//! example a v1 package into a v2 one). Cameras and points are copied as they are.
+//! example a v1 package into a v2 one). Cameras, points and background plates are copied as they
+//! are (a plate is encoded again, as JPEG).
 
 use std::path::Path;
 
@@ -25,6 +26,8 @@ pub fn repack(
     manifest.version = if format_v1 { FORMAT_VERSION_V1 } else { FORMAT_VERSION };
     let steps = package.time_step_count();
     for camera in &mut manifest.cameras {
+        // Set again as each plate is written.
+        camera.plate = false;
         // Every pose written out (v1), or one for a camera that stands still (v2).
         camera.poses = (0..steps).map(|t| camera.pose(t)).collect();
         if !format_v1 {
@@ -36,6 +39,11 @@ pub fn repack(
         None => manifest.set_jpeg_frames(),
     }
     let mut writer = SceneWriter::create_with(out, manifest, video.unwrap_or_default())?;
+    for c in 0..package.camera_count() {
+        if let Some(plate) = package.stored_plate(c)? {
+            writer.write_plate(c, &plate.to_rgb8())?;
+        }
+    }
     let statics = package.static_cloud()?;
     if writer.has_static_cloud() && !statics.is_empty() {
         writer.set_static_cloud(&statics)?;

@@ -126,6 +126,15 @@ fn plates_reach_the_renderer_balanced_with_the_steps_static_points() {
     let expected = balance.apply([200.0 / 255.0, 100.0 / 255.0, 40.0 / 255.0]).map(|v| v.clamp(0.0, 1.0));
     assert!(seen.data.iter().all(|p| (0..3).all(|k| (p[k] - expected[k]).abs() < 2.0 / 255.0)), "{:?}", seen.data[0]);
     assert!(inputs.views[1].plate.is_none());
+    package.verify(|_, _| {}).unwrap();
+    // A repacked package keeps its plates (and claims no other).
+    let repacked = tmp.path().join("repacked");
+    super::repack::repack(&package, &repacked, None, false, |_, _| {}).unwrap();
+    let again = ScenePackage::open(&repacked).unwrap();
+    assert_eq!(again.manifest().cameras.iter().map(|c| c.plate).collect::<Vec<_>>(), [true, false]);
+    assert_eq!(again.time_step_inputs(1, 2).unwrap().static_points, 3);
+    let stored = again.stored_plate(0).unwrap().expect("the plate").to_rgb8();
+    assert!(stored.pixels().all(|p| p.0.iter().zip([200, 100, 40]).all(|(&a, b): (&u8, i32)| (i32::from(a) - b).abs() <= 2)));
     // A plate file of the wrong size is an error naming it.
     let path = dir.join("plates").join("cam0.jpg");
     let mut bytes = Vec::new();
