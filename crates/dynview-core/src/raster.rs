@@ -124,6 +124,26 @@ impl RgbRaster {
     }
 }
 
+/// The maximum of `mask` (non-negative values) over a square window of side `2 radius + 1`
+/// (rows, then columns).
+pub fn dilated(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
+    let (w, h) = (mask.width, mask.height);
+    let mut rows = vec![0.0f32; w * h];
+    for y in 0..h {
+        let row = &mask.data[y * w..(y + 1) * w];
+        for x in 0..w {
+            rows[y * w + x] = row[x.saturating_sub(radius)..(x + radius + 1).min(w)].iter().fold(0.0, |a, &b| a.max(b));
+        }
+    }
+    let mut out = vec![0.0f32; w * h];
+    for x in 0..w {
+        for y in 0..h {
+            out[y * w + x] = (y.saturating_sub(radius)..(y + radius + 1).min(h)).map(|k| rows[k * w + x]).fold(0.0, f32::max);
+        }
+    }
+    Raster { width: w, height: h, data: out }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

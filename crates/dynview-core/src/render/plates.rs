@@ -17,7 +17,7 @@ use super::params::RenderParams;
 use super::sparse::project_cloud;
 use crate::camera::Camera;
 use crate::points::PointCloud;
-use crate::raster::{Raster, ScalarRaster};
+use crate::raster::{Raster, ScalarRaster, dilated};
 
 /// Relative depth by which an own point must lie nearer than the static surface to count as in
 /// front of it.
@@ -58,25 +58,6 @@ pub fn mask_at(mask: &ScalarRaster, width: usize, height: usize) -> ScalarRaster
         })
         .collect();
     Raster { width, height, data }
-}
-
-/// The maximum of `mask` over a square window of side `2 radius + 1` (rows, then columns).
-fn dilated(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
-    let (w, h) = (mask.width, mask.height);
-    let mut rows = vec![0.0f32; w * h];
-    for y in 0..h {
-        let row = &mask.data[y * w..(y + 1) * w];
-        for x in 0..w {
-            rows[y * w + x] = row[x.saturating_sub(radius)..(x + radius + 1).min(w)].iter().fold(0.0, |a, &b| a.max(b));
-        }
-    }
-    let mut out = vec![0.0f32; w * h];
-    for x in 0..w {
-        for y in 0..h {
-            out[y * w + x] = (y.saturating_sub(radius)..(y + radius + 1).min(h)).map(|k| rows[k * w + x]).fold(0.0, f32::max);
-        }
-    }
-    Raster { width: w, height: h, data: out }
 }
 
 #[cfg(test)]

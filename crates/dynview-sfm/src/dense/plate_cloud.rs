@@ -30,7 +30,7 @@ use serde::{Deserialize, Serialize};
 
 use super::densify::{DensifyOptions, densify};
 use super::plates::{Plate, PlateEstimator, PlateOptions};
-use super::static_cloud::{StaticCloud, StepFrames, agreeing_cameras, sample};
+use super::static_cloud::{StaticCloud, StepFrames, agreeing_cameras, difference, sample};
 use crate::error::{SfmError, SfmResult};
 use crate::mapping::points::{TimestepCloud, TimestepView};
 
@@ -200,10 +200,6 @@ pub fn plate_cloud(
 
 fn plate_of(plates: &[Option<Plate>], c: usize) -> &Plate {
     plates[c].as_ref().expect("cameras with a plate only")
-}
-
-fn difference(a: [f32; 3], b: [f32; 3]) -> f32 {
-    ((a[0] - b[0]).abs() + (a[1] - b[1]).abs() + (a[2] - b[2]).abs()) / 3.0
 }
 
 /// Row-major index of the pixel nearest `(x, y)` inside `image`.

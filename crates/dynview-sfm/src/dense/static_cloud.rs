@@ -120,7 +120,7 @@ pub(super) fn sample(image: &image::RgbImage, x: f64, y: f64) -> Option<[f32; 3]
     Some(out)
 }
 
-fn difference(a: [f32; 3], b: [f32; 3]) -> f32 {
+pub(super) fn difference(a: [f32; 3], b: [f32; 3]) -> f32 {
     ((a[0] - b[0]).abs() + (a[1] - b[1]).abs() + (a[2] - b[2]).abs()) / 3.0
 }
 

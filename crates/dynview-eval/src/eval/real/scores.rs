@@ -14,7 +14,7 @@
 //! [`Sums`] gathers all of them, and the flicker, for one way of showing a held-out camera.
 
 use dynview_core::metrics::{FlickerSum, psnr, psnr_masked, ssim};
-use dynview_core::raster::unit_from_u8;
+use dynview_core::raster::{dilated, unit_from_u8};
 use dynview_core::{RgbRaster, ScalarRaster};
 
 /// A pixel is moving where the real frame differs from the temporal median by more than this in
@@ -84,26 +84,6 @@ pub fn moving_mask(truth: &RgbRaster, median: &RgbRaster, threshold: f32, dilati
         truth.data.iter().zip(&median.data).map(|(t, m)| if (0..3).any(|c| (t[c] - m[c]).abs() > threshold) { 1.0 } else { 0.0 }).collect();
     let mask = ScalarRaster::from_vec(truth.width, truth.height, data).expect("the sizes match");
     dilated(&mask, dilation_px)
-}
-
-/// The maximum of `mask` over a square window of side `2 radius_px + 1` (rows, then columns).
-fn dilated(mask: &ScalarRaster, radius_px: usize) -> ScalarRaster {
-    let (w, h) = (mask.width, mask.height);
-    let mut rows = mask.clone();
-    for y in 0..h {
-        for x in 0..w {
-            let (from, to) = (x.saturating_sub(radius_px), (x + radius_px).min(w - 1));
-            rows.data[y * w + x] = (from..=to).map(|xx| mask.data[y * w + xx]).fold(0.0, f32::max);
-        }
-    }
-    let mut out = rows.clone();
-    for y in 0..h {
-        let (from, to) = (y.saturating_sub(radius_px), (y + radius_px).min(h - 1));
-        for x in 0..w {
-            out.data[y * w + x] = (from..=to).map(|yy| rows.data[yy * w + x]).fold(0.0, f32::max);
-        }
-    }
-    out
 }
 
 /// Which pixels of a frame count.
