@@ -27,6 +27,11 @@ pub struct MergeArgs {
     /// still (by default it replaces the static points found across time, which seed it).
     #[arg(long)]
     no_plates: bool,
+    /// No points from the visual hull of what moves (by default, with plates of four cameras
+    /// or more, rays through each camera's foreground give moving things without stereo points
+    /// a depth where they enter the space every other camera's foreground allows).
+    #[arg(long)]
+    no_hull: bool,
     /// Store every camera's frames as they are: no color balance between the cameras (by
     /// default each camera's colors are mapped to the response the cameras share, estimated
     /// from the points they see in common).
@@ -43,6 +48,7 @@ pub fn run_merge(args: MergeArgs) -> anyhow::Result<()> {
     let options = dynview_sfm::pipeline::export::PackageOptions {
         static_cloud: (!args.no_static).then(dynview_sfm::dense::static_cloud::StaticOptions::default),
         plates: (!args.no_plates).then(dynview_sfm::dense::plate_cloud::PlateCloudOptions::default),
+        hull: (!args.no_hull).then(dynview_sfm::dense::hull::HullOptions::default),
         video: args.frames_as.video(),
         format_v1: args.frames_as.format_v1(),
         color_balance: !args.no_color_balance,

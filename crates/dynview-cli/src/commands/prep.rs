@@ -109,6 +109,11 @@ pub struct Args {
     /// still (by default it replaces the static points found across time, which seed it).
     #[arg(long)]
     no_plates: bool,
+    /// No points from the visual hull of what moves (by default, with plates of four cameras
+    /// or more, rays through each camera's foreground give moving things without stereo points
+    /// a depth where they enter the space every other camera's foreground allows).
+    #[arg(long)]
+    no_hull: bool,
     /// Store every camera's frames as they are: no color balance between the cameras (by
     /// default each camera's colors are mapped to the response the cameras share, estimated
     /// from the points they see in common).
@@ -173,6 +178,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     if args.no_plates {
         options.package.plates = None;
+    }
+    if args.no_hull {
+        options.package.hull = None;
     }
     options.package.video = args.frames_as.video();
     options.package.format_v1 = args.frames_as.format_v1();

@@ -1,9 +1,11 @@
 //! Dense points: a time step's sparse points grown by PatchMatch stereo ([`densify`]), and the
 //! static points accumulated across time and lent to the steps that agree with them
 //! ([`static_cloud`]); the background plates of the cameras that stand still ([`plates`]) and the static cloud grown
-//! from them ([`plate_cloud`]).
+//! from them ([`plate_cloud`]); the visual hull of what moves, carved from the plates'
+//! foregrounds ([`hull`]).
 
 pub mod densify;
+pub mod hull;
 pub mod plate_cloud;
 pub mod plates;
 pub mod static_cloud;

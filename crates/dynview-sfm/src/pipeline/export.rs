@@ -11,6 +11,7 @@ use dynview_core::scene::manifest::{FORMAT_NAME, FORMAT_VERSION};
 use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, SceneWriter, StartView};
 use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
+use crate::dense::hull::{HullOptions, HullView, foreground, hull_points, static_depths};
 use crate::dense::plate_cloud::{PlateCloudOptions, estimate_plates, plate_cloud};
 use crate::dense::static_cloud::{StaticCloud, StaticOptions, build_static_cloud, candidate_steps};
 use crate::error::{SfmError, SfmResult};
@@ -43,6 +44,12 @@ pub struct PackageOptions {
     /// `static_cloud`, whose points seed it.
     #[serde(default = "default_plates")]
     pub plates: Option<PlateCloudOptions>,
+    /// Give moving things depth from their visual hull ([`crate::dense::hull`]): points where
+    /// the rays through each plate camera's foreground enter the space every other camera's
+    /// foreground allows, added to each step's own points. Needs plates of more cameras than
+    /// [`HullOptions::min_witnesses`] (`None`: the steps' own points only).
+    #[serde(default = "default_hull")]
+    pub hull: Option<HullOptions>,
     /// The frames as one VP9 video per camera (format v2), or as JPEG files when `None`.
     pub video: Option<VideoSettings>,
     /// Write format v1 (JPEG frames, every step's points in full, static points lent to each),
@@ -63,11 +70,16 @@ fn default_plates() -> Option<PlateCloudOptions> {
     Some(PlateCloudOptions::default())
 }
 
+fn default_hull() -> Option<HullOptions> {
+    Some(HullOptions::default())
+}
+
 impl Default for PackageOptions {
     fn default() -> Self {
         Self {
             static_cloud: Some(StaticOptions::default()),
             plates: default_plates(),
+            hull: default_hull(),
             video: Some(VideoSettings::default()),
             format_v1: false,
             color_balance: true,
@@ -94,6 +106,9 @@ pub struct ExportReport {
     /// Points of the static cloud grown from the background plates (`None` without plates).
     #[serde(default)]
     pub plate_points: Option<usize>,
+    /// Points of the moving things' visual hulls, summed over steps (`None` without hulls).
+    #[serde(default)]
+    pub hull_points: Option<usize>,
     /// Static points lent to the steps, summed over steps (each step's own points excluded).
     #[serde(default)]
     pub borrowed_points: usize,
@@ -261,6 +276,18 @@ pub fn export_package(
         plate_points,
         ..ExportReport::default()
     };
+    // A hull point needs the camera it is seen from and `min_witnesses` others with a plate.
+    let hull = options.hull.as_ref().filter(|h| plates.iter().flatten().count() > h.min_witnesses);
+    if let Some(hull) = hull {
+        hull.validate()?;
+        report.hull_points = Some(0);
+    }
+    let static_depth_of: Vec<Option<(f64, f64)>> = match (hull, &static_cloud) {
+        (Some(_), Some(statics)) => (0..plates.len())
+            .map(|c| plates[c].as_ref().and_then(|_| static_depths(&writer.manifest().camera_at(c, 0), &statics.points)))
+            .collect(),
+        _ => Vec::new(),
+    };
     let (lo, hi) = (bounds.min.map(|v| v as f32), bounds.max.map(|v| v as f32));
     let inside = |p: &[f32; 3]| (0..3).all(|i| p[i] >= lo[i] && p[i] <= hi[i]);
     // A format v2 package stores the static points inside the box once (`store` maps a static
@@ -299,7 +326,8 @@ pub fn export_package(
                 writer.write_frame(c, t as u32, &image)?;
             }
         }
-        let mut cloud = read_cloud(&cloud_path(&s.work, t))?;
+        let own = read_cloud(&cloud_path(&s.work, t))?;
+        let mut cloud = own.clone();
         let mut borrowed_indices = Vec::new();
         match (&static_cloud, &stored_statics) {
             (Some(statics), Some((_, store))) => {
@@ -315,6 +343,12 @@ pub fn export_package(
                 cloud.colors.extend(borrowed.colors);
             }
             _ => {}
+        }
+        if let Some(hull) = hull {
+            let moving = step_hull(s, writer.manifest(), t, &plates, &static_depth_of, &own, hull)?;
+            report.hull_points = report.hull_points.map(|n| n + moving.len());
+            cloud.positions_world.extend(moving.positions_world);
+            cloud.colors.extend(moving.colors);
         }
         let kept: Vec<usize> = (0..cloud.len()).filter(|&i| inside(&cloud.positions_world[i])).collect();
         report.points += kept.len() + borrowed_indices.len();
@@ -375,6 +409,35 @@ fn work_frames(source: &Source, manifest: &Manifest, t: usize) -> SfmResult<Vec<
                 .to_rgb8())
         })
         .collect()
+}
+
+/// The visual hull's points of step `t` ([`crate::dense::hull`]) from the cameras with a plate
+/// and a static depth range, `own` the step's own points.
+fn step_hull(
+    source: &Source,
+    manifest: &Manifest,
+    t: usize,
+    plates: &[Option<crate::dense::Plate>],
+    static_depth_of: &[Option<(f64, f64)>],
+    own: &dynview_core::scene::PointCloud,
+    options: &HullOptions,
+) -> SfmResult<dynview_core::scene::PointCloud> {
+    let frames = work_frames(source, manifest, t)?;
+    let mut views = Vec::new();
+    for (c, frame) in frames.iter().enumerate() {
+        let (Some(plate), Some(Some((median, far)))) = (&plates[c], static_depth_of.get(c)) else { continue };
+        views.push(HullView {
+            camera: manifest.camera_at(c, t as u32),
+            frame,
+            foreground: foreground(frame, plate, options)?,
+            median_static_depth_m: *median,
+            far_depth_m: *far,
+        });
+    }
+    if views.len() <= options.min_witnesses {
+        return Ok(dynview_core::scene::PointCloud::default());
+    }
+    Ok(hull_points(&views, own, options))
 }
 
 /// The static cloud of the prepared steps, judged on the package's frames and cameras (read

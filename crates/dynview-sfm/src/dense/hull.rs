@@ -1,0 +1,327 @@
+//! The visual hull of what moves at one time step (issue 35): points on the front of the space
+//! that every still camera's foreground allows, for moving things that stereo leaves without
+//! points (a plain shirt, a ball, a person near one camera that the others see at a wide angle).
+//!
+//! 1. A camera's foreground ([`foreground`]) is where its frame differs from its background
+//!    [plate](super::plates) by more than [`HullOptions::foreground_tolerance`], opened by
+//!    [`HullOptions::open_px`] (compression noise and single pixels of flicker go) and closed by
+//!    [`HullOptions::close_px`] (small holes where it looks like the wall are filled); where the
+//!    plate is unsure ([`HullOptions::min_plate_confidence`]) nothing is known.
+//! 2. A ray through a foreground pixel of a camera is sampled from near to far, evenly in
+//!    inverse depth; a sample is *inside* the hull when no other camera that sees it calls its
+//!    pixel background (the foreground grown by [`HullOptions::carve_dilation_px`], for
+//!    calibration error; up to [`HullOptions::max_background_votes`] may) and at least [`HullOptions::min_witnesses`] of them call it
+//!    foreground. The first inside sample, refined by bisection, is where the ray enters the
+//!    hull: a point there, with the pixel's colour.
+//! 3. The step's own points rule where they stand on the hull's front (a visual hull is never
+//!    smaller than the object; stereo points are exact where there are any): a hull point is
+//!    dropped when an own point projects into its cell within [`HullOptions::own_point_band`]
+//!    behind it.
+//!
+//! Only cameras with a plate take part (a camera that moves has no plate); a camera outside
+//! whose image a sample falls says nothing about it.
+
+use dynview_core::Camera;
+use dynview_core::raster::{ScalarRaster, dilated};
+use dynview_core::scene::PointCloud;
+use glam::DVec2;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::plates::Plate;
+use crate::error::{SfmError, SfmResult};
+
+/// How the visual hull is carved.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HullOptions {
+    /// Mean absolute RGB difference (colours in `[0, 1]`) between frame and plate above which a
+    /// pixel is foreground.
+    pub foreground_tolerance: f32,
+    /// Plate confidence below which a pixel's foreground is unknown (it neither carves nor
+    /// witnesses).
+    pub min_plate_confidence: f32,
+    /// Radius (px) of the opening that removes specks from the foreground.
+    pub open_px: usize,
+    /// Radius (px) of the closing, after the opening, that fills the foreground's small holes
+    /// (a shirt the colour of the wall behind it).
+    pub close_px: usize,
+    /// Radius (px) the foreground is grown by before it carves: pixels of calibration error
+    /// must not cut a thin arm off the hull.
+    pub carve_dilation_px: usize,
+    /// Rays per image width (one every `width / rays_across` pixels, both axes).
+    pub rays_across: u32,
+    /// Depth samples along a ray, evenly in inverse depth.
+    pub depth_samples: usize,
+    /// Bisection steps refining where a ray enters the hull.
+    pub refine_steps: usize,
+    /// Fewest other cameras that must see a sample as foreground for it to be inside.
+    pub min_witnesses: usize,
+    /// Most other cameras that may see a sample as background with it still inside: one
+    /// camera's hole in its foreground does not cut the object (the others' rays still carve
+    /// the empty space in front of it).
+    pub max_background_votes: usize,
+    /// The nearest depth sampled, as a share of the median depth of the static scene in the
+    /// camera.
+    pub near_fraction: f64,
+    /// An own point of the step in a hull point's cell, at most this share of the hull depth
+    /// behind it, stands for it (the hull point is dropped).
+    pub own_point_band: f64,
+}
+
+impl Default for HullOptions {
+    fn default() -> Self {
+        Self {
+            foreground_tolerance: 0.15,
+            min_plate_confidence: 0.5,
+            open_px: 1,
+            close_px: 3,
+            carve_dilation_px: 1,
+            rays_across: 160,
+            depth_samples: 96,
+            refine_steps: 6,
+            min_witnesses: 3,
+            max_background_votes: 0,
+            near_fraction: 0.1,
+            own_point_band: 0.25,
+        }
+    }
+}
+
+impl HullOptions {
+    /// Checks the options; the error names the field.
+    pub fn validate(&self) -> SfmResult<()> {
+        let bad = |field: &str, problem: &str| Err(SfmError::Option { option: "hull", problem: format!("{field} {problem}") });
+        if !(self.foreground_tolerance > 0.0 && self.foreground_tolerance < 1.0) {
+            return bad("foreground_tolerance", "must lie in (0, 1)");
+        }
+        if !(0.0..=1.0).contains(&self.min_plate_confidence) {
+            return bad("min_plate_confidence", "must lie in [0, 1]");
+        }
+        if self.open_px > 16 || self.close_px > 16 || self.carve_dilation_px > 32 {
+            return bad("open_px / close_px / carve_dilation_px", "must be at most 16 / 16 / 32 px");
+        }
+        if !(8..=4096).contains(&self.rays_across) || !(4..=1024).contains(&self.depth_samples) || self.refine_steps > 32 {
+            return bad("rays_across / depth_samples / refine_steps", "must lie in 8..=4096 / 4..=1024 / 0..=32");
+        }
+        if self.min_witnesses == 0 {
+            return bad("min_witnesses", "must be at least 1");
+        }
+        if !(self.near_fraction > 0.0 && self.near_fraction < 1.0) {
+            return bad("near_fraction", "must lie in (0, 1)");
+        }
+        if !(0.0..=4.0).contains(&self.own_point_band) {
+            return bad("own_point_band", "must lie in [0, 4]");
+        }
+        Ok(())
+    }
+}
+
+/// A camera's foreground at one step: per pixel, row-major.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Foreground {
+    /// 1 where the frame differs from the plate (opened), else 0.
+    pub mask: ScalarRaster,
+    /// 1 where the plate is too unsure to tell, else 0.
+    pub unknown: ScalarRaster,
+    /// The mask and the unknown pixels, grown by [`HullOptions::carve_dilation_px`]: 0 carves.
+    pub keeps: ScalarRaster,
+}
+
+/// The foreground of `frame` against its camera's `plate` (same size).
+pub fn foreground(frame: &image::RgbImage, plate: &Plate, options: &HullOptions) -> SfmResult<Foreground> {
+    let (w, h) = (plate.image.width() as usize, plate.image.height() as usize);
+    if (frame.width() as usize, frame.height() as usize) != (w, h) || plate.confidence.len() != w * h {
+        return Err(SfmError::Reconstruction(format!(
+            "a frame of {}x{} px does not match its plate of {w}x{h} px",
+            frame.width(),
+            frame.height()
+        )));
+    }
+    let mut raw = ScalarRaster::filled(w, h, 0.0);
+    let mut unknown = ScalarRaster::filled(w, h, 0.0);
+    for (i, (a, b)) in frame.pixels().zip(plate.image.pixels()).enumerate() {
+        if plate.confidence[i] < options.min_plate_confidence {
+            unknown.data[i] = 1.0;
+            continue;
+        }
+        let d = (0..3).map(|k| (f32::from(a[k]) - f32::from(b[k])).abs()).sum::<f32>() / (3.0 * 255.0);
+        raw.data[i] = f32::from(u8::from(d > options.foreground_tolerance));
+    }
+    let mask = closed(&opened(&raw, options.open_px), options.close_px);
+    let mut either = mask.clone();
+    either.data.iter_mut().zip(&unknown.data).for_each(|(m, u)| *m = m.max(*u));
+    let keeps = dilated(&either, options.carve_dilation_px);
+    Ok(Foreground { mask, unknown, keeps })
+}
+
+/// `mask` eroded, then dilated, by `radius`.
+fn opened(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
+    if radius == 0 {
+        return mask.clone();
+    }
+    let mut inverse = mask.clone();
+    inverse.data.iter_mut().for_each(|v| *v = 1.0 - *v);
+    let mut eroded = dilated(&inverse, radius);
+    eroded.data.iter_mut().for_each(|v| *v = 1.0 - *v);
+    dilated(&eroded, radius)
+}
+
+/// `mask` dilated, then eroded, by `radius`.
+fn closed(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
+    if radius == 0 {
+        return mask.clone();
+    }
+    let mut inverse = dilated(mask, radius);
+    inverse.data.iter_mut().for_each(|v| *v = 1.0 - *v);
+    let mut out = dilated(&inverse, radius);
+    out.data.iter_mut().for_each(|v| *v = 1.0 - *v);
+    out
+}
+
+/// One camera of the hull at a step: where it stands, what it sees, its depth range.
+#[derive(Clone, Debug)]
+pub struct HullView<'a> {
+    /// The camera at the step (its working size: the frame's and plate's).
+    pub camera: Camera,
+    /// The step's frame.
+    pub frame: &'a image::RgbImage,
+    /// Its foreground at the step.
+    pub foreground: Foreground,
+    /// The median depth (m) of the static scene in the camera: rays start at
+    /// [`HullOptions::near_fraction`] of it.
+    pub median_static_depth_m: f64,
+    /// The farthest depth (m) a ray is sampled to: the far static scene.
+    pub far_depth_m: f64,
+}
+
+/// The median and the 95th percentile of the depths of `static_points` in `camera` (those in
+/// its image); `None` with fewer than 16 of them.
+pub fn static_depths(camera: &Camera, static_points: &PointCloud) -> Option<(f64, f64)> {
+    let mut depths: Vec<f64> = static_points
+        .positions_world
+        .iter()
+        .filter_map(|p| camera.project_world(glam::DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))))
+        .filter(|(px, z)| *z > 0.0 && camera.contains(*px))
+        .map(|(_, z)| z)
+        .collect();
+    if depths.len() < 16 {
+        return None;
+    }
+    depths.sort_by(f64::total_cmp);
+    Some((depths[depths.len() / 2], depths[depths.len() * 95 / 100]))
+}
+
+/// The hull's front points seen from every view of `views` (see the module's comment), less
+/// those the step's `own` points stand for.
+pub fn hull_points(views: &[HullView], own: &PointCloud, options: &HullOptions) -> PointCloud {
+    let per_view: Vec<PointCloud> = (0..views.len()).into_par_iter().map(|c| view_points(views, c, own, options)).collect();
+    let mut out = PointCloud::default();
+    for cloud in per_view {
+        out.positions_world.extend(cloud.positions_world);
+        out.colors.extend(cloud.colors);
+    }
+    out
+}
+
+/// The hull's front points on the rays of view `c`.
+fn view_points(views: &[HullView], c: usize, own: &PointCloud, options: &HullOptions) -> PointCloud {
+    let view = &views[c];
+    let camera = &view.camera;
+    let (w, h) = (camera.width_px as usize, camera.height_px as usize);
+    let stride = (camera.width_px / options.rays_across).max(1) as usize;
+    let near = options.near_fraction * view.median_static_depth_m;
+    let far = view.far_depth_m.max(near * 1.01);
+    let own_cells = own_depths_by_cell(camera, own, stride);
+    let cells_x = w.div_ceil(stride);
+    let mut out = PointCloud::default();
+    for y in (stride / 2..h).step_by(stride) {
+        for x in (stride / 2..w).step_by(stride) {
+            if view.foreground.mask.get(x, y) < 0.5 {
+                continue;
+            }
+            let pixel = DVec2::new(x as f64, y as f64);
+            let Some(depth) = entry_depth(views, c, pixel, near, far, options) else { continue };
+            let cell = &own_cells[(y / stride) * cells_x + x / stride];
+            if cell.iter().any(|&d| d >= depth * 0.95 && d <= depth * (1.0 + options.own_point_band)) {
+                continue;
+            }
+            let p = camera.unproject_world(pixel, depth);
+            out.positions_world.push([p.x as f32, p.y as f32, p.z as f32]);
+            out.colors.push(view.frame.get_pixel(x as u32, y as u32).0);
+        }
+    }
+    out
+}
+
+/// Per cell of `stride` px of `camera`'s image, the depths (m) of the `own` points in it.
+fn own_depths_by_cell(camera: &Camera, own: &PointCloud, stride: usize) -> Vec<Vec<f64>> {
+    let (cells_x, cells_y) = ((camera.width_px as usize).div_ceil(stride), (camera.height_px as usize).div_ceil(stride));
+    let mut cells = vec![Vec::new(); cells_x * cells_y];
+    for p in &own.positions_world {
+        let Some((px, z)) = camera.project_world(glam::DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))) else { continue };
+        if z > 0.0 && camera.contains(px) {
+            let (x, y) = nearest_pixel(camera, px);
+            cells[(y / stride) * cells_x + x / stride].push(z);
+        }
+    }
+    cells
+}
+
+/// The pixel of `camera`'s image nearest to `px` (a point inside it: [`Camera::contains`]).
+fn nearest_pixel(camera: &Camera, px: DVec2) -> (usize, usize) {
+    let clamp = |v: f64, size: u32| (v.round().max(0.0) as usize).min(size as usize - 1);
+    (clamp(px.x, camera.width_px), clamp(px.y, camera.height_px))
+}
+
+/// Where the ray of view `c` through `pixel` enters the hull between `near` and `far` (z-depth,
+/// m); `None` where it does not, or is inside already at `near` (nothing bounds it there).
+fn entry_depth(views: &[HullView], c: usize, pixel: DVec2, near: f64, far: f64, options: &HullOptions) -> Option<f64> {
+    let camera = &views[c].camera;
+    let n = options.depth_samples;
+    let depth_at = |s: f64| 1.0 / (1.0 / near + s * (1.0 / far - 1.0 / near));
+    let inside = |depth: f64| is_inside(views, c, camera.unproject_world(pixel, depth), options);
+    let first = (0..n).find(|&i| inside(depth_at(i as f64 / (n - 1) as f64)))?;
+    if first == 0 {
+        return None;
+    }
+    let (mut outside, mut entered) = ((first - 1) as f64 / (n - 1) as f64, first as f64 / (n - 1) as f64);
+    for _ in 0..options.refine_steps {
+        let mid = 0.5 * (outside + entered);
+        if inside(depth_at(mid)) {
+            entered = mid;
+        } else {
+            outside = mid;
+        }
+    }
+    Some(depth_at(entered))
+}
+
+/// Whether `point` is inside the hull as the views other than `c` see it.
+fn is_inside(views: &[HullView], c: usize, point: glam::DVec3, options: &HullOptions) -> bool {
+    let (mut witnesses, mut background) = (0, 0);
+    for (k, view) in views.iter().enumerate() {
+        if k == c {
+            continue;
+        }
+        let Some((px, z)) = view.camera.project_world(point) else { continue };
+        if z <= 0.0 || !view.camera.contains(px) {
+            continue;
+        }
+        let (x, y) = nearest_pixel(&view.camera, px);
+        if view.foreground.keeps.get(x, y) < 0.5 {
+            background += 1;
+            if background > options.max_background_votes {
+                return false;
+            }
+            continue;
+        }
+        if view.foreground.unknown.get(x, y) < 0.5 {
+            witnesses += 1;
+        }
+    }
+    witnesses >= options.min_witnesses
+}
+
+#[cfg(test)]
+mod tests;
