@@ -29,6 +29,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::plates::Plate;
+use super::static_cloud::difference;
 use crate::error::{SfmError, SfmResult};
 
 /// How the visual hull is carved.
@@ -145,8 +146,8 @@ pub fn foreground(frame: &image::RgbImage, plate: &Plate, options: &HullOptions)
             unknown.data[i] = 1.0;
             continue;
         }
-        let d = (0..3).map(|k| (f32::from(a[k]) - f32::from(b[k])).abs()).sum::<f32>() / (3.0 * 255.0);
-        raw.data[i] = f32::from(u8::from(d > options.foreground_tolerance));
+        let unit = |p: &image::Rgb<u8>| p.0.map(|v| f32::from(v) / 255.0);
+        raw.data[i] = f32::from(u8::from(difference(unit(a), unit(b)) > options.foreground_tolerance));
     }
     let mask = closed(&opened(&raw, options.open_px), options.close_px);
     let mut either = mask.clone();
@@ -155,28 +156,23 @@ pub fn foreground(frame: &image::RgbImage, plate: &Plate, options: &HullOptions)
     Ok(Foreground { mask, unknown, keeps })
 }
 
-/// `mask` eroded, then dilated, by `radius`.
-fn opened(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
-    if radius == 0 {
-        return mask.clone();
-    }
+/// The minimum of a 0/1 `mask` over a square window of side `2 radius + 1`.
+fn eroded(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
     let mut inverse = mask.clone();
-    inverse.data.iter_mut().for_each(|v| *v = 1.0 - *v);
-    let mut eroded = dilated(&inverse, radius);
-    eroded.data.iter_mut().for_each(|v| *v = 1.0 - *v);
-    dilated(&eroded, radius)
-}
-
-/// `mask` dilated, then eroded, by `radius`.
-fn closed(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
-    if radius == 0 {
-        return mask.clone();
-    }
-    let mut inverse = dilated(mask, radius);
     inverse.data.iter_mut().for_each(|v| *v = 1.0 - *v);
     let mut out = dilated(&inverse, radius);
     out.data.iter_mut().for_each(|v| *v = 1.0 - *v);
     out
+}
+
+/// `mask` eroded, then dilated, by `radius`.
+fn opened(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
+    dilated(&eroded(mask, radius), radius)
+}
+
+/// `mask` dilated, then eroded, by `radius`.
+fn closed(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
+    eroded(&dilated(mask, radius), radius)
 }
 
 /// One camera of the hull at a step: where it stands, what it sees, its depth range.

@@ -312,22 +312,17 @@ pub fn export_package(
         writer.set_static_cloud(cloud)?;
     }
     for (t, s) in source_of.iter().enumerate() {
-        for (c, camera) in event.cameras.iter().enumerate() {
-            let path = frame_path(&s.work, &camera.name, t);
-            let bytes = std::fs::read(&path).map_err(SfmError::io(&path))?;
-            if writer.manifest().frame_format.is_video() {
-                // Its one lossy encode: the video.
-                writer.write_encoded_frame(c, t as u32, &bytes)?;
-            } else {
-                // Its one lossy encode: the package's image format.
-                let image = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
-                    .map_err(|e| SfmError::WorkFile { path: path.clone(), problem: format!("cannot decode the frame: {e}") })?
-                    .to_rgb8();
-                writer.write_frame(c, t as u32, &image)?;
-            }
+        // The frames' one lossy encode: the package's video or image format.
+        let frames = work_frames(s, writer.manifest(), t)?;
+        for (c, frame) in frames.iter().enumerate() {
+            writer.write_frame(c, t as u32, frame)?;
         }
-        let own = read_cloud(&cloud_path(&s.work, t))?;
-        let mut cloud = own.clone();
+        let mut cloud = read_cloud(&cloud_path(&s.work, t))?;
+        // Hull points are judged against the step's own points, before static points stand in.
+        let moving = match hull {
+            Some(hull) => Some(step_hull(writer.manifest(), t, &frames, &plates, &static_depth_of, &cloud, hull)?),
+            None => None,
+        };
         let mut borrowed_indices = Vec::new();
         match (&static_cloud, &stored_statics) {
             (Some(statics), Some((_, store))) => {
@@ -344,8 +339,7 @@ pub fn export_package(
             }
             _ => {}
         }
-        if let Some(hull) = hull {
-            let moving = step_hull(s, writer.manifest(), t, &plates, &static_depth_of, &own, hull)?;
+        if let Some(moving) = moving {
             report.hull_points = report.hull_points.map(|n| n + moving.len());
             cloud.positions_world.extend(moving.positions_world);
             cloud.colors.extend(moving.colors);
@@ -412,17 +406,16 @@ fn work_frames(source: &Source, manifest: &Manifest, t: usize) -> SfmResult<Vec<
 }
 
 /// The visual hull's points of step `t` ([`crate::dense::hull`]) from the cameras with a plate
-/// and a static depth range, `own` the step's own points.
+/// and a static depth range (`frames`: the step's, one per camera), `own` the step's own points.
 fn step_hull(
-    source: &Source,
     manifest: &Manifest,
     t: usize,
+    frames: &[image::RgbImage],
     plates: &[Option<crate::dense::Plate>],
     static_depth_of: &[Option<(f64, f64)>],
     own: &dynview_core::scene::PointCloud,
     options: &HullOptions,
 ) -> SfmResult<dynview_core::scene::PointCloud> {
-    let frames = work_frames(source, manifest, t)?;
     let mut views = Vec::new();
     for (c, frame) in frames.iter().enumerate() {
         let (Some(plate), Some(Some((median, far)))) = (&plates[c], static_depth_of.get(c)) else { continue };
