@@ -14,9 +14,10 @@ pub enum SfmError {
         /// What is wrong.
         problem: String,
     },
-    /// Cameras have different frame counts and `--strict-frame-counts` was given.
+    /// Cameras have different frame counts, no clock says how they line up, and
+    /// `--strict-frame-counts` was given.
     #[error(
-        "cameras have different frame counts ({counts}); frames are assumed synchronized, so run without --strict-frame-counts to keep the first {shortest} frames of every camera"
+        "cameras have different frame counts ({counts}); taken as started together, run without --strict-frame-counts to keep the first {shortest} frames of every camera, or give --offsets"
     )]
     FrameCounts {
         /// `camera: count` for every camera.
@@ -24,6 +25,9 @@ pub enum SfmError {
         /// The shortest count.
         shortest: usize,
     },
+    /// The cameras could not be put on one timeline (no overlap in time, no usable sound, ...).
+    #[error("time alignment: {0}")]
+    TimeAlignment(String),
     /// A video or image could not be decoded.
     #[error("{path}: cannot decode: {problem}")]
     Decode {

@@ -9,6 +9,7 @@ use anyhow::{Context, bail};
 use std::ops::Range;
 
 use dynview_sfm::dense::densify::DensifyOptions;
+use dynview_sfm::input::timing::SyncMethod;
 use dynview_sfm::mapping::step_adjust::StepAdjustOptions;
 use dynview_sfm::pipeline::timesteps::StepOptions;
 use dynview_sfm::{PrepOptions, Stage};
@@ -19,7 +20,9 @@ use crate::progress::StageBars;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Folder with one video (mp4, mov, ...) or one folder of images per camera; camera names
-    /// come from the file or folder names; frames are assumed synchronized.
+    /// come from the file or folder names. Video frames are placed in time by their
+    /// timestamps (mixed and variable frame rates, portrait phones shown upright); see `--sync`
+    /// and `--offsets` for cameras that did not start together.
     #[arg(long)]
     input: PathBuf,
     /// Output folder: `scene/` (the scene package), `poses.json`, `report.json`, and `work/`
@@ -125,9 +128,41 @@ pub struct Args {
     /// job of a scheduler array; `dynview merge` joins the ranges into the package.
     #[arg(long, value_name = "A..B", value_parser = parse_range)]
     frames: Option<Range<usize>>,
-    /// Frames per second of the capture (default: the first video's, else 30).
+    /// Time steps per second of the package (default: the slowest camera's frame rate; image
+    /// folders count as this rate, else 30).
     #[arg(long)]
     fps: Option<f64>,
+    /// How the cameras' clocks are found: `visual` (from the pictures: the offsets at which
+    /// what moves agrees with the calibration of `--poses`; cameras on tripods), `none` (every
+    /// camera taken to have started with the others), or `auto` (`visual` when `--poses` is
+    /// given and the recordings differ in length, else `none`). `report.json`'s
+    /// `time_alignment` says what was found.
+    #[arg(long, default_value = "auto", value_name = "auto|visual|none")]
+    sync: SyncMethod,
+    /// The time (s) in CAMERA's video of one moment every camera filmed (a clap), given for
+    /// every camera (repeatable): the clocks by hand, instead of `--sync`.
+    #[arg(long, value_name = "CAMERA=SECONDS")]
+    offsets: Vec<String>,
+}
+
+/// `--offsets` as a map; a camera given twice with different times is an error.
+fn parse_offsets(values: &[String]) -> anyhow::Result<BTreeMap<String, f64>> {
+    let mut offsets = BTreeMap::new();
+    for v in values {
+        let (camera, seconds) = v.split_once('=').with_context(|| format!("--offsets {v:?}: expected CAMERA=SECONDS"))?;
+        let seconds: f64 = seconds
+            .trim()
+            .parse()
+            .ok()
+            .filter(|s: &f64| s.is_finite())
+            .with_context(|| format!("--offsets {v:?}: {seconds:?} is not a time in seconds"))?;
+        if let Some(earlier) = offsets.insert(camera.trim().to_string(), seconds)
+            && earlier != seconds
+        {
+            bail!("--offsets: camera {camera} is given twice, at {earlier} s and at {seconds} s");
+        }
+    }
+    Ok(offsets)
 }
 
 fn parse_loss_scale(text: &str) -> Result<f64, String> {
@@ -170,6 +205,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         intrinsics: args.intrinsics,
         frames: args.frames,
         fps: args.fps,
+        sync: args.sync,
+        offsets_s: parse_offsets(&args.offsets)?,
         ..PrepOptions::default()
     };
     options.steps.working_width = args.working_width;
@@ -220,6 +257,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Err(e) => return Err(e).with_context(|| format!("dynview prep --input {}", args.input.display())),
     };
     println!("{} cameras x {} frames", report.cameras, report.frames);
+    if let Some(time) = &report.time_alignment {
+        println!(
+            "timeline ({}): {} time steps at {:.3} fps, frames at most {:.1} ms from their step",
+            time.method,
+            time.steps,
+            time.fps,
+            time.max_error_s * 1e3
+        );
+        if time.method != "none" || time.cameras.values().any(|c| c.rate != 1.0 || c.start_s.abs() > 1e-6) {
+            for (name, c) in &time.cameras {
+                println!(
+                    "  {name}: first step at {:.4} s of its video, clock rate {:.6}, {:.2} fps, confidence {:.2}",
+                    c.start_s, c.rate, c.fps, c.confidence
+                );
+            }
+        }
+    }
     if !report.skipped.is_empty() {
         println!("reused from an earlier run: {}", report.skipped.join(", "));
     }
@@ -308,7 +362,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 #[cfg(test)]
 mod tests {
-    use super::parse_loss_scale;
+    use super::{parse_loss_scale, parse_offsets};
+
+    #[test]
+    fn offsets_are_per_camera_seconds_and_contradictions_are_named() {
+        let given = parse_offsets(&["a=1.5".into(), "b=-0.25".into(), "a=1.5".into()]).expect("offsets");
+        assert_eq!(given.len(), 2);
+        assert_eq!(given["b"], -0.25);
+        let err = parse_offsets(&["a=1.5".into(), "a=2".into()]).expect_err("twice").to_string();
+        assert!(err.contains("camera a") && err.contains("twice"), "{err}");
+        for bad in ["a", "a=soon", "a=NaN"] {
+            let err = parse_offsets(&[bad.into()]).expect_err(bad).to_string();
+            assert!(err.contains(bad), "{err}");
+        }
+    }
 
     #[test]
     fn loss_scale_takes_positive_pixels_and_names_bad_values() {

@@ -142,21 +142,30 @@ pub fn read_gray(path: &Path) -> SfmResult<Mat> {
 
 /// SIFT features of a grayscale image, strongest first, at most `options.max_features`.
 pub fn extract_gray(gray: &Mat, options: &FeatureOptions) -> SfmResult<Features> {
+    extract_gray_masked(gray, &Mat::default(), options)
+}
+
+/// [`extract_gray`] where `mask` (8-bit, the image's size; empty: everywhere) is non-zero.
+pub fn extract_gray_masked(gray: &Mat, mask: &Mat, options: &FeatureOptions) -> SfmResult<Features> {
     let longest = gray.cols().max(gray.rows()) as f64;
     let scale = (f64::from(options.max_image_size_px) / longest).min(1.0);
     let mut small = Mat::default();
-    let image = if scale < 1.0 {
+    let mut small_mask = Mat::default();
+    let (image, mask) = if scale < 1.0 {
         let size = Size::new((f64::from(gray.cols()) * scale).round() as i32, (f64::from(gray.rows()) * scale).round() as i32);
         imgproc::resize(gray, &mut small, size, 0.0, 0.0, imgproc::INTER_AREA).map_err(SfmError::cv("downscaling for SIFT"))?;
-        &small
+        if !mask.empty() {
+            imgproc::resize(mask, &mut small_mask, size, 0.0, 0.0, imgproc::INTER_NEAREST).map_err(SfmError::cv("downscaling a mask"))?;
+        }
+        (&small, &small_mask)
     } else {
-        gray
+        (gray, mask)
     };
     let mut sift = features2d::SIFT::create(options.max_features as i32, 3, options.contrast_threshold, 10.0, 1.6)
         .map_err(SfmError::cv("creating SIFT"))?;
     let mut keypoints = Vector::new();
     let mut descriptors = Mat::default();
-    sift.detect_and_compute(image, &Mat::default(), &mut keypoints, &mut descriptors, false).map_err(SfmError::cv("SIFT detection"))?;
+    sift.detect_and_compute(image, mask, &mut keypoints, &mut descriptors, false).map_err(SfmError::cv("SIFT detection"))?;
     let n = keypoints.len();
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| {

@@ -1,13 +1,13 @@
 //! The input event: one video per camera, or one image-sequence folder per camera, in one
-//! folder. [`discover`] finds the cameras; [`decode_frames`] turns videos into numbered JPEG
-//! frames in the work folder (image folders are used in place) and checks that every camera has
-//! the same number of frames.
+//! folder. [`discover`] finds the cameras; [`decode_frames`] turns videos into numbered work
+//! frames in the work folder, each with its presentation timestamp (image folders are used in
+//! place and have none); [`crate::input::timing`] puts them on one timeline.
 
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-use opencv::core::{Mat, Vector};
+use opencv::core::{self, Mat, Vector};
 use opencv::prelude::*;
 use opencv::{imgcodecs, videoio};
 use serde::{Deserialize, Serialize};
@@ -17,6 +17,7 @@ use dynview_core::fsutil::write_atomic;
 use dynview_core::scene::manifest::is_safe_name;
 
 use crate::error::{SfmError, SfmResult};
+use crate::input::probe::{display_rotation_ccw_deg, frame_times_s};
 
 /// File extensions read as videos.
 pub const VIDEO_EXTENSIONS: &[&str] = &["mp4", "mov", "avi", "mkv", "webm", "m4v", "mpg", "mpeg"];
@@ -154,18 +155,6 @@ pub fn discover(input: &Path) -> SfmResult<Vec<DiscoveredCamera>> {
     Ok(cameras)
 }
 
-/// Frames per second of the first camera that is a video and says, if any.
-pub fn video_fps(cameras: &[DiscoveredCamera]) -> Option<f64> {
-    cameras.iter().find_map(|c| match &c.source {
-        CameraSource::Video(path) => {
-            let capture = videoio::VideoCapture::from_file(path, videoio::CAP_FFMPEG).ok()?;
-            let fps = capture.get(videoio::CAP_PROP_FPS).ok()?;
-            (fps.is_finite() && fps > 0.0 && fps <= 1000.0).then_some(fps)
-        }
-        CameraSource::Images(_) => None,
-    })
-}
-
 /// Reads an image as 8-bit BGR, with an error naming the file.
 pub fn read_bgr(path: &Path) -> SfmResult<Mat> {
     let decode = |problem: String| SfmError::Decode { path: path.to_path_buf(), problem };
@@ -179,19 +168,33 @@ pub fn read_bgr(path: &Path) -> SfmResult<Mat> {
     Ok(image)
 }
 
-/// Decodes `video` into `out_dir/<t:05>.png`; returns the frame files. A finished camera (its
-/// `done.json` names the same video size) is not decoded again.
-fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: StageProgress, interrupt: &AtomicBool) -> SfmResult<Vec<PathBuf>> {
+/// What `done.json` of a decoded video holds: the video's size and each frame's timestamp.
+#[derive(Serialize, Deserialize)]
+struct DecodedVideo {
+    video_bytes: u64,
+    times_s: Vec<f64>,
+}
+
+/// Decodes `video` into `out_dir/<t:05>.png` (upright: a rotation in the file's metadata is
+/// applied); returns the frame files and each frame's presentation time (s from the first
+/// frame). A finished camera (its `done.json` names the same video size) is not decoded again.
+fn decode_video(
+    video: &Path,
+    out_dir: &Path,
+    camera: &str,
+    progress: StageProgress,
+    interrupt: &AtomicBool,
+) -> SfmResult<(Vec<PathBuf>, Vec<f64>)> {
     let decode = |problem: String| SfmError::Decode { path: video.to_path_buf(), problem };
     let video_bytes = fs::metadata(video).map_err(SfmError::io(video))?.len();
     let done_file = out_dir.join("done.json");
     if let Ok(text) = fs::read_to_string(&done_file)
-        && let Ok((bytes, count)) = serde_json::from_str::<(u64, usize)>(&text)
-        && bytes == video_bytes
+        && let Ok(done) = serde_json::from_str::<DecodedVideo>(&text)
+        && done.video_bytes == video_bytes
     {
-        let files: Vec<PathBuf> = (0..count).map(|t| out_dir.join(format!("{t:05}.{WORK_FRAME_EXTENSION}"))).collect();
+        let files: Vec<PathBuf> = (0..done.times_s.len()).map(|t| out_dir.join(format!("{t:05}.{WORK_FRAME_EXTENSION}"))).collect();
         if files.iter().all(|f| f.is_file()) {
-            return Ok(files);
+            return Ok((files, done.times_s));
         }
     }
     // FFmpeg first (quiet and exact frame counts), then whatever backend OpenCV has.
@@ -207,6 +210,17 @@ fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: StageProgr
     let Some(mut capture) = capture else { return Err(decode("OpenCV cannot open it as a video".into())) };
     let expected = capture.get(videoio::CAP_PROP_FRAME_COUNT).unwrap_or(0.0).max(0.0) as u64;
     fs::create_dir_all(out_dir).map_err(SfmError::io(out_dir))?;
+    // Upright, as players show it: turned here by the container's display rotation (OpenCV
+    // 4.6 does not apply it; asking it not to keeps newer versions from turning twice).
+    let _ = capture.set(videoio::CAP_PROP_ORIENTATION_AUTO, 0.0);
+    let turn = match display_rotation_ccw_deg(video)? {
+        90 => Some(core::ROTATE_90_COUNTERCLOCKWISE),
+        180 => Some(core::ROTATE_180),
+        270 => Some(core::ROTATE_90_CLOCKWISE),
+        _ => None,
+    };
+    let mut turned = Mat::default();
+    let times_s = frame_times_s(video)?;
     let mut files = Vec::new();
     let mut frame = Mat::default();
     let mut size = None;
@@ -215,6 +229,10 @@ fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: StageProgr
             break;
         }
         SfmError::check_interrupt(interrupt)?;
+        if let Some(code) = turn {
+            core::rotate(&frame, &mut turned, code).map_err(|e| decode(format!("turning frame {}: {e}", files.len())))?;
+            std::mem::swap(&mut frame, &mut turned);
+        }
         let this_size = (frame.cols(), frame.rows());
         if *size.get_or_insert(this_size) != this_size {
             return Err(decode(format!("frame {} is {}x{}, earlier frames {:?}", files.len(), this_size.0, this_size.1, size)));
@@ -230,47 +248,52 @@ fn decode_video(video: &Path, out_dir: &Path, camera: &str, progress: StageProgr
     if files.is_empty() {
         return Err(decode("no frames could be decoded".into()));
     }
-    let done = serde_json::to_string(&(video_bytes, files.len())).unwrap_or_default();
+    if times_s.len() != files.len() {
+        return Err(decode(format!("{} frames decoded but the container stamps {} (a damaged file?)", files.len(), times_s.len())));
+    }
+    let done = serde_json::to_string(&DecodedVideo { video_bytes, times_s: times_s.clone() }).unwrap_or_default();
     write_atomic(&done_file, done.as_bytes()).map_err(SfmError::io(&done_file))?;
-    Ok(files)
+    Ok((files, times_s))
 }
 
-/// Makes every camera's frame list: videos are decoded into `frames_dir/<camera>/`, image
-/// folders are listed. Cameras must have equal frame counts unless `trim` keeps the first
-/// `shortest` frames of every camera; then the second value lists the counts before the cut.
+/// Every camera's recorded frames, before they are put on one timeline.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecordedCamera {
+    /// The camera's frames in recording order (counts differ between cameras).
+    pub frames: CameraFrames,
+    /// Where they came from.
+    pub source: CameraSource,
+    /// Each frame's presentation time in the video (s from its first frame); `None` for an
+    /// image folder.
+    pub times_s: Option<Vec<f64>>,
+}
+
+/// Makes every camera's frame list: videos are decoded into `frames_dir/<camera>/` with their
+/// timestamps, image folders are listed.
 pub fn decode_frames(
     cameras: &[DiscoveredCamera],
     frames_dir: &Path,
-    trim: bool,
     progress: StageProgress,
     interrupt: &AtomicBool,
-) -> SfmResult<(EventFrames, Option<String>)> {
+) -> SfmResult<Vec<RecordedCamera>> {
     let mut out = Vec::new();
     for camera in cameras {
-        let files = match &camera.source {
+        let (files, times_s) = match &camera.source {
             CameraSource::Images(dir) => {
                 let files = images_in(dir)?;
                 if files.len() > MAX_FRAMES {
                     return Err(SfmError::Input { path: dir.clone(), problem: format!("more than {MAX_FRAMES} frames") });
                 }
-                files
+                (files, None)
             }
-            CameraSource::Video(video) => decode_video(video, &frames_dir.join(&camera.name), &camera.name, progress, interrupt)?,
+            CameraSource::Video(video) => {
+                let (files, times) = decode_video(video, &frames_dir.join(&camera.name), &camera.name, progress, interrupt)?;
+                (files, Some(times))
+            }
         };
         let first = read_bgr(&files[0])?;
-        out.push(CameraFrames { name: camera.name.clone(), width: first.cols() as u32, height: first.rows() as u32, files });
+        let frames = CameraFrames { name: camera.name.clone(), width: first.cols() as u32, height: first.rows() as u32, files };
+        out.push(RecordedCamera { frames, source: camera.source.clone(), times_s });
     }
-    let shortest = out.iter().map(|c| c.files.len()).min().unwrap_or(0);
-    let mut trimmed = None;
-    if out.iter().any(|c| c.files.len() != shortest) {
-        let counts = out.iter().map(|c| format!("{}: {}", c.name, c.files.len())).collect::<Vec<_>>().join(", ");
-        if !trim {
-            return Err(SfmError::FrameCounts { counts, shortest });
-        }
-        for c in &mut out {
-            c.files.truncate(shortest);
-        }
-        trimmed = Some(counts);
-    }
-    Ok((EventFrames { cameras: out }, trimmed))
+    Ok(out)
 }

@@ -10,6 +10,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::{SfmError, SfmResult};
 use crate::features::matching::MatchOptions;
 use crate::features::sift::FeatureOptions;
+use crate::input::timing::visual::VisualOptions;
+use crate::input::timing::{SyncMethod, TimeAlignment};
 use crate::mapping::incremental::MapperOptions;
 use crate::mapping::refine::{RefineOptions, RefineReport};
 use crate::mapping::step_adjust::{StepAdjustOptions, StepAdjustReport};
@@ -85,8 +87,18 @@ pub struct PrepOptions {
     /// Only these time steps (half-open, cut at the event's end) after the pose stage, and no
     /// package: a range job whose output `dynview merge` joins with the others.
     pub frames: Option<Range<usize>>,
-    /// Frames per second of the capture; by default the first video's, else 30.
+    /// Time steps per second of the package; by default the slowest camera's frame rate
+    /// (image folders: 30).
     pub fps: Option<f64>,
+    /// How the cameras' clocks are found (ignored when `offsets_s` is given).
+    #[serde(default)]
+    pub sync: SyncMethod,
+    /// Per camera, the time in its video (s) of one moment every camera filmed (`--offsets`).
+    #[serde(default)]
+    pub offsets_s: BTreeMap<String, f64>,
+    /// How offsets are found from the pictures (`sync` visual).
+    #[serde(default)]
+    pub visual_sync: VisualOptions,
 }
 
 impl Default for PrepOptions {
@@ -108,6 +120,9 @@ impl Default for PrepOptions {
             package: PackageOptions::default(),
             frames: None,
             fps: None,
+            sync: SyncMethod::default(),
+            offsets_s: BTreeMap::new(),
+            visual_sync: VisualOptions::default(),
         }
     }
 }
@@ -159,6 +174,10 @@ pub struct PrepReport {
     pub cameras: usize,
     /// Frames per camera.
     pub frames: usize,
+    /// How the cameras were put on one timeline: the method, and per camera where the first
+    /// time step sits in its video, its clock rate and the confidence.
+    #[serde(default)]
+    pub time_alignment: Option<TimeAlignment>,
     /// Keyframes in the reconstruction.
     pub keyframes: usize,
     /// Keyframes registered.

@@ -19,6 +19,7 @@ use crate::estimators::focal::PRIOR_FOCAL_FACTOR;
 use crate::features::sift::Features;
 use crate::input::calibration::{KnownCameras, KnownIntrinsics, calibration_for, known_intrinsics, read_poses, undistort_frames};
 use crate::input::frames::{DiscoveredCamera, EventFrames, decode_frames};
+use crate::input::timing::{TimeOptions, align_in_time};
 use crate::mapping::keyframe_model::{
     KeyframeModel, PRIOR_FOCAL_SOURCE, focal_std_fractions, intrinsics_groups, intrinsics_notes, per_group, reconstruct_keyframes,
     to_colmap, weak_focal_warnings, write_colmap_text,
@@ -51,21 +52,29 @@ pub(crate) fn pose_stages(
     progress: StageProgress,
     interrupt: &AtomicBool,
 ) -> SfmResult<Option<(EventFrames, EventPoses)>> {
-    let (mut frames, trimmed) = decode_frames(cameras, &work.join("frames"), options.trim, progress, interrupt)?;
-    if let Some(counts) = trimmed {
-        report.warnings.push(format!(
-            "cameras have different frame counts ({counts}); frames are assumed synchronized from the first, so every camera was cut to its first {}",
-            frames.frame_count()
-        ));
-    }
+    let recorded = decode_frames(cameras, &work.join("frames"), progress, interrupt)?;
     // Known calibration: from --intrinsics, else from --poses.
     let calibration_file = options.intrinsics.as_ref().or(options.poses.as_ref());
     let given = calibration_file.map(|p| read_poses(p)).transpose()?;
+    let recorded_frames = EventFrames { cameras: recorded.iter().map(|r| r.frames.clone()).collect() };
+    let calibration = match (&given, calibration_file) {
+        (Some(given), Some(path)) => Some(calibration_for(given, path, &recorded_frames)?),
+        _ => None,
+    };
+    let time = TimeOptions {
+        sync: options.sync,
+        offsets_s: options.offsets_s.clone(),
+        fps: options.fps,
+        strict_frame_counts: !options.trim,
+        visual: options.visual_sync.clone(),
+    };
+    let (mut frames, alignment, warnings) = align_in_time(&recorded, &time, calibration.as_deref(), work, progress, interrupt)?;
+    report.warnings.extend(warnings);
+    report.time_alignment = Some(alignment);
     let mut known = KnownCameras::new();
-    if let (Some(given), Some(path)) = (&given, calibration_file) {
-        let calibration = calibration_for(given, path, &frames)?;
-        frames = undistort_frames(&frames, &calibration, &work.join("undistorted"), progress, interrupt)?;
-        known = known_intrinsics(&calibration);
+    if let Some(calibration) = &calibration {
+        frames = undistort_frames(&frames, calibration, &work.join("undistorted"), progress, interrupt)?;
+        known = known_intrinsics(calibration);
     }
     for c in &frames.cameras {
         if !known.contains_key(&c.name)
@@ -408,10 +417,18 @@ pub fn known_poses(given: &EventPoses, path: &Path, frames: &EventFrames) -> Sfm
     let mut cameras = Vec::new();
     for (camera, known) in frames.cameras.iter().zip(calibration_for(given, path, frames)?) {
         let n = camera.files.len();
+        // A camera on a tripod may list its one pose per frame: one for all, whatever the
+        // timeline made of its frames.
+        let constant = known.frames.windows(2).all(|w| w[0].camera_from_world == w[1].camera_from_world);
         let poses: Vec<Option<PoseEntry>> = match known.frames.len() {
-            1 => vec![known.frames[0].camera_from_world; n],
+            m if m >= 1 && (m == 1 || constant) => vec![known.frames[0].camera_from_world; n],
             m if m == n => known.frames.iter().map(|f| f.camera_from_world).collect(),
-            m => return Err(bad(format!("camera {}: {m} poses for {n} frames (give one per frame, or one for all)", camera.name))),
+            m => {
+                return Err(bad(format!(
+                    "camera {}: {m} poses for {n} time steps (give one per time step, or one for all; a moving camera's poses cannot follow a time alignment)",
+                    camera.name
+                )));
+            }
         };
         if let Some(t) = poses.iter().position(Option::is_none) {
             return Err(bad(format!("camera {}: frame {t} has no pose", camera.name)));

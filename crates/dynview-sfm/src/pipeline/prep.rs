@@ -10,7 +10,8 @@ use dynview_interchange::poses::{CameraPoses, EventPoses};
 
 use crate::error::{SfmError, SfmResult};
 use crate::input::calibration::undistort_frames;
-use crate::input::frames::{EventFrames, discover, video_fps};
+use crate::input::frames::{EventFrames, discover};
+use crate::input::timing::DEFAULT_FPS;
 use crate::pipeline::export::{export_package, usable_poses};
 use crate::pipeline::options::{PrepOptions, PrepReport, Stage};
 use crate::pipeline::poses::pose_stages;
@@ -35,7 +36,6 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: StageProgr
         timer = std::time::Instant::now();
     };
     let cameras = discover(input)?;
-    let fps = options.fps.or_else(|| video_fps(&cameras)).unwrap_or(DEFAULT_FPS);
     let Some((frames, event)) = pose_stages(&work, out, &cameras, options, &mut report, &mut lap, progress, interrupt)? else {
         return finish(out, report);
     };
@@ -43,6 +43,7 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: StageProgr
         return finish(out, report);
     }
 
+    let fps = report.time_alignment.as_ref().map_or(options.fps.unwrap_or(DEFAULT_FPS), |t| t.fps);
     let (event, warnings) = usable_poses(&event);
     report.warnings.extend(warnings);
     if event.cameras.len() < 2 {
@@ -75,9 +76,6 @@ pub fn run(input: &Path, out: &Path, options: &PrepOptions, progress: StageProgr
     lap(&mut report, "package");
     finish(out, report)
 }
-
-/// Frames per second when neither `--fps` nor a video says.
-pub const DEFAULT_FPS: f64 = 30.0;
 
 fn finish(out: &Path, report: PrepReport) -> SfmResult<PrepReport> {
     let path = out.join(REPORT_FILE);

@@ -1,0 +1,294 @@
+//! The cameras put on one timeline: their clocks found ([`SyncMethod`]: from the pictures
+//! ([`visual`]), given by the user, or taken as started together), then
+//! [`dynview_sync::timeline::build`] picks, for every time step, each camera's frame filmed
+//! nearest to it.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+
+use serde::{Deserialize, Serialize};
+
+use dynview_sync::Clock;
+use dynview_sync::timeline::{self, CameraTimes};
+
+use dynview_core::StageProgress;
+use dynview_interchange::poses::CameraPoses;
+
+use crate::error::{SfmError, SfmResult};
+use crate::input::frames::{CameraFrames, EventFrames, RecordedCamera};
+
+use crate::work::WorkDir;
+use visual::{PairOffset, VisualOptions, visual_clocks};
+
+pub mod visual;
+
+/// Frames per second of image folders and of the timeline when nothing else says.
+pub const DEFAULT_FPS: f64 = 30.0;
+/// Below this confidence a camera's clock is named in a warning.
+pub const LOW_CONFIDENCE: f64 = 0.3;
+
+/// How the cameras' clocks are found.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SyncMethod {
+    /// From the pictures when a calibration is given and the cameras' recordings differ in
+    /// length; else `none`.
+    #[default]
+    Auto,
+    /// From the pictures: the offsets at which what moves agrees with the given calibration's
+    /// epipolar geometry (cameras on tripods).
+    Visual,
+    /// Every camera taken to have started with the others (frames still placed by their
+    /// timestamps).
+    None,
+}
+
+impl std::str::FromStr for SyncMethod {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            "visual" => Ok(Self::Visual),
+            "none" => Ok(Self::None),
+            other => Err(format!("unknown sync method {other:?} (expected auto, visual or none)")),
+        }
+    }
+}
+
+/// What the time alignment is told.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TimeOptions {
+    /// How clocks are found, when `offsets_s` is empty.
+    pub sync: SyncMethod,
+    /// Given by hand: per camera, the time in its video (s from its first frame) of one moment
+    /// every camera filmed (a clap); every camera must be named.
+    pub offsets_s: BTreeMap<String, f64>,
+    /// Time steps per second (default: the slowest camera's rate; image folders count as
+    /// [`DEFAULT_FPS`] unless this is given).
+    pub fps: Option<f64>,
+    /// Differing frame counts without a clock are an error instead of a cut to the shortest.
+    pub strict_frame_counts: bool,
+    /// How offsets are found from the pictures.
+    #[serde(default)]
+    pub visual: VisualOptions,
+}
+
+/// One camera's place on the timeline, as `report.json` shows it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CameraTiming {
+    /// The time in this camera's own video (s from its first frame) at which the package's first
+    /// time step was filmed.
+    pub start_s: f64,
+    /// Seconds of its clock per second of the timeline (1.0 without drift).
+    pub rate: f64,
+    /// How sure the alignment is of this camera's clock (0 to 1; 1 when given or assumed).
+    pub confidence: f64,
+    /// Its frames per second (the median interval's).
+    pub fps: f64,
+    /// Frames it recorded.
+    pub frames: usize,
+    /// The largest gap (s) between a time step and the time its frame of this camera was filmed.
+    pub max_error_s: f64,
+}
+
+/// `report.json`'s `time_alignment`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimeAlignment {
+    /// `audio`, `visual`, `given` or `none`.
+    pub method: String,
+    /// Time steps per second.
+    pub fps: f64,
+    /// Time steps.
+    pub steps: usize,
+    /// The largest time error of any camera's frame (s).
+    pub max_error_s: f64,
+    /// Per camera name.
+    pub cameras: BTreeMap<String, CameraTiming>,
+    /// What each pair of cameras measured, for a user checking an unsure camera:
+    /// `"a-b: offset s, matches, confidence"` (the offset: b's video time minus a's of one moment).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pairs: Vec<String>,
+}
+
+/// The event's frames, one per camera per time step, with the alignment and its warnings.
+/// `calibration` (in the order of `recorded`) is needed by the visual alignment; its result is
+/// kept in the work folder.
+pub fn align_in_time(
+    recorded: &[RecordedCamera],
+    options: &TimeOptions,
+    calibration: Option<&[&CameraPoses]>,
+    work: &WorkDir,
+    progress: StageProgress,
+    interrupt: &AtomicBool,
+) -> SfmResult<(EventFrames, TimeAlignment, Vec<String>)> {
+    let image_fps = options.fps.unwrap_or(DEFAULT_FPS);
+    let times: Vec<CameraTimes> = recorded
+        .iter()
+        .map(|r| match &r.times_s {
+            Some(t) => CameraTimes { camera: r.frames.name.clone(), frame_times_s: t.clone() },
+            None => CameraTimes::evenly_spaced(&r.frames.name, r.frames.files.len(), image_fps),
+        })
+        .collect();
+    let mut warnings = Vec::new();
+    let found = Found { recorded, times: &times, options, calibration, work, progress, interrupt };
+    let Clocks { method, clocks, confidence, pairs } = found.clocks()?;
+    if method == "none" {
+        let counts: Vec<usize> = recorded.iter().map(|r| r.frames.files.len()).collect();
+        if counts.iter().any(|c| *c != counts[0]) {
+            let listed = recorded.iter().map(|r| format!("{}: {}", r.frames.name, r.frames.files.len())).collect::<Vec<_>>().join(", ");
+            if options.strict_frame_counts {
+                let shortest = counts.iter().copied().min().unwrap_or(0);
+                return Err(SfmError::FrameCounts { counts: listed, shortest });
+            }
+            warnings.push(format!(
+                "cameras have different frame counts ({listed}); they are taken as started together (give --offsets, or --poses for --sync visual, if they were not), and the event ends with the shortest"
+            ));
+        }
+    }
+    let built = timeline::build(&times, &clocks, options.fps).map_err(sync_error)?;
+    let mut cameras = Vec::new();
+    let mut report = BTreeMap::new();
+    for (i, r) in recorded.iter().enumerate() {
+        let files: Vec<PathBuf> = built.frames[i].iter().map(|j| r.frames.files[*j].clone()).collect();
+        cameras.push(CameraFrames { files, ..r.frames.clone() });
+        let clock = built.clocks[i];
+        report.insert(
+            r.frames.name.clone(),
+            CameraTiming {
+                start_s: clock.start_s,
+                rate: clock.rate,
+                confidence: confidence[i],
+                fps: times[i].nominal_fps().unwrap_or(built.fps),
+                frames: r.frames.files.len(),
+                max_error_s: built.max_error_s[i],
+            },
+        );
+        if confidence[i] < LOW_CONFIDENCE {
+            warnings.push(format!(
+                "camera {}: its time offset is unsure (confidence {:.2}); check it, or give it with --offsets",
+                r.frames.name, confidence[i]
+            ));
+        }
+    }
+    let alignment = TimeAlignment {
+        method: method.into(),
+        fps: built.fps,
+        steps: built.steps(),
+        max_error_s: built.largest_error_s(),
+        cameras: report,
+        pairs: pairs
+            .iter()
+            .map(|p| {
+                let name = |i: usize| recorded[i].frames.name.as_str();
+                format!(
+                    "{}-{}: {:.4} s, {} matches, confidence {:.2}",
+                    name(p.cameras[0]),
+                    name(p.cameras[1]),
+                    p.offset_s,
+                    p.matches,
+                    p.confidence
+                )
+            })
+            .collect(),
+    };
+    Ok((EventFrames { cameras }, alignment, warnings))
+}
+
+fn sync_error(error: dynview_sync::SyncError) -> SfmError {
+    SfmError::TimeAlignment(error.to_string())
+}
+
+/// Clocks found for every camera (against the first camera's video time).
+struct Clocks {
+    method: &'static str,
+    clocks: Vec<Clock>,
+    confidence: Vec<f64>,
+    pairs: Vec<PairOffset>,
+}
+
+impl Clocks {
+    fn certain(method: &'static str, clocks: Vec<Clock>) -> Self {
+        let confidence = vec![1.0; clocks.len()];
+        Self { method, clocks, confidence, pairs: Vec::new() }
+    }
+}
+
+/// What the clocks are found from.
+struct Found<'a> {
+    recorded: &'a [RecordedCamera],
+    times: &'a [CameraTimes],
+    options: &'a TimeOptions,
+    calibration: Option<&'a [&'a CameraPoses]>,
+    work: &'a WorkDir,
+    progress: StageProgress<'a>,
+    interrupt: &'a AtomicBool,
+}
+
+impl Found<'_> {
+    /// The clocks against the first camera's video time, their method, confidences and the
+    /// pairs measured.
+    fn clocks(&self) -> SfmResult<Clocks> {
+        let (recorded, options) = (self.recorded, self.options);
+        let n = recorded.len();
+        if !options.offsets_s.is_empty() {
+            return given_clocks(recorded, &options.offsets_s).map(|c| Clocks::certain("given", c));
+        }
+        let method = match options.sync {
+            SyncMethod::Auto if self.calibration.is_some() && recordings_differ(self.times) => SyncMethod::Visual,
+            SyncMethod::Auto => SyncMethod::None,
+            chosen => chosen,
+        };
+        if method != SyncMethod::None && n < 2 {
+            return Err(SfmError::TimeAlignment("aligning cameras in time needs two cameras or more".into()));
+        }
+        match method {
+            SyncMethod::Visual => self.visual(),
+            _ => Ok(Clocks::certain("none", vec![Clock::SYNCHRONIZED; n])),
+        }
+    }
+
+    fn visual(&self) -> SfmResult<Clocks> {
+        let Some(calibration) = self.calibration else {
+            return Err(SfmError::TimeAlignment("--sync visual needs the cameras placed: give --poses (a calibration)".into()));
+        };
+        let key =
+            ("visual sync", self.recorded.iter().map(|r| &r.frames).collect::<Vec<_>>(), self.times, calibration, &self.options.visual);
+        let file = "time/visual.json";
+        let (clocks, confidence, pairs): (Vec<Clock>, Vec<f64>, Vec<PairOffset>) = if self.work.is_done("time/visual", &key) {
+            self.work.read_json(file)?
+        } else {
+            let found = visual_clocks(self.recorded, self.times, calibration, &self.options.visual, self.progress, self.interrupt)?;
+            std::fs::create_dir_all(self.work.join("time")).map_err(SfmError::io(&self.work.join("time")))?;
+            self.work.write_json(file, &found)?;
+            self.work.mark_done("time/visual", &key)?;
+            found
+        };
+        Ok(Clocks { method: "visual", clocks, confidence, pairs })
+    }
+}
+
+/// True when the cameras' recordings differ in frame count or length by more than a frame.
+fn recordings_differ(times: &[CameraTimes]) -> bool {
+    let lengths: Vec<(usize, f64)> =
+        times.iter().map(|t| (t.frame_times_s.len(), t.frame_times_s.last().copied().unwrap_or(0.0))).collect();
+    let frame_s = times.iter().filter_map(CameraTimes::nominal_fps).map(|f| 1.0 / f).fold(0.0, f64::max);
+    lengths.iter().any(|(count, length)| *count != lengths[0].0 || (length - lengths[0].1).abs() > frame_s)
+}
+
+/// Clocks from `--offsets`: each camera's video time of one common moment.
+fn given_clocks(recorded: &[RecordedCamera], offsets_s: &BTreeMap<String, f64>) -> SfmResult<Vec<Clock>> {
+    let bad = |problem: String| SfmError::Option { option: "offsets", problem };
+    if let Some(unknown) = offsets_s.keys().find(|k| !recorded.iter().any(|r| &r.frames.name == *k)) {
+        let names = recorded.iter().map(|r| r.frames.name.as_str()).collect::<Vec<_>>().join(", ");
+        return Err(bad(format!("no camera is named {unknown:?} (cameras: {names})")));
+    }
+    let missing: Vec<&str> = recorded.iter().map(|r| r.frames.name.as_str()).filter(|n| !offsets_s.contains_key(*n)).collect();
+    if !missing.is_empty() {
+        return Err(bad(format!("give every camera's offset; missing: {}", missing.join(", "))));
+    }
+    if let Some((name, s)) = offsets_s.iter().find(|(_, s)| !s.is_finite() || s.abs() > 1e6) {
+        return Err(bad(format!("camera {name}: {s} is not a time in seconds")));
+    }
+    Ok(recorded.iter().map(|r| Clock { start_s: offsets_s[&r.frames.name], rate: 1.0 }).collect())
+}

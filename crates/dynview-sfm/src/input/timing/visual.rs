@@ -1,0 +1,527 @@
+//! Clocks from the pictures: with every camera placed (a given calibration), the time offset
+//! between two cameras is the one at which the features of what moves in one camera's frame
+//! lie on the epipolar lines of the same features in the other's.
+//!
+//! Per camera, the moving pixels are those that differ from its median frame (a camera on a
+//! tripod); SIFT features are taken there only, so the static scene, which matches at every
+//! offset, does not vote. For each pair of neighbouring cameras and each candidate offset (one
+//! bin per frame of the second camera, within [`VisualOptions::max_offset_s`]), sampled frames
+//! of the first are matched with the frame of the second at that offset, guided by the
+//! calibration's epipolar geometry; the offset with the most matches wins, sharpened below a
+//! frame by how the matched points move between frames. The pairs' offsets are then solved
+//! together, dropping pairs that disagree.
+
+use std::sync::atomic::AtomicBool;
+
+use nalgebra::{Matrix3, Vector3};
+use opencv::core::{self, Mat, Point, Size};
+use opencv::imgproc;
+use opencv::prelude::*;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use dynview_camera::{Model, OpenCv, OpenCvDistortion, Pinhole, Radial, Rigid3};
+use dynview_core::StageProgress;
+use dynview_interchange::poses::CameraPoses;
+use dynview_sync::Clock;
+use dynview_sync::timeline::CameraTimes;
+
+use crate::error::{SfmError, SfmResult};
+use crate::estimators::geometry::essential_between;
+use crate::features::guided::guided_matches;
+use crate::features::sift::{DESCRIPTOR_LEN, FeatureOptions, Features, extract_gray_masked, read_gray};
+use crate::input::frames::RecordedCamera;
+
+/// How offsets are found from the pictures.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct VisualOptions {
+    /// Largest offset (s) looked for between two cameras' video times.
+    pub max_offset_s: f64,
+    /// Frames of the first camera of a pair matched at every candidate offset.
+    pub sampled_frames: usize,
+    /// Frames are worked on at this longest side (px).
+    pub max_side_px: u32,
+    /// Frames whose median over the recording makes the camera's still image.
+    pub median_frames: usize,
+    /// A pixel moves where its grey level differs from the still image by more than this.
+    pub moving_threshold: f64,
+    /// Features of a moving region per frame, at most.
+    pub max_features: usize,
+    /// Largest distance (px, full size) of a match from its epipolar line.
+    pub max_epipolar_px: f64,
+    /// Each camera is paired with this many others, nearest in viewing direction first.
+    pub neighbours: usize,
+    /// A pair's best offset needs this many matches summed over its sampled frames.
+    pub min_matches: usize,
+}
+
+impl Default for VisualOptions {
+    fn default() -> Self {
+        Self {
+            max_offset_s: 2.0,
+            sampled_frames: 24,
+            max_side_px: 640,
+            median_frames: 15,
+            moving_threshold: 25.0,
+            max_features: 400,
+            max_epipolar_px: 2.0,
+            neighbours: 2,
+            min_matches: 12,
+        }
+    }
+}
+
+/// One camera ready for matching: its moving features per frame (undistorted pixels, full
+/// size) and its geometry.
+struct View {
+    name: String,
+    times_s: Vec<f64>,
+    features: Vec<Features>,
+    pinhole: Radial,
+    camera_from_world: Rigid3,
+}
+
+/// What one pair of cameras measured: `offset_s` = (second camera's video time) - (first's) of
+/// one moment.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PairOffset {
+    /// The pair, indices into the cameras.
+    pub cameras: [usize; 2],
+    /// The offset (s).
+    pub offset_s: f64,
+    /// Matches at the best offset, summed over the sampled frames.
+    pub matches: usize,
+    /// 1 - (the best count away from the winner) / (the winner's count).
+    pub confidence: f64,
+}
+
+/// Clocks of `recorded` against the first camera's video time from the pictures, each with a
+/// confidence, and the pairs' measurements. `calibration` is in the same order as `recorded`.
+pub fn visual_clocks(
+    recorded: &[RecordedCamera],
+    times: &[CameraTimes],
+    calibration: &[&CameraPoses],
+    options: &VisualOptions,
+    progress: StageProgress,
+    interrupt: &AtomicBool,
+) -> SfmResult<(Vec<Clock>, Vec<f64>, Vec<PairOffset>)> {
+    let n = recorded.len();
+    let mut views = Vec::with_capacity(n);
+    for (i, (r, calib)) in recorded.iter().zip(calibration).enumerate() {
+        progress("visual sync: moving features", i as u64, n as u64);
+        SfmError::check_interrupt(interrupt)?;
+        views.push(prepare_view(r, &times[i].frame_times_s, calib, options)?);
+    }
+    progress("visual sync: moving features", n as u64, n as u64);
+    let measure = |pairs: &[(usize, usize)]| -> Vec<PairOffset> {
+        pairs
+            .par_iter()
+            .filter_map(|&(a, b)| {
+                pair_offset(&views, a, b, options).map(|(offset_s, matches, confidence)| PairOffset {
+                    cameras: [a, b],
+                    offset_s,
+                    matches,
+                    confidence,
+                })
+            })
+            .collect()
+    };
+    let mut tried = neighbour_pairs(&views, options.neighbours);
+    progress("visual sync: pairs", 0, tried.len() as u64);
+    let mut measured = measure(&tried);
+    // Groups of cameras the neighbours leave apart are joined by the nearest pairs across.
+    loop {
+        SfmError::check_interrupt(interrupt)?;
+        let group = groups(n, &measured);
+        let mut across: Vec<(f64, usize, usize)> = (0..n)
+            .flat_map(|a| (a + 1..n).map(move |b| (a, b)))
+            .filter(|&(a, b)| group[a] != group[b] && !tried.contains(&(a, b)))
+            .map(|(a, b)| (-axis(&views[a]).dot(&axis(&views[b])), a, b))
+            .collect();
+        if across.is_empty() {
+            break;
+        }
+        across.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let next: Vec<(usize, usize)> = across.iter().take(2).map(|&(_, a, b)| (a, b)).collect();
+        tried.extend(&next);
+        measured.extend(measure(&next));
+    }
+    progress("visual sync: pairs", tried.len() as u64, tried.len() as u64);
+    let frame_s = times.iter().filter_map(CameraTimes::nominal_fps).map(|f| 1.0 / f).fold(0.0, f64::max);
+    let (offsets, confidence) = solve_offsets(n, &measured, frame_s / 2.0).map_err(|unplaced| {
+        SfmError::TimeAlignment(format!(
+            "--sync visual: camera {} shares no moving features with the others at any offset within {} s",
+            views[unplaced].name, options.max_offset_s
+        ))
+    })?;
+    Ok((offsets.iter().map(|o| Clock { start_s: *o, rate: 1.0 }).collect(), confidence, measured))
+}
+
+fn prepare_view(recorded: &RecordedCamera, times_s: &[f64], calib: &CameraPoses, options: &VisualOptions) -> SfmResult<View> {
+    let frames = &recorded.frames;
+    let pose = calib
+        .frames
+        .first()
+        .and_then(|f| f.camera_from_world)
+        .ok_or_else(|| SfmError::TimeAlignment(format!("--sync visual: camera {} has no pose in the calibration", frames.name)))?;
+    let scale = (f64::from(options.max_side_px) / f64::from(frames.width.max(frames.height))).min(1.0);
+    let size = Size::new((f64::from(frames.width) * scale).round() as i32, (f64::from(frames.height) * scale).round() as i32);
+    let gray: Vec<Mat> = frames
+        .files
+        .par_iter()
+        .map(|f| {
+            let full = read_gray(f)?;
+            let mut small = Mat::default();
+            imgproc::resize(&full, &mut small, size, 0.0, 0.0, imgproc::INTER_AREA).map_err(SfmError::cv("downscaling a frame"))?;
+            Ok(small)
+        })
+        .collect::<SfmResult<_>>()?;
+    let still = median_image(&gray, options.median_frames)?;
+    let pinhole_in = Pinhole::from(calib.intrinsics);
+    let lens = OpenCv { pinhole: pinhole_in, distortion: OpenCvDistortion::from_array(calib.distortion) };
+    let feature_options = FeatureOptions { max_features: options.max_features, max_image_size_px: u32::MAX, ..FeatureOptions::default() };
+    let features: Vec<Features> = gray
+        .par_iter()
+        .map(|g| {
+            let mask = moving_mask(g, &still, options.moving_threshold)?;
+            let mut f = extract_gray_masked(g, &mask, &feature_options)?;
+            for xy in &mut f.xy {
+                let full = [(f64::from(xy[0]) + 0.5) / scale - 0.5, (f64::from(xy[1]) + 0.5) / scale - 0.5];
+                let undistorted = pinhole_in.pixel_from_normalized(lens.normalized_from_pixel(full));
+                *xy = [undistorted[0] as f32, undistorted[1] as f32];
+            }
+            Ok(f)
+        })
+        .collect::<SfmResult<_>>()?;
+    Ok(View {
+        name: frames.name.clone(),
+        times_s: times_s.to_vec(),
+        features,
+        pinhole: Radial::from_pinhole(&pinhole_in),
+        camera_from_world: pose.camera_from_world(),
+    })
+}
+
+/// The per-pixel median of up to `count` frames spread over `gray`.
+fn median_image(gray: &[Mat], count: usize) -> SfmResult<Vec<u8>> {
+    let step = (gray.len() / count.max(1)).max(1);
+    let picked: Vec<&[u8]> =
+        gray.iter().step_by(step).map(|g| g.data_bytes().map_err(SfmError::cv("frame bytes"))).collect::<SfmResult<_>>()?;
+    let len = picked.first().map_or(0, |p| p.len());
+    let mut column = Vec::with_capacity(picked.len());
+    Ok((0..len)
+        .map(|i| {
+            column.clear();
+            column.extend(picked.iter().map(|p| p[i]));
+            column.sort_unstable();
+            column[column.len() / 2]
+        })
+        .collect())
+}
+
+/// Where `gray` differs from the still image, grown by a few pixels (8-bit, 255 = moving).
+fn moving_mask(gray: &Mat, still: &[u8], threshold: f64) -> SfmResult<Mat> {
+    let bytes = gray.data_bytes().map_err(SfmError::cv("frame bytes"))?;
+    let moving: Vec<u8> = bytes.iter().zip(still).map(|(g, s)| if f64::from(g.abs_diff(*s)) > threshold { 255 } else { 0 }).collect();
+    let mask = Mat::new_rows_cols_with_data(gray.rows(), gray.cols(), &moving)
+        .map_err(SfmError::cv("moving mask"))?
+        .try_clone()
+        .map_err(SfmError::cv("moving mask"))?;
+    let kernel =
+        imgproc::get_structuring_element(imgproc::MORPH_ELLIPSE, Size::new(7, 7), Point::new(-1, -1)).map_err(SfmError::cv("kernel"))?;
+    let mut grown = Mat::default();
+    imgproc::dilate(
+        &mask,
+        &mut grown,
+        &kernel,
+        Point::new(-1, -1),
+        1,
+        core::BORDER_CONSTANT,
+        imgproc::morphology_default_border_value().map_err(SfmError::cv("border"))?,
+    )
+    .map_err(SfmError::cv("growing the moving mask"))?;
+    Ok(grown)
+}
+
+/// A camera's viewing direction in the world.
+fn axis(view: &View) -> Vector3<f64> {
+    view.camera_from_world.rotation_matrix().row(2).transpose()
+}
+
+/// Per camera, the smallest camera index it is connected to by `pairs`.
+fn groups(n: usize, pairs: &[PairOffset]) -> Vec<usize> {
+    let mut group: Vec<usize> = (0..n).collect();
+    let mut changed = true;
+    while changed {
+        changed = false;
+        for p in pairs {
+            let [a, b] = p.cameras;
+            let low = group[a].min(group[b]);
+            if group[a] != low || group[b] != low {
+                group[a] = low;
+                group[b] = low;
+                changed = true;
+            }
+        }
+    }
+    group
+}
+
+/// Each camera with its `k` nearest in viewing direction (each pair once, first index lower).
+fn neighbour_pairs(views: &[View], k: usize) -> Vec<(usize, usize)> {
+    let mut pairs = Vec::new();
+    for a in 0..views.len() {
+        let mut others: Vec<(f64, usize)> =
+            (0..views.len()).filter(|b| *b != a).map(|b| (-axis(&views[a]).dot(&axis(&views[b])), b)).collect();
+        others.sort_by(|x, y| x.0.total_cmp(&y.0));
+        for &(_, b) in others.iter().take(k) {
+            let pair = (a.min(b), a.max(b));
+            if !pairs.contains(&pair) {
+                pairs.push(pair);
+            }
+        }
+    }
+    pairs
+}
+
+/// Offsets this close to the best (s) are not its rivals for the confidence.
+const NEAR_OFFSET_S: f64 = 0.15;
+
+/// A frame of the first camera, a frame of the second and their matches.
+type FrameMatches = (usize, usize, Vec<[u32; 2]>);
+
+/// The best offset of camera `b` against camera `a`, its matches and confidence; `None` when
+/// too few moving features match at any offset.
+fn pair_offset(views: &[View], a: usize, b: usize, options: &VisualOptions) -> Option<(f64, usize, f64)> {
+    let (va, vb) = (&views[a], &views[b]);
+    let e = essential_between(&va.camera_from_world, &vb.camera_from_world);
+    let frame_b_s = 1.0 / CameraTimes { camera: String::new(), frame_times_s: vb.times_s.clone() }.nominal_fps()?;
+    let bins = (options.max_offset_s / frame_b_s).ceil() as i64;
+    let mut votes = vec![0usize; (2 * bins + 1) as usize];
+    // Sampled frames of a, away from its ends by the search range where it can.
+    let samples = sample_frames(&va.times_s, options.sampled_frames, options.max_offset_s);
+    let mut best_pairs: Vec<Vec<FrameMatches>> = vec![Vec::new(); votes.len()];
+    for &i in &samples {
+        let t = va.times_s[i];
+        for (bin, slot) in votes.iter_mut().enumerate() {
+            let offset = (bin as i64 - bins) as f64 * frame_b_s;
+            let j = nearest(&vb.times_s, t + offset);
+            if (vb.times_s[j] - (t + offset)).abs() > frame_b_s / 2.0 {
+                continue;
+            }
+            let matches = guided_matches((&va.features[i], &va.pinhole), (&vb.features[j], &vb.pinhole), &e, options.max_epipolar_px, 0.8);
+            *slot += matches.len();
+            best_pairs[bin].push((i, j, matches));
+        }
+    }
+    let (winner, &count) = votes.iter().enumerate().max_by_key(|(_, c)| **c)?;
+    if count < options.min_matches {
+        return None;
+    }
+    // Offsets near the winner match nearly as well (things move little in a few frames): the
+    // runner-up is the best beyond them.
+    let near_bins = ((NEAR_OFFSET_S / frame_b_s).ceil() as usize).max(2);
+    let runner_up = votes.iter().enumerate().filter(|(bin, _)| bin.abs_diff(winner) > near_bins).map(|(_, c)| *c).max().unwrap_or(0);
+    let confidence = 1.0 - runner_up as f64 / count as f64;
+    let coarse = (winner as i64 - bins) as f64 * frame_b_s;
+    let fine = sub_frame(va, vb, &e, &best_pairs[winner]).unwrap_or(0.0);
+    // The winning bin's frames were picked nearest to t + coarse; the refinement is measured
+    // from the frames actually matched.
+    let measured: Vec<f64> = best_pairs[winner].iter().map(|(i, j, _)| vb.times_s[*j] - va.times_s[*i]).collect();
+    let base = if measured.is_empty() { coarse } else { median(measured) };
+    Some((base + fine * frame_b_s, count, confidence))
+}
+
+/// Up to `count` frames spread over the recording, `margin_s` from its ends where it is long
+/// enough.
+fn sample_frames(times_s: &[f64], count: usize, margin_s: f64) -> Vec<usize> {
+    let (first, last) = (times_s[0], times_s[times_s.len() - 1]);
+    let (lo, hi) = if last - first > 4.0 * margin_s { (first + margin_s, last - margin_s) } else { (first, last) };
+    (0..count.max(1)).map(|k| nearest(times_s, lo + (hi - lo) * (k as f64 + 0.5) / count.max(1) as f64)).collect()
+}
+
+fn nearest(times: &[f64], tau: f64) -> usize {
+    let after = times.partition_point(|t| *t < tau).min(times.len() - 1);
+    if after > 0 && tau - times[after - 1] <= times[after] - tau { after - 1 } else { after }
+}
+
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
+/// How far (in frames of `b`, within one either way) the matched points of `b` must move along
+/// their motion to lie on their epipolar lines: the least-squares step along the forward motion
+/// (to the same feature in the next frame) or the backward one, whichever fits better.
+fn sub_frame(a: &View, b: &View, e: &Matrix3<f64>, pairs: &[FrameMatches]) -> Option<f64> {
+    let mut sides: [Vec<(f64, f64)>; 2] = [Vec::new(), Vec::new()];
+    for (i, j, matches) in pairs {
+        for (side, next) in [(0usize, j.checked_add(1)), (1, j.checked_sub(1))] {
+            let Some(next) = next.filter(|k| *k < b.features.len()) else { continue };
+            for m in matches {
+                let from = b.features[*j].xy[m[1] as usize];
+                let Some(to) = same_feature(&b.features[*j], m[1] as usize, &b.features[next], MAX_MOTION_PX) else { continue };
+                let xa = a.features[*i].xy[m[0] as usize];
+                let ray_a = a.pinhole.normalized(nalgebra::Vector2::new(f64::from(xa[0]), f64::from(xa[1])));
+                let line = e * Vector3::new(ray_a.x, ray_a.y, 1.0);
+                let norm = line.x.hypot(line.y).max(1e-12);
+                let distance = |xy: [f32; 2]| {
+                    let n = b.pinhole.normalized(nalgebra::Vector2::new(f64::from(xy[0]), f64::from(xy[1])));
+                    line.dot(&Vector3::new(n.x, n.y, 1.0)) / norm
+                };
+                let d0 = distance(from);
+                sides[side].push((d0, distance(to) - d0));
+            }
+        }
+    }
+    // Least squares of d0 + step v = 0 over the matches, the worst fifth dropped once.
+    let fit = |pairs: &[(f64, f64)]| -> Option<(f64, f64)> {
+        let solve = |set: &[(f64, f64)]| {
+            let (dv, vv) = set.iter().fold((0.0, 0.0), |(dv, vv), (d, v)| (dv + d * v, vv + v * v));
+            (vv > 1e-12).then(|| (-dv / vv).clamp(0.0, 1.0))
+        };
+        if pairs.len() < 6 {
+            return None;
+        }
+        let step = solve(pairs)?;
+        let mut kept: Vec<(f64, f64)> = pairs.to_vec();
+        kept.sort_by(|x, y| (x.0 + step * x.1).abs().total_cmp(&(y.0 + step * y.1).abs()));
+        kept.truncate(pairs.len() * 4 / 5);
+        let step = solve(&kept)?;
+        let cost = kept.iter().map(|(d, v)| (d + step * v).powi(2)).sum::<f64>() / kept.len() as f64;
+        Some((step, cost))
+    };
+    match (fit(&sides[0]), fit(&sides[1])) {
+        (Some((f, cf)), Some((bk, cb))) => Some(if cf <= cb { f } else { -bk }),
+        (Some((f, _)), None) => Some(f),
+        (None, Some((bk, _))) => Some(-bk),
+        (None, None) => None,
+    }
+}
+
+/// Farthest (px, full size) a feature is looked for in the next frame.
+const MAX_MOTION_PX: f32 = 40.0;
+
+/// Where feature `k` of `from` is in `to`: the nearest descriptor among `to`'s features within
+/// `radius_px`, passing the ratio test.
+fn same_feature(from: &Features, k: usize, to: &Features, radius_px: f32) -> Option<[f32; 2]> {
+    let xy = from.xy[k];
+    let descriptor = &from.descriptors[k * DESCRIPTOR_LEN..(k + 1) * DESCRIPTOR_LEN];
+    let (mut best, mut second) = ((u32::MAX, usize::MAX), u32::MAX);
+    for (q, other) in to.xy.iter().enumerate() {
+        if (other[0] - xy[0]).hypot(other[1] - xy[1]) > radius_px {
+            continue;
+        }
+        let d: u32 = descriptor
+            .iter()
+            .zip(&to.descriptors[q * DESCRIPTOR_LEN..(q + 1) * DESCRIPTOR_LEN])
+            .map(|(x, y)| (i32::from(*x) - i32::from(*y)).pow(2) as u32)
+            .sum();
+        if d < best.0 {
+            second = best.0;
+            best = (d, q);
+        } else if d < second {
+            second = d;
+        }
+    }
+    (best.1 != usize::MAX && (second == u32::MAX || f64::from(best.0) < 0.64 * f64::from(second))).then(|| to.xy[best.1])
+}
+
+/// Offsets per camera (camera 0 at 0) from the pairs by weighted least squares, dropping the
+/// pair that disagrees most while any disagrees by more than `tolerance_s` and the cameras stay
+/// connected; per camera a confidence. `Err(camera)` names a camera no pair reaches.
+fn solve_offsets(n: usize, pairs: &[PairOffset], tolerance_s: f64) -> Result<(Vec<f64>, Vec<f64>), usize> {
+    let mut used: Vec<&PairOffset> = pairs.iter().filter(|p| p.confidence > 0.0).collect();
+    loop {
+        let offsets = least_squares(n, &used)?;
+        let worst = used
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (k, (offsets[p.cameras[1]] - offsets[p.cameras[0]] - p.offset_s).abs()))
+            .max_by(|x, y| x.1.total_cmp(&y.1));
+        match worst {
+            Some((k, residual)) if residual > tolerance_s => {
+                let mut fewer = used.clone();
+                fewer.remove(k);
+                if least_squares(n, &fewer).is_err() {
+                    return Ok((offsets.clone(), confidences(n, &used, &offsets, tolerance_s)));
+                }
+                used = fewer;
+            }
+            _ => return Ok((offsets.clone(), confidences(n, &used, &offsets, tolerance_s))),
+        }
+    }
+}
+
+fn confidences(n: usize, used: &[&PairOffset], offsets: &[f64], tolerance_s: f64) -> Vec<f64> {
+    (0..n)
+        .map(|c| {
+            let mine: Vec<f64> = used
+                .iter()
+                .filter(|p| p.cameras.contains(&c))
+                .map(|p| {
+                    let residual = (offsets[p.cameras[1]] - offsets[p.cameras[0]] - p.offset_s).abs();
+                    if residual > tolerance_s { 0.0 } else { p.confidence }
+                })
+                .collect();
+            mine.iter().copied().fold(0.0, f64::max)
+        })
+        .collect()
+}
+
+/// Weighted least squares of `o_b - o_a = offset` with `o_0 = 0`; `Err(camera)` when a camera
+/// is not connected to camera 0.
+fn least_squares(n: usize, pairs: &[&PairOffset]) -> Result<Vec<f64>, usize> {
+    // Connectivity first: a camera no chain of pairs reaches has no offset.
+    let owned: Vec<PairOffset> = pairs.iter().map(|p| (*p).clone()).collect();
+    if let Some(missing) = groups(n, &owned).iter().position(|g| *g != 0) {
+        return Err(missing);
+    }
+    if n == 1 {
+        return Ok(vec![0.0]);
+    }
+    let m = n - 1;
+    let mut normal = nalgebra::DMatrix::<f64>::zeros(m, m);
+    let mut rhs = nalgebra::DVector::<f64>::zeros(m);
+    for p in pairs {
+        let w = p.confidence.max(1e-3) * p.matches as f64;
+        let [a, b] = p.cameras;
+        // Row: +1 at b, -1 at a (camera 0 fixed).
+        let coefficient = |c: usize| -> Option<(usize, f64)> { if c == 0 { None } else { Some((c - 1, if c == b { 1.0 } else { -1.0 })) } };
+        let entries: Vec<(usize, f64)> = [coefficient(a), coefficient(b)].into_iter().flatten().collect();
+        for &(r, x) in &entries {
+            rhs[r] += w * x * p.offset_s;
+            for &(c, y) in &entries {
+                normal[(r, c)] += w * x * y;
+            }
+        }
+    }
+    let solution = normal.lu().solve(&rhs).ok_or(0usize)?;
+    Ok(std::iter::once(0.0).chain(solution.iter().copied()).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pair(a: usize, b: usize, offset_s: f64) -> PairOffset {
+        PairOffset { cameras: [a, b], offset_s, matches: 40, confidence: 0.8 }
+    }
+
+    #[test]
+    fn pairs_are_solved_together_and_a_wrong_pair_is_dropped() {
+        // Truth: 0, 0.5, -0.3, 1.0; the pair (1, 3) is wrong by a second.
+        let pairs = [pair(0, 1, 0.5), pair(1, 2, -0.8), pair(0, 2, -0.3), pair(2, 3, 1.3), pair(1, 3, 1.5), pair(0, 3, 1.0)];
+        let (offsets, confidence) = solve_offsets(4, &pairs, 1.0 / 60.0).expect("solved");
+        for (found, truth) in offsets.iter().zip([0.0, 0.5, -0.3, 1.0]) {
+            assert!((found - truth).abs() < 1e-9, "{offsets:?}");
+        }
+        assert!(confidence.iter().all(|c| *c > 0.5), "{confidence:?}");
+    }
+
+    #[test]
+    fn a_camera_no_pair_reaches_is_named() {
+        let pairs = [pair(0, 1, 0.5), pair(2, 3, 0.1)];
+        assert_eq!(solve_offsets(4, &pairs, 0.02).unwrap_err(), 2);
+    }
+}

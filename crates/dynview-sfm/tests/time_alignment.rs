@@ -1,0 +1,217 @@
+//! Videos as phones record them, encoded by ffmpeg here: frames are placed by their own
+//! timestamps (variable and mixed frame rates), a portrait phone's rotation metadata gives
+//! upright frames, the sound's start is placed on the video's time, `--offsets` moves a camera
+//! on the timeline, and bad timing input gets an error naming the camera or option.
+
+use std::path::Path;
+use std::process::Command;
+use std::sync::atomic::AtomicBool;
+
+use dynview_sfm::input::frames::{EventFrames, discover};
+use dynview_sfm::input::sound::{ANALYSIS_RATE_HZ, read_sound};
+use dynview_sfm::input::timing::SyncMethod;
+use dynview_sfm::{PrepOptions, PrepReport, SfmError, Stage, run};
+
+fn ffmpeg(args: &[&str]) -> bool {
+    Command::new("ffmpeg").args(["-y", "-v", "error", "-nostdin"]).args(args).status().is_ok_and(|s| s.success())
+}
+
+fn ffmpeg_available() -> bool {
+    Command::new("ffmpeg").arg("-version").output().is_ok_and(|o| o.status.success())
+}
+
+/// A test pattern video of `seconds` at `fps`, its timestamps rewritten by `setpts` when given.
+fn video(path: &Path, fps: u32, seconds: f64, setpts: Option<&str>, extra: &[&str]) {
+    let source = format!("testsrc=size=96x64:rate={fps}");
+    let filter = setpts.map_or("null".to_string(), |e| format!("settb=1/90000,setpts='{e}'"));
+    let duration = seconds.to_string();
+    let mut args = vec!["-f", "lavfi", "-i", &source, "-t", &duration, "-vf", &filter, "-fps_mode", "passthrough"];
+    args.extend(["-enc_time_base", "1/90000", "-c:v", "libx264", "-pix_fmt", "yuv420p", "-video_track_timescale", "90000"]);
+    args.extend(extra);
+    let out = path.to_string_lossy().into_owned();
+    args.push(&out);
+    assert!(ffmpeg(&args), "ffmpeg could not write {}", path.display());
+}
+
+/// ffprobe's presentation times of every frame, from the first.
+fn probed_times(path: &Path) -> Vec<f64> {
+    let out = Command::new("ffprobe")
+        .args(["-v", "error", "-select_streams", "v:0", "-show_entries", "frame=pts_time", "-of", "csv=p=0"])
+        .arg(path)
+        .output()
+        .expect("ffprobe");
+    let times: Vec<f64> =
+        String::from_utf8_lossy(&out.stdout).lines().filter_map(|l| l.trim().trim_end_matches(',').parse().ok()).collect();
+    times.iter().map(|t| t - times[0]).collect()
+}
+
+/// Runs prep into a folder under `input`'s parent (kept for the test to read the frames).
+fn prep(input: &Path, options: &PrepOptions) -> Result<(PrepReport, EventFrames), SfmError> {
+    let out = tempfile::tempdir_in(input.parent().expect("parent")).expect("temp dir").keep();
+    let report = run(input, &out, options, &|_, _, _| {}, &AtomicBool::new(false))?;
+    let text = std::fs::read_to_string(out.join("work/frames.json")).expect("frames.json");
+    Ok((report, serde_json::from_str(&text).expect("frames.json parses")))
+}
+
+fn frames_only() -> PrepOptions {
+    PrepOptions { stop_after: Stage::Frames, ..PrepOptions::default() }
+}
+
+#[test]
+fn mixed_and_variable_frame_rates_are_placed_by_timestamp_and_portrait_stands_upright() {
+    if !ffmpeg_available() {
+        eprintln!("skipped: no ffmpeg");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let input = dir.path().join("input");
+    std::fs::create_dir_all(&input).expect("mkdir");
+    video(&input.join("a30.mp4"), 30, 2.0, None, &[]);
+    video(&input.join("b60.mp4"), 60, 2.0, None, &[]);
+    // Variable frame rate: every third frame 10 ms late.
+    video(&input.join("c_vfr.mp4"), 30, 2.0, Some("(N/30+0.01*eq(mod(N\\,3)\\,1))/TB"), &[]);
+    // A phone held upright: landscape pictures with a display rotation (ffmpeg 5.1 writes the
+    // tag only when copying the stream).
+    let landscape = dir.path().join("landscape.mp4");
+    video(&landscape, 30, 2.0, None, &[]);
+    let portrait_path = input.join("d_portrait.mp4").to_string_lossy().into_owned();
+    assert!(ffmpeg(&["-i", &landscape.to_string_lossy(), "-c", "copy", "-metadata:s:v:0", "rotate=90", &portrait_path]));
+
+    let (report, frames) = prep(&input, &frames_only()).expect("frames stage");
+    let time = report.time_alignment.expect("time alignment reported");
+    assert_eq!(time.method, "none");
+    assert!((time.fps - 30.0).abs() < 1e-6, "the slowest camera's rate: {}", time.fps);
+    assert!((time.cameras["b60"].fps - 60.0).abs() < 1e-6 && time.cameras["b60"].frames == 120, "{:?}", time.cameras["b60"]);
+    assert_eq!(time.steps, 60);
+    // The 60 fps camera gives every other frame; the VFR camera its late frames, 10 ms off.
+    let b60 = &frames.cameras[1];
+    assert_eq!(b60.file_name(10), "00020.png");
+    assert!((time.cameras["c_vfr"].max_error_s - 0.010).abs() < 1e-3, "{:?}", time.cameras["c_vfr"]);
+    assert!(time.cameras["a30"].max_error_s < 1e-3);
+    // Decoded timestamps agree with ffprobe's.
+    let vfr = discover(&input).expect("cameras").into_iter().find(|c| c.name == "c_vfr").expect("vfr camera");
+    let dynview_sfm::input::frames::CameraSource::Video(path) = &vfr.source else { panic!("a video") };
+    let probed = probed_times(path);
+    assert_eq!(probed.len(), 60);
+    assert!((probed[1] - (1.0 / 30.0 + 0.01)).abs() < 1e-3, "{probed:?}");
+    // Portrait: shown upright, as every player shows it.
+    let portrait = &frames.cameras[3];
+    assert_eq!((portrait.width, portrait.height), (64, 96), "rotation metadata applied");
+    let shown = dir.path().join("shown.png");
+    let source = input.join("d_portrait.mp4");
+    assert!(ffmpeg(&["-i", &source.to_string_lossy(), "-frames:v", "1", &shown.to_string_lossy()]));
+    let ours = image::open(&portrait.files[0]).expect("our frame").to_rgb8();
+    let theirs = image::open(&shown).expect("ffmpeg's frame").to_rgb8();
+    assert_eq!(ours.dimensions(), theirs.dimensions());
+    let diff = ours.pixels().zip(theirs.pixels()).map(|(a, b)| (0..3).map(|k| f64::from(a[k].abs_diff(b[k]))).sum::<f64>()).sum::<f64>()
+        / (3.0 * f64::from(ours.width() * ours.height()));
+    assert!(diff < 8.0, "turned the way ffmpeg shows it: mean difference {diff}");
+}
+
+#[test]
+fn given_offsets_move_cameras_on_the_timeline_and_bad_ones_are_named() {
+    if !ffmpeg_available() {
+        eprintln!("skipped: no ffmpeg");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let input = dir.path().join("input");
+    std::fs::create_dir_all(&input).expect("mkdir");
+    video(&input.join("early.mp4"), 30, 2.0, None, &[]);
+    video(&input.join("late.mp4"), 30, 2.0, None, &[]);
+    // The clap is at 0.5 s in `early` and at 0.1 s in `late`: `late` started 0.4 s after.
+    let offsets = [("early".to_string(), 0.5), ("late".to_string(), 0.1)].into_iter().collect();
+    let (report, frames) = prep(&input, &PrepOptions { offsets_s: offsets, ..frames_only() }).expect("given offsets");
+    let time = report.time_alignment.expect("reported");
+    assert_eq!(time.method, "given");
+    assert_eq!(time.steps, 48, "the 1.6 s both filmed");
+    assert!((time.cameras["early"].start_s - 0.4).abs() < 1e-6 && time.cameras["late"].start_s.abs() < 1e-6);
+    assert_eq!(frames.cameras[0].file_name(0), "00012.png");
+    assert_eq!(frames.cameras[1].file_name(0), "00000.png");
+
+    let some = [("early".to_string(), 0.5)].into_iter().collect();
+    let err = prep(&input, &PrepOptions { offsets_s: some, ..frames_only() }).expect_err("one missing").to_string();
+    assert!(err.contains("offsets") && err.contains("late"), "{err}");
+    let unknown = [("early".to_string(), 0.5), ("late".to_string(), 0.1), ("ghost".to_string(), 0.0)].into_iter().collect();
+    let err = prep(&input, &PrepOptions { offsets_s: unknown, ..frames_only() }).expect_err("unknown").to_string();
+    assert!(err.contains("ghost"), "{err}");
+    let apart = [("early".to_string(), 0.0), ("late".to_string(), 5.0)].into_iter().collect();
+    let err = prep(&input, &PrepOptions { offsets_s: apart, ..frames_only() }).expect_err("no overlap").to_string();
+    assert!(err.contains("no time covered by every camera"), "{err}");
+    let err = prep(&input, &PrepOptions { sync: SyncMethod::Visual, ..frames_only() }).expect_err("no calibration").to_string();
+    assert!(err.contains("--sync visual") && err.contains("--poses"), "{err}");
+}
+
+#[test]
+fn the_sound_is_placed_on_the_videos_time() {
+    if !ffmpeg_available() {
+        eprintln!("skipped: no ffmpeg");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    // A click at 0.5 s of the sound, whose stream starts 0.25 s after the picture's.
+    let click = "aevalsrc='if(between(t\\,0.5\\,0.5005)\\,0.9\\,0)':s=48000:d=2";
+    assert!(ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "testsrc=size=96x64:rate=30",
+        "-itsoffset",
+        "0.25",
+        "-f",
+        "lavfi",
+        "-i",
+        click,
+        "-t",
+        "2",
+        "-map",
+        "0:v",
+        "-map",
+        "1:a",
+        "-c:v",
+        "libx264",
+        "-pix_fmt",
+        "yuv420p",
+        "-c:a",
+        "pcm_s16le",
+        &dir.path().join("clap.mov").to_string_lossy(),
+    ]));
+    let mov = dir.path().join("clap.mov");
+    let sound = read_sound(&mov).expect("sound");
+    let loudest = sound.samples.iter().enumerate().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).map(|(i, _)| i).expect("samples");
+    let click_in_video_s = sound.start_in_video_s + loudest as f64 / f64::from(ANALYSIS_RATE_HZ);
+    assert!((sound.start_in_video_s - 0.25).abs() < 0.005, "{}", sound.start_in_video_s);
+    assert!((click_in_video_s - 0.75).abs() < 0.002, "{click_in_video_s}");
+}
+
+/// Four cameras of the real Panoptic arc, each cut at its own start (whole frames, as if
+/// started by hand), found again from the pictures and the calibration.
+#[test]
+fn the_panoptic_arc_cut_apart_is_put_back_together_from_the_pictures() {
+    let arc = dynview_eval::paths::shared_data().join("panoptic-basketball-arc");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let input = dir.path().join("input");
+    let cuts = [("cam00", 7usize), ("cam11", 18), ("cam25", 0), ("cam29", 25)];
+    for (camera, cut) in cuts {
+        let from = arc.join("cams").join(camera);
+        let to = input.join(camera);
+        std::fs::create_dir_all(&to).expect("mkdir");
+        for k in 0..75 - cut {
+            let source = from.join(format!("{:05}.jpg", k + cut));
+            assert!(source.is_file(), "{} (the arc from ../shared/data)", source.display());
+            std::fs::copy(&source, to.join(format!("{k:05}.jpg"))).expect("copy a frame");
+        }
+    }
+    let options = PrepOptions { poses: Some(arc.join("calibration")), ..frames_only() };
+    let (report, frames) = prep(&input, &options).expect("visual alignment");
+    let time = report.time_alignment.expect("reported");
+    assert_eq!(time.method, "visual", "auto picks the pictures when a calibration is given and lengths differ");
+    // The latest start is cam29's (original frame 25): every camera's first step shows frame 25.
+    assert_eq!(time.steps, 50);
+    for ((camera, cut), frames) in cuts.iter().zip(&frames.cameras) {
+        let start_s = time.cameras[*camera].start_s;
+        let truth_s = (25 - cut) as f64 / 30.0;
+        assert!((start_s - truth_s).abs() < 0.25 / 30.0, "{camera}: {start_s:.4} s, truth {truth_s:.4} s ({:?})", time.pairs);
+        assert_eq!(frames.file_name(0), format!("{:05}.jpg", 25 - cut), "{camera}");
+    }
+}

@@ -1,0 +1,259 @@
+//! The package's timeline: time steps at one frame rate over the stretch every camera filmed,
+//! each step taking every camera's frame nearest to it in time.
+//!
+//! Frames are placed by their presentation timestamps, not by their index, so variable frame
+//! rates and mixed rates (24 to 60 fps) land where they were filmed; a camera slower than the
+//! timeline repeats a frame, a faster one skips frames.
+
+use serde::{Deserialize, Serialize};
+
+use crate::clock::Clock;
+use crate::error::{SyncError, SyncResult};
+
+/// Most time steps a timeline may have (a hostile timestamp cannot make it allocate gigabytes).
+pub const MAX_STEPS: usize = 100_000;
+
+/// One camera's recorded frames.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CameraTimes {
+    /// The camera's name (for errors).
+    pub camera: String,
+    /// Each frame's presentation time in the camera's own video, seconds from its first frame,
+    /// in decoding order (must not decrease).
+    pub frame_times_s: Vec<f64>,
+}
+
+impl CameraTimes {
+    /// Frames evenly spaced at `fps`, as an image folder's frames are taken to be.
+    pub fn evenly_spaced(camera: &str, frames: usize, fps: f64) -> Self {
+        Self { camera: camera.to_owned(), frame_times_s: (0..frames).map(|j| j as f64 / fps).collect() }
+    }
+
+    /// The camera's typical frame rate: one over the median interval between frames, to a
+    /// thousandth of a frame per second (`None` with fewer than two frames or no interval above
+    /// zero).
+    pub fn nominal_fps(&self) -> Option<f64> {
+        let mut intervals: Vec<f64> = self.frame_times_s.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
+        if intervals.is_empty() {
+            return None;
+        }
+        intervals.sort_by(f64::total_cmp);
+        Some((1000.0 / intervals[intervals.len() / 2]).round() / 1000.0)
+    }
+
+    fn check(&self) -> SyncResult<()> {
+        let bad = |problem: String| Err(SyncError::Camera { camera: self.camera.clone(), problem });
+        if self.frame_times_s.is_empty() {
+            return bad("no frames".into());
+        }
+        if let Some(j) = self.frame_times_s.iter().position(|t| !t.is_finite()) {
+            return bad(format!("frame {j} has no usable timestamp ({})", self.frame_times_s[j]));
+        }
+        if let Some(j) = self.frame_times_s.windows(2).position(|w| w[1] < w[0]) {
+            return bad(format!(
+                "frame {} is stamped {:.6} s, before frame {j} at {:.6} s (timestamps must not go back)",
+                j + 1,
+                self.frame_times_s[j + 1],
+                self.frame_times_s[j]
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The package's time steps and the frame each camera contributes to each.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Timeline {
+    /// Time steps per second.
+    pub fps: f64,
+    /// Per camera (in the order given), per time step, the index of the camera's frame.
+    pub frames: Vec<Vec<usize>>,
+    /// Per camera, its clock against this timeline (step `k` at `k / fps` seconds).
+    pub clocks: Vec<Clock>,
+    /// Per camera, the largest gap (s) between a step's time and the time its frame was filmed.
+    pub max_error_s: Vec<f64>,
+}
+
+impl Timeline {
+    /// Number of time steps.
+    pub fn steps(&self) -> usize {
+        self.frames.first().map_or(0, Vec::len)
+    }
+
+    /// The largest time error of any camera (s).
+    pub fn largest_error_s(&self) -> f64 {
+        self.max_error_s.iter().copied().fold(0.0, f64::max)
+    }
+}
+
+/// Builds the timeline of `cameras` whose clocks against a common time are `clocks`: steps at
+/// `fps` (default: the slowest camera's nominal rate) from the latest first frame to the
+/// earliest last frame. Errors name the camera whose frames are unusable, or say when the
+/// cameras share no stretch of time.
+pub fn build(cameras: &[CameraTimes], clocks: &[Clock], fps: Option<f64>) -> SyncResult<Timeline> {
+    if cameras.is_empty() {
+        return Err(SyncError::Failed("no cameras".into()));
+    }
+    if clocks.len() != cameras.len() {
+        return Err(SyncError::Failed(format!("{} clocks for {} cameras", clocks.len(), cameras.len())));
+    }
+    for (camera, clock) in cameras.iter().zip(clocks) {
+        camera.check()?;
+        if !clock.is_plausible() {
+            return Err(SyncError::Camera { camera: camera.camera.clone(), problem: format!("implausible clock {clock:?}") });
+        }
+    }
+    let fps = match fps {
+        Some(f) if f.is_finite() && f > 0.0 && f <= 1000.0 => f,
+        Some(f) => return Err(SyncError::Option { option: "fps", problem: format!("must be in (0, 1000], found {f}") }),
+        None => cameras.iter().filter_map(CameraTimes::nominal_fps).fold(f64::INFINITY, f64::min),
+    };
+    let fps = if fps.is_finite() { fps } else { 30.0 };
+    // Each camera's frames on the common time.
+    let common: Vec<Vec<f64>> =
+        cameras.iter().zip(clocks).map(|(c, clock)| c.frame_times_s.iter().map(|s| clock.timeline_time_s(*s)).collect()).collect();
+    let first = |i: usize| common[i][0];
+    let last = |i: usize| common[i][common[i].len() - 1];
+    let start = (0..cameras.len()).map(first).fold(f64::NEG_INFINITY, f64::max);
+    let end = (0..cameras.len()).map(last).fold(f64::INFINITY, f64::min);
+    // Half a millisecond of slack: timestamps are rounded to their stream's time base.
+    let slack_s = 5e-4;
+    if end + slack_s < start {
+        let latest = (0..cameras.len()).max_by(|a, b| first(*a).total_cmp(&first(*b))).unwrap_or(0);
+        let earliest = (0..cameras.len()).min_by(|a, b| last(*a).total_cmp(&last(*b))).unwrap_or(0);
+        return Err(SyncError::NoOverlap(format!(
+            "camera {} starts {:.3} s after camera {} ends",
+            cameras[latest].camera,
+            start - end,
+            cameras[earliest].camera
+        )));
+    }
+    let span_steps = ((end - start).max(0.0) * fps + slack_s * fps).floor();
+    if span_steps >= MAX_STEPS as f64 {
+        return Err(SyncError::Failed(format!("{span_steps} time steps at {fps} fps: more than {MAX_STEPS}")));
+    }
+    let steps = span_steps as usize + 1;
+    let mut frames = Vec::with_capacity(cameras.len());
+    let mut max_error_s = Vec::with_capacity(cameras.len());
+    for times in &common {
+        let mut picks = Vec::with_capacity(steps);
+        let mut worst: f64 = 0.0;
+        for k in 0..steps {
+            let tau = start + k as f64 / fps;
+            let j = nearest(times, tau);
+            worst = worst.max((times[j] - tau).abs());
+            picks.push(j);
+        }
+        frames.push(picks);
+        max_error_s.push(worst);
+    }
+    Ok(Timeline { fps, frames, clocks: clocks.iter().map(|c| c.shifted(start)).collect(), max_error_s })
+}
+
+/// Index of the time in sorted `times` nearest to `tau` (the earlier on a tie).
+fn nearest(times: &[f64], tau: f64) -> usize {
+    let after = times.partition_point(|t| *t < tau);
+    match after {
+        0 => 0,
+        n if n == times.len() => n - 1,
+        n => {
+            if tau - times[n - 1] <= times[n] - tau {
+                n - 1
+            } else {
+                n
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn synchronized_equal_cameras_keep_every_frame_in_order() {
+        let cameras = [CameraTimes::evenly_spaced("a", 30, 30.0), CameraTimes::evenly_spaced("b", 30, 30.0)];
+        let timeline = build(&cameras, &[Clock::SYNCHRONIZED; 2], None).unwrap();
+        assert_eq!(timeline.steps(), 30);
+        assert_eq!(timeline.frames[1], (0..30).collect::<Vec<_>>());
+        assert!(timeline.largest_error_s() < 1e-12);
+        // Unequal counts: cut to the shorter, as prep did before timelines.
+        let cameras = [CameraTimes::evenly_spaced("a", 30, 30.0), CameraTimes::evenly_spaced("b", 25, 30.0)];
+        assert_eq!(build(&cameras, &[Clock::SYNCHRONIZED; 2], None).unwrap().steps(), 25);
+    }
+
+    #[test]
+    fn mixed_rates_and_offsets_pick_the_frame_filmed_nearest_each_step() {
+        // b runs at 60 fps and started 0.1 s before the timeline's time 0; c at 15 fps.
+        let a = CameraTimes::evenly_spaced("a", 60, 30.0);
+        let b = CameraTimes::evenly_spaced("b", 130, 60.0);
+        let c = CameraTimes::evenly_spaced("c", 31, 15.0);
+        let clocks = [Clock::SYNCHRONIZED, Clock { start_s: 0.1, rate: 1.0 }, Clock::SYNCHRONIZED];
+        let timeline = build(&[a, b, c], &clocks, None).unwrap();
+        assert_eq!(timeline.fps, 15.0, "the slowest camera's rate by default");
+        // a ends at 59/30 s; c at 2.0 s; b at (129/60 - 0.1) s: the span is [0, 59/30].
+        assert_eq!(timeline.steps(), 30);
+        assert_eq!(timeline.frames[0][3], 6);
+        assert_eq!(timeline.frames[1][3], 18, "0.2 s on the timeline is 0.3 s into b's video");
+        assert_eq!(timeline.frames[2][3], 3);
+        assert!(timeline.largest_error_s() < 1e-9);
+        let at30 = build(
+            &[CameraTimes::evenly_spaced("a", 60, 30.0), CameraTimes::evenly_spaced("c", 31, 15.0)],
+            &[Clock::SYNCHRONIZED; 2],
+            Some(30.0),
+        )
+        .unwrap();
+        assert!((at30.max_error_s[1] - 1.0 / 30.0).abs() < 1e-9, "a 15 fps camera is up to a 30 fps step off");
+    }
+
+    #[test]
+    fn the_span_starts_at_the_latest_camera_and_clocks_are_moved_there() {
+        let a = CameraTimes::evenly_spaced("a", 90, 30.0);
+        let b = CameraTimes::evenly_spaced("b", 90, 30.0);
+        // b started 0.5 s after a: a's frame at 0.5 s shows what b's first frame shows.
+        let timeline = build(&[a, b], &[Clock::SYNCHRONIZED, Clock { start_s: -0.5, rate: 1.0 }], None).unwrap();
+        assert_eq!(timeline.frames[0][0], 15);
+        assert_eq!(timeline.frames[1][0], 0);
+        assert!((timeline.clocks[0].start_s - 0.5).abs() < 1e-12 && timeline.clocks[1].start_s.abs() < 1e-12);
+        assert_eq!(timeline.steps(), 75);
+    }
+
+    #[test]
+    fn variable_frame_rate_is_placed_by_timestamp() {
+        let jittered = CameraTimes { camera: "v".into(), frame_times_s: vec![0.0, 0.03, 0.075, 0.1, 0.13, 0.171, 0.2] };
+        let steady = CameraTimes::evenly_spaced("s", 7, 30.0);
+        let timeline = build(&[steady, jittered], &[Clock::SYNCHRONIZED; 2], Some(30.0)).unwrap();
+        assert_eq!(timeline.frames[1], vec![0, 1, 2, 3, 4, 5, 6]);
+        assert!((timeline.max_error_s[1] - (0.075 - 2.0 / 30.0)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_drifting_clock_is_followed() {
+        let rate = 1.0 + 20e-3 / 60.0;
+        let drifting = CameraTimes::evenly_spaced("d", 30 * 70, 30.0);
+        let steady = CameraTimes::evenly_spaced("s", 30 * 60, 30.0);
+        let timeline = build(&[steady, drifting], &[Clock::SYNCHRONIZED, Clock { start_s: 0.0, rate }], None).unwrap();
+        // After 60 s the drifting camera is 20 ms ahead: 0.6 of a frame, so it picks the next.
+        assert_eq!(timeline.frames[1][30 * 59 + 29], 30 * 59 + 30);
+        assert_eq!(timeline.frames[1][10], 10);
+    }
+
+    #[test]
+    fn bad_input_is_named() {
+        let a = CameraTimes::evenly_spaced("a", 10, 30.0);
+        let empty = CameraTimes { camera: "e".into(), frame_times_s: vec![] };
+        let err = build(&[a.clone(), empty], &[Clock::SYNCHRONIZED; 2], None).unwrap_err().to_string();
+        assert!(err.contains("camera e") && err.contains("no frames"), "{err}");
+        let back = CameraTimes { camera: "b".into(), frame_times_s: vec![0.0, 0.1, 0.05] };
+        let err = build(&[a.clone(), back], &[Clock::SYNCHRONIZED; 2], None).unwrap_err().to_string();
+        assert!(err.contains("camera b") && err.contains("frame 2"), "{err}");
+        let nan = CameraTimes { camera: "n".into(), frame_times_s: vec![0.0, f64::NAN] };
+        assert!(build(&[a.clone(), nan], &[Clock::SYNCHRONIZED; 2], None).unwrap_err().to_string().contains("camera n"));
+        let late = Clock { start_s: -5.0, rate: 1.0 };
+        let err = build(&[a.clone(), a.clone()], &[Clock::SYNCHRONIZED, late], None).unwrap_err().to_string();
+        assert!(err.contains("no time covered"), "{err}");
+        assert!(build(std::slice::from_ref(&a), &[Clock::SYNCHRONIZED], Some(f64::NAN)).is_err());
+        let err = build(&[a.clone(), a], &[Clock::SYNCHRONIZED, Clock { start_s: 0.0, rate: 3.0 }], None).unwrap_err().to_string();
+        assert!(err.contains("implausible"), "{err}");
+    }
+}
