@@ -139,6 +139,10 @@ pub struct Args {
     /// `time_alignment` says what was found.
     #[arg(long, default_value = "auto", value_name = "auto|visual|none")]
     sync: SyncMethod,
+    /// With `--sync visual`: the largest offset (s) looked for between two cameras (the time
+    /// taken grows with it).
+    #[arg(long, value_name = "SECONDS", default_value_t = dynview_sfm::input::timing::visual::VisualOptions::default().max_offset_s, value_parser = parse_max_offset)]
+    sync_max_offset: f64,
     /// The time (s) in CAMERA's video of one moment every camera filmed (a clap), given for
     /// every camera (repeatable): the clocks by hand, instead of `--sync`.
     #[arg(long, value_name = "CAMERA=SECONDS")]
@@ -169,6 +173,13 @@ fn parse_loss_scale(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
         Ok(px) if px.is_finite() && (0.01..=100.0).contains(&px) => Ok(px),
         _ => Err(format!("{text:?}: expected pixels between 0.01 and 100, e.g. 0.5")),
+    }
+}
+
+fn parse_max_offset(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(s) if s.is_finite() && (0.05..=600.0).contains(&s) => Ok(s),
+        _ => Err(format!("{text:?}: expected seconds between 0.05 and 600")),
     }
 }
 
@@ -235,6 +246,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.exact_matching {
         options.matching.exact_max_comparisons = usize::MAX;
     }
+    options.visual_sync.max_offset_s = args.sync_max_offset;
     options.refine.smoothness = args.smoothness;
     options.step_adjust.samples = args.adjust_steps;
     options.features.max_features = args.max_features;

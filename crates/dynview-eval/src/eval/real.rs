@@ -13,6 +13,7 @@
 mod report;
 mod run;
 pub mod scores;
+mod unsync;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -58,6 +59,9 @@ pub fn run(options: Options) -> anyhow::Result<()> {
     if let Some(unknown) = options.held_out.iter().find(|c| !known.contains(c)) {
         bail!("--held-out {unknown}: no such camera in {}", captures.iter().map(|c| c.label()).collect::<Vec<_>>().join(", "));
     }
+    if options.unsync {
+        return run_unsync(&options, &captures, &work);
+    }
     for capture in captures {
         let held_out = held_out_cameras(capture, &options.held_out)?;
         if held_out.is_empty() {
@@ -87,6 +91,39 @@ pub fn run(options: Options) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The `--unsync` evaluation of the Panoptic arcs among `captures`: writes `unsync.md`.
+fn run_unsync(options: &Options, captures: &[RealCapture], work: &Path) -> anyhow::Result<()> {
+    let arcs: Vec<RealCapture> = captures.iter().copied().filter(|c| *c != RealCapture::Pose2sim).collect();
+    let section_of = |capture: RealCapture| work.join(capture.label()).join("unsync_section.md");
+    for &capture in &arcs {
+        let held_out = held_out_cameras(capture, &options.held_out)?;
+        if held_out.is_empty() {
+            continue;
+        }
+        let section = unsync::evaluate(capture, options, &work.join(capture.label()), &held_out)?;
+        println!("\n{section}");
+        let path = section_of(capture);
+        dynview_core::fsutil::write_atomic(&path, section.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+    }
+    let mut report = String::from(
+        "# Unsynchronized cameras on real captures\n\nThe Panoptic arcs cut apart as hand-started phones would film them, put back together by `dynview prep` \
+         from the pictures (issue 34). Reproduce: `cargo xtask eval --real --unsync` (add `--capture panoptic --held-out cam08` for one).\n\n",
+    );
+    for capture in [RealCapture::Panoptic, RealCapture::PanopticArc2] {
+        match std::fs::read_to_string(section_of(capture)) {
+            Ok(section) => report.push_str(&section),
+            Err(_) => {
+                let _ = writeln!(report, "## {}\n\nNot evaluated in this run.\n", capture.label());
+            }
+        }
+    }
+    std::fs::create_dir_all(&options.out)?;
+    let path = options.out.join("unsync.md");
+    dynview_core::fsutil::write_atomic(&path, report.as_bytes())?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
 /// The cameras of `capture` to leave out: its interior ones, or those of `requested` it has
 /// (none when it has none of them).
 fn held_out_cameras(capture: RealCapture, requested: &[String]) -> anyhow::Result<Vec<String>> {
@@ -101,46 +138,72 @@ fn section_path(work: &Path, capture: RealCapture) -> PathBuf {
     work.join(capture.label()).join("section.md")
 }
 
-/// Prepares the packages of `capture` in `root` and scores every held-out camera; returns the
-/// report's section and writes the strips.
-fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path, held_out_cameras: &[String]) -> anyhow::Result<String> {
-    let frames = options.frames.map_or(capture.frame_count(), |f| f.min(capture.frame_count()));
-    let frames_dir = root.join(format!("frames{frames}"));
-    println!("==> {}: first {frames} frames into {}", capture.label(), frames_dir.display());
-    capture.write_frames(&frames_dir, frames)?;
-    let cameras = capture.cameras()?;
-    let dynview = dynview_binary()?;
-    let mut prep_args = vec!["--working-width".to_string(), capture.working_width_px().to_string()];
-    prep_args.extend(options.prep_args.iter().cloned());
+/// What every evaluation of a capture starts from: its frames, the prep arguments, and the
+/// reference package of all its cameras.
+pub(crate) struct Prepared {
+    pub(crate) frames: u32,
+    pub(crate) frames_dir: PathBuf,
+    pub(crate) dynview: PathBuf,
+    pub(crate) prep_args: Vec<String>,
+    pub(crate) reference_run: PrepRun,
+    pub(crate) reference: ScenePackage,
+}
 
-    let all_poses = root.join("poses_all.json");
-    capture.write_poses(&all_poses, None)?;
-    let mut args = vec!["--poses".to_string(), all_poses.display().to_string()];
-    args.extend(prep_args.iter().cloned());
-    let reference_run = prep_once(&dynview, &frames_dir, &root.join(format!("all{frames}")), &args, options.fresh)?;
-    let reference = open(&reference_run)?;
+impl Prepared {
+    /// Writes `capture`'s frames into `root` and prepares (or reuses) its reference package.
+    pub(crate) fn new(capture: RealCapture, options: &Options, root: &Path) -> anyhow::Result<Self> {
+        let frames = options.frames.map_or(capture.frame_count(), |f| f.min(capture.frame_count()));
+        let frames_dir = root.join(format!("frames{frames}"));
+        println!("==> {}: first {frames} frames into {}", capture.label(), frames_dir.display());
+        capture.write_frames(&frames_dir, frames)?;
+        let dynview = dynview_binary()?;
+        let mut prep_args = vec!["--working-width".to_string(), capture.working_width_px().to_string()];
+        prep_args.extend(options.prep_args.iter().cloned());
+        let all_poses = root.join("poses_all.json");
+        capture.write_poses(&all_poses, None)?;
+        let mut args = vec!["--poses".to_string(), all_poses.display().to_string()];
+        args.extend(prep_args.iter().cloned());
+        let reference_run = prep_once(&dynview, &frames_dir, &root.join(format!("all{frames}")), &args, options.fresh)?;
+        let reference = open(&reference_run)?;
+        Ok(Self { frames, frames_dir, dynview, prep_args, reference_run, reference })
+    }
 
-    let mut results = Vec::new();
-    for held_out in held_out_cameras {
+    /// The package of every camera but `held_out`, prepared with their calibration in
+    /// `root/without_<held_out>_<frames>` (or reused).
+    pub(crate) fn without(&self, capture: RealCapture, options: &Options, root: &Path, held_out: &str) -> anyhow::Result<(PrepRun, ScenePackage)> {
+        let cameras = capture.cameras()?;
         let others: Vec<&str> = cameras.iter().filter(|c| *c != held_out).map(String::as_str).collect();
-        let dir = root.join(format!("without_{held_out}_{frames}"));
+        let dir = root.join(format!("without_{held_out}_{}", self.frames));
         let input = dir.join("input");
         for camera in &others {
-            copy_folder_once(&frames_dir.join(camera), &input.join(camera))?;
+            copy_folder_once(&self.frames_dir.join(camera), &input.join(camera))?;
         }
         let poses = dir.join("poses.json");
         capture.write_poses(&poses, Some(&others))?;
         let mut args = vec!["--poses".to_string(), poses.display().to_string()];
-        args.extend(prep_args.iter().cloned());
-        let run = prep_once(&dynview, &input, &dir.join("out"), &args, options.fresh)?;
+        args.extend(self.prep_args.iter().cloned());
+        let run = prep_once(&self.dynview, &input, &dir.join("out"), &args, options.fresh)?;
         let package = open(&run)?;
-        let (result, strip) = evaluate_camera(held_out, &reference, &package, &run, &options.params.clone().unwrap_or_default())?;
+        Ok((run, package))
+    }
+}
+
+/// Prepares the packages of `capture` in `root` and scores every held-out camera; returns the
+/// report's section and writes the strips.
+fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path, held_out_cameras: &[String]) -> anyhow::Result<String> {
+    let prepared = Prepared::new(capture, options, root)?;
+    let mut results = Vec::new();
+    for held_out in held_out_cameras {
+        let (run, package) = prepared.without(capture, options, root, held_out)?;
+        let steps = Steps::all(&prepared.reference, &package);
+        let params = options.params.clone().unwrap_or_default();
+        let (result, strip) = evaluate_camera(held_out, &prepared.reference, &package, &run, &params, steps)?;
         write_strip(&options.out.join(strip_name(capture, held_out)), &strip)?;
         results.push(result);
     }
-    let reference_secs: f64 = stage_seconds(&reference_run.out)?.iter().map(|(_, s)| s).sum();
-    let size = reference.manifest().cameras.first().map_or((0, 0), |c| (c.width, c.height));
-    Ok(markdown(capture, &results, options, frames, size, reference_secs))
+    let reference_secs: f64 = stage_seconds(&prepared.reference_run.out)?.iter().map(|(_, s)| s).sum();
+    let size = prepared.reference.manifest().cameras.first().map_or((0, 0), |c| (c.width, c.height));
+    Ok(markdown(capture, &results, options, prepared.frames, size, reference_secs))
 }
 
 fn open(run: &PrepRun) -> anyhow::Result<ScenePackage> {
@@ -166,16 +229,34 @@ fn copy_folder_once(from: &Path, to: &Path) -> anyhow::Result<()> {
 /// the nearest input's background plate (black without one).
 type Strip = [RgbRaster; 6];
 
-/// Renders camera `held_out` of `reference` from `package` at every time step with each of
-/// [`METHODS`] and shows the nearest input as is; returns the scores and the middle frame's strip.
-/// The moving pixels of each frame are those that differ from the camera's temporal median over
-/// the time steps ([`scores::moving_mask`]).
+/// Which time steps of a package are scored, and which of the reference package shows the same
+/// moment: reference step = package step + `reference_shift`.
+#[derive(Clone, Debug)]
+pub(crate) struct Steps {
+    /// The package's time steps scored.
+    pub(crate) package: std::ops::Range<u32>,
+    /// Steps from a package step to the reference's step of the same moment.
+    pub(crate) reference_shift: u32,
+}
+
+impl Steps {
+    /// Every time step both packages have, the same moments.
+    fn all(reference: &ScenePackage, package: &ScenePackage) -> Self {
+        Self { package: 0..reference.time_step_count().min(package.time_step_count()), reference_shift: 0 }
+    }
+}
+
+/// Renders camera `held_out` of `reference` from `package` at the time steps of `steps` with
+/// each of [`METHODS`] and shows the nearest input as is; returns the scores and the middle
+/// frame's strip. The moving pixels of each frame are those that differ from the camera's
+/// temporal median over the steps scored ([`scores::moving_mask`]).
 fn evaluate_camera(
     held_out: &str,
     reference: &ScenePackage,
     package: &ScenePackage,
     run: &PrepRun,
     defaults: &RenderParams,
+    steps: Steps,
 ) -> anyhow::Result<(CameraResult, Strip)> {
     let k = reference
         .manifest()
@@ -183,9 +264,14 @@ fn evaluate_camera(
         .iter()
         .position(|c| c.name == held_out)
         .with_context(|| format!("{}: no camera {held_out}", reference.root().display()))?;
-    let steps = reference.time_step_count().min(package.time_step_count());
+    let shift = steps.reference_shift;
+    let scored = steps.package.clone();
+    if scored.is_empty() || scored.end > package.time_step_count() || scored.end + shift > reference.time_step_count() {
+        bail!("time steps {scored:?} (reference shifted by {shift}) are not in both packages");
+    }
     // Every real frame first, for the temporal median (8 bits a channel, as stored).
-    let truths: Vec<image::RgbImage> = (0..steps).map(|t| reference.read_frame(k, t).map(|f| f.to_rgb8())).collect::<Result<_, _>>()?;
+    let truths: Vec<image::RgbImage> =
+        scored.clone().map(|t| reference.read_frame(k, t + shift).map(|f| f.to_rgb8())).collect::<Result<_, _>>()?;
     let median_frame =
         temporal_median(&truths).with_context(|| format!("{}: no frame of camera {held_out}", reference.root().display()))?;
     let mut moving_share = 0.0;
@@ -198,14 +284,15 @@ fn evaluate_camera(
     let mut truth_before: Option<RgbRaster> = None;
     let mut depth_errors: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     let blend_index = METHODS.iter().position(|&m| m == Method::Blend).unwrap_or(0);
-    for t in 0..steps {
-        let camera = reference.camera(k, t)?;
-        let truth = RgbRaster::from_rgb8(&truths[t as usize]);
+    let middle = scored.start + scored.len() as u32 / 2;
+    for t in scored.clone() {
+        let camera = reference.camera(k, t + shift)?;
+        let truth = RgbRaster::from_rgb8(&truths[(t - scored.start) as usize]);
         let moving = moving_mask(&truth, &median_frame, MOVING_THRESHOLD, MOVING_DILATION_PX);
         moving_share += moving.data.iter().filter(|&&m| m > 0.0).count() as f64 / moving.data.len().max(1) as f64;
         // What the held-out camera's own frame implies: the points of the package prepared with
         // it, as it sees them (z-buffered, the renderer's consistency filter applied).
-        let mut own = project_cloud(&reference.read_cloud(t)?, &camera);
+        let mut own = project_cloud(&reference.read_cloud(t + shift)?, &camera);
         own.drop_inconsistent(defaults.sparse_consistency, None);
         let inputs = package.time_step_inputs(t, defaults.levels)?;
         let mut shown = Vec::new();
@@ -232,7 +319,7 @@ fn evaluate_camera(
         let nearest_frame = package.read_frame(j, t)?;
         let plane = plane_view(&camera, &inputs.cloud, &nearest_view.camera, &nearest_frame);
         let floor = resized(nearest_frame, truth.width, truth.height);
-        if t == steps / 2 {
+        if t == middle {
             nearest.clone_from(&package.manifest().cameras[j].name);
             let full = &shown[0];
             let blend = &shown[METHODS.iter().position(|&m| m == Method::Blend).unwrap_or(0)].0;
@@ -272,7 +359,7 @@ fn evaluate_camera(
             s.flicker * 1000.0
         );
     }
-    let n = f64::from(steps.max(1));
+    let n = f64::from(scored.len().max(1) as u32);
     let prep_secs = stage_seconds(&run.out)?.iter().map(|(_, s)| s).sum();
     let points_per_step = cloud_point_counts(package).0 as f64 / n;
     let depth_error_pct = depth_errors.map(|e| median(&e) * 100.0);

@@ -130,6 +130,7 @@ impl Default for PrepOptions {
 impl PrepOptions {
     /// Checks ranges.
     pub fn validate(&self) -> SfmResult<()> {
+        self.visual_sync.validate()?;
         let bad = |option, problem: String| Err(SfmError::Option { option, problem });
         if !(1..=10_000).contains(&self.keyframe_interval) {
             return bad("keyframe-interval", format!("must be in 1..=10000, found {}", self.keyframe_interval));

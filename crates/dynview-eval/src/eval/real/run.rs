@@ -42,6 +42,11 @@ pub struct Options {
     /// Folder of the written results.
     #[arg(long, default_value_os_t = results_dir())]
     pub out: PathBuf,
+    /// Make the Panoptic arcs unsynchronized (each camera cut at its own start, one a 15 fps
+    /// video) and report the offsets prep finds and the held-out PSNR against the synchronized
+    /// run (`unsync.md`) instead of the leave-one-out tables.
+    #[arg(long)]
+    pub unsync: bool,
 }
 
 /// Renderer parameters from JSON, or from a JSON file when `json` names one (as `eval --params`).

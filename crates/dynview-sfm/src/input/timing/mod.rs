@@ -21,6 +21,7 @@ use crate::input::frames::{CameraFrames, EventFrames, RecordedCamera};
 use crate::work::WorkDir;
 use visual::{PairOffset, VisualOptions, visual_clocks};
 
+pub mod solve;
 pub mod visual;
 
 /// Frames per second of image folders and of the timeline when nothing else says.
@@ -150,7 +151,10 @@ pub fn align_in_time(
     let mut cameras = Vec::new();
     let mut report = BTreeMap::new();
     for (i, r) in recorded.iter().enumerate() {
-        let files: Vec<PathBuf> = built.frames[i].iter().map(|j| r.frames.files[*j].clone()).collect();
+        let mut files: Vec<PathBuf> = built.frames[i].iter().map(|j| r.frames.files[*j].clone()).collect();
+        if built.frames[i].windows(2).any(|w| w[0] == w[1]) {
+            files = one_file_per_step(&files, &work.join("timeline").join(&r.frames.name))?;
+        }
         cameras.push(CameraFrames { files, ..r.frames.clone() });
         let clock = built.clocks[i];
         report.insert(
@@ -193,6 +197,27 @@ pub fn align_in_time(
             .collect(),
     };
     Ok((EventFrames { cameras }, alignment, warnings))
+}
+
+/// A camera that shows one frame at several time steps gets a file per step (`dir/<t:05>.<ext>`,
+/// hard links where the file system allows): frame file names stay unique in `poses.json` and
+/// the keyframe models.
+fn one_file_per_step(files: &[PathBuf], dir: &std::path::Path) -> SfmResult<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(SfmError::io(dir))?;
+    files
+        .iter()
+        .enumerate()
+        .map(|(t, from)| {
+            let extension = from.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
+            let to = dir.join(format!("{t:05}.{extension}"));
+            // Made again every run: a link left by an earlier alignment may show another frame.
+            let _ = std::fs::remove_file(&to);
+            if std::fs::hard_link(from, &to).is_err() {
+                std::fs::copy(from, &to).map_err(SfmError::io(&to))?;
+            }
+            Ok(to)
+        })
+        .collect()
 }
 
 fn sync_error(error: dynview_sync::SyncError) -> SfmError {

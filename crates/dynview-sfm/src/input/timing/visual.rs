@@ -31,6 +31,8 @@ use crate::estimators::geometry::essential_between;
 use crate::features::guided::guided_matches;
 use crate::features::sift::{DESCRIPTOR_LEN, FeatureOptions, Features, extract_gray_masked, read_gray};
 use crate::input::frames::RecordedCamera;
+use crate::input::timing::solve::{groups, solve_offsets};
+pub use crate::input::timing::solve::PairOffset;
 
 /// How offsets are found from the pictures.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -64,10 +66,28 @@ impl Default for VisualOptions {
             median_frames: 15,
             moving_threshold: 25.0,
             max_features: 400,
-            max_epipolar_px: 2.0,
-            neighbours: 2,
+            max_epipolar_px: 1.0,
+            neighbours: 3,
             min_matches: 12,
         }
+    }
+}
+
+impl VisualOptions {
+    /// Checks every option's range.
+    pub fn validate(&self) -> SfmResult<()> {
+        let bad = |problem: String| Err(SfmError::Option { option: "sync-max-offset", problem });
+        if !(self.max_offset_s.is_finite() && (0.05..=600.0).contains(&self.max_offset_s)) {
+            return bad(format!("must be in [0.05, 600] s, found {}", self.max_offset_s));
+        }
+        let counts = [self.sampled_frames, self.median_frames, self.max_features, self.neighbours, self.min_matches];
+        if counts.iter().any(|c| *c == 0 || *c > 100_000) || !(16..=8192).contains(&self.max_side_px) {
+            return Err(SfmError::Option { option: "visual_sync", problem: format!("counts out of range: {self:?}") });
+        }
+        if !(self.moving_threshold.is_finite() && self.max_epipolar_px.is_finite() && self.moving_threshold > 0.0 && self.max_epipolar_px > 0.0) {
+            return Err(SfmError::Option { option: "visual_sync", problem: format!("thresholds must be positive: {self:?}") });
+        }
+        Ok(())
     }
 }
 
@@ -79,20 +99,6 @@ struct View {
     features: Vec<Features>,
     pinhole: Radial,
     camera_from_world: Rigid3,
-}
-
-/// What one pair of cameras measured: `offset_s` = (second camera's video time) - (first's) of
-/// one moment.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PairOffset {
-    /// The pair, indices into the cameras.
-    pub cameras: [usize; 2],
-    /// The offset (s).
-    pub offset_s: f64,
-    /// Matches at the best offset, summed over the sampled frames.
-    pub matches: usize,
-    /// 1 - (the best count away from the winner) / (the winner's count).
-    pub confidence: f64,
 }
 
 /// Clocks of `recorded` against the first camera's video time from the pictures, each with a
@@ -142,12 +148,14 @@ pub fn visual_clocks(
             break;
         }
         across.sort_by(|x, y| x.0.total_cmp(&y.0));
-        let next: Vec<(usize, usize)> = across.iter().take(2).map(|&(_, a, b)| (a, b)).collect();
+        let next: Vec<(usize, usize)> = across.iter().take(ACROSS_PAIRS).map(|&(_, a, b)| (a, b)).collect();
         tried.extend(&next);
         measured.extend(measure(&next));
     }
     progress("visual sync: pairs", tried.len() as u64, tried.len() as u64);
-    let frame_s = times.iter().filter_map(CameraTimes::nominal_fps).map(|f| 1.0 / f).fold(0.0, f64::max);
+    // Half the shortest frame interval: the sub-frame estimates of right pairs agree far better.
+    let frame_s = times.iter().filter_map(CameraTimes::nominal_fps).map(|f| 1.0 / f).fold(f64::INFINITY, f64::min);
+    let frame_s = if frame_s.is_finite() { frame_s } else { 1.0 / 30.0 };
     let (offsets, confidence) = solve_offsets(n, &measured, frame_s / 2.0).map_err(|unplaced| {
         SfmError::TimeAlignment(format!(
             "--sync visual: camera {} shares no moving features with the others at any offset within {} s",
@@ -248,25 +256,6 @@ fn axis(view: &View) -> Vector3<f64> {
     view.camera_from_world.rotation_matrix().row(2).transpose()
 }
 
-/// Per camera, the smallest camera index it is connected to by `pairs`.
-fn groups(n: usize, pairs: &[PairOffset]) -> Vec<usize> {
-    let mut group: Vec<usize> = (0..n).collect();
-    let mut changed = true;
-    while changed {
-        changed = false;
-        for p in pairs {
-            let [a, b] = p.cameras;
-            let low = group[a].min(group[b]);
-            if group[a] != low || group[b] != low {
-                group[a] = low;
-                group[b] = low;
-                changed = true;
-            }
-        }
-    }
-    group
-}
-
 /// Each camera with its `k` nearest in viewing direction (each pair once, first index lower).
 fn neighbour_pairs(views: &[View], k: usize) -> Vec<(usize, usize)> {
     let mut pairs = Vec::new();
@@ -284,6 +273,10 @@ fn neighbour_pairs(views: &[View], k: usize) -> Vec<(usize, usize)> {
     pairs
 }
 
+/// Pairs measured at once between groups of cameras the neighbours leave apart (several, so
+/// that one wrong pair is outvoted).
+const ACROSS_PAIRS: usize = 3;
+
 /// Offsets this close to the best (s) are not its rivals for the confidence.
 const NEAR_OFFSET_S: f64 = 0.15;
 
@@ -291,8 +284,18 @@ const NEAR_OFFSET_S: f64 = 0.15;
 type FrameMatches = (usize, usize, Vec<[u32; 2]>);
 
 /// The best offset of camera `b` against camera `a`, its matches and confidence; `None` when
-/// too few moving features match at any offset.
+/// too few moving features match at any offset. The candidate offsets step by a frame of the
+/// faster camera of the two.
 fn pair_offset(views: &[View], a: usize, b: usize, options: &VisualOptions) -> Option<(f64, usize, f64)> {
+    let fps = |v: &View| CameraTimes { camera: String::new(), frame_times_s: v.times_s.clone() }.nominal_fps().unwrap_or(0.0);
+    if fps(&views[a]) > fps(&views[b]) {
+        return pair_offset_stepping_by_b(views, b, a, options).map(|(offset_s, matches, confidence)| (-offset_s, matches, confidence));
+    }
+    pair_offset_stepping_by_b(views, a, b, options)
+}
+
+/// [`pair_offset`] with candidate offsets a frame of `b` apart.
+fn pair_offset_stepping_by_b(views: &[View], a: usize, b: usize, options: &VisualOptions) -> Option<(f64, usize, f64)> {
     let (va, vb) = (&views[a], &views[b]);
     let e = essential_between(&va.camera_from_world, &vb.camera_from_world);
     let frame_b_s = 1.0 / CameraTimes { camera: String::new(), frame_times_s: vb.times_s.clone() }.nominal_fps()?;
@@ -425,103 +428,4 @@ fn same_feature(from: &Features, k: usize, to: &Features, radius_px: f32) -> Opt
         }
     }
     (best.1 != usize::MAX && (second == u32::MAX || f64::from(best.0) < 0.64 * f64::from(second))).then(|| to.xy[best.1])
-}
-
-/// Offsets per camera (camera 0 at 0) from the pairs by weighted least squares, dropping the
-/// pair that disagrees most while any disagrees by more than `tolerance_s` and the cameras stay
-/// connected; per camera a confidence. `Err(camera)` names a camera no pair reaches.
-fn solve_offsets(n: usize, pairs: &[PairOffset], tolerance_s: f64) -> Result<(Vec<f64>, Vec<f64>), usize> {
-    let mut used: Vec<&PairOffset> = pairs.iter().filter(|p| p.confidence > 0.0).collect();
-    loop {
-        let offsets = least_squares(n, &used)?;
-        let worst = used
-            .iter()
-            .enumerate()
-            .map(|(k, p)| (k, (offsets[p.cameras[1]] - offsets[p.cameras[0]] - p.offset_s).abs()))
-            .max_by(|x, y| x.1.total_cmp(&y.1));
-        match worst {
-            Some((k, residual)) if residual > tolerance_s => {
-                let mut fewer = used.clone();
-                fewer.remove(k);
-                if least_squares(n, &fewer).is_err() {
-                    return Ok((offsets.clone(), confidences(n, &used, &offsets, tolerance_s)));
-                }
-                used = fewer;
-            }
-            _ => return Ok((offsets.clone(), confidences(n, &used, &offsets, tolerance_s))),
-        }
-    }
-}
-
-fn confidences(n: usize, used: &[&PairOffset], offsets: &[f64], tolerance_s: f64) -> Vec<f64> {
-    (0..n)
-        .map(|c| {
-            let mine: Vec<f64> = used
-                .iter()
-                .filter(|p| p.cameras.contains(&c))
-                .map(|p| {
-                    let residual = (offsets[p.cameras[1]] - offsets[p.cameras[0]] - p.offset_s).abs();
-                    if residual > tolerance_s { 0.0 } else { p.confidence }
-                })
-                .collect();
-            mine.iter().copied().fold(0.0, f64::max)
-        })
-        .collect()
-}
-
-/// Weighted least squares of `o_b - o_a = offset` with `o_0 = 0`; `Err(camera)` when a camera
-/// is not connected to camera 0.
-fn least_squares(n: usize, pairs: &[&PairOffset]) -> Result<Vec<f64>, usize> {
-    // Connectivity first: a camera no chain of pairs reaches has no offset.
-    let owned: Vec<PairOffset> = pairs.iter().map(|p| (*p).clone()).collect();
-    if let Some(missing) = groups(n, &owned).iter().position(|g| *g != 0) {
-        return Err(missing);
-    }
-    if n == 1 {
-        return Ok(vec![0.0]);
-    }
-    let m = n - 1;
-    let mut normal = nalgebra::DMatrix::<f64>::zeros(m, m);
-    let mut rhs = nalgebra::DVector::<f64>::zeros(m);
-    for p in pairs {
-        let w = p.confidence.max(1e-3) * p.matches as f64;
-        let [a, b] = p.cameras;
-        // Row: +1 at b, -1 at a (camera 0 fixed).
-        let coefficient = |c: usize| -> Option<(usize, f64)> { if c == 0 { None } else { Some((c - 1, if c == b { 1.0 } else { -1.0 })) } };
-        let entries: Vec<(usize, f64)> = [coefficient(a), coefficient(b)].into_iter().flatten().collect();
-        for &(r, x) in &entries {
-            rhs[r] += w * x * p.offset_s;
-            for &(c, y) in &entries {
-                normal[(r, c)] += w * x * y;
-            }
-        }
-    }
-    let solution = normal.lu().solve(&rhs).ok_or(0usize)?;
-    Ok(std::iter::once(0.0).chain(solution.iter().copied()).collect())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn pair(a: usize, b: usize, offset_s: f64) -> PairOffset {
-        PairOffset { cameras: [a, b], offset_s, matches: 40, confidence: 0.8 }
-    }
-
-    #[test]
-    fn pairs_are_solved_together_and_a_wrong_pair_is_dropped() {
-        // Truth: 0, 0.5, -0.3, 1.0; the pair (1, 3) is wrong by a second.
-        let pairs = [pair(0, 1, 0.5), pair(1, 2, -0.8), pair(0, 2, -0.3), pair(2, 3, 1.3), pair(1, 3, 1.5), pair(0, 3, 1.0)];
-        let (offsets, confidence) = solve_offsets(4, &pairs, 1.0 / 60.0).expect("solved");
-        for (found, truth) in offsets.iter().zip([0.0, 0.5, -0.3, 1.0]) {
-            assert!((found - truth).abs() < 1e-9, "{offsets:?}");
-        }
-        assert!(confidence.iter().all(|c| *c > 0.5), "{confidence:?}");
-    }
-
-    #[test]
-    fn a_camera_no_pair_reaches_is_named() {
-        let pairs = [pair(0, 1, 0.5), pair(2, 3, 0.1)];
-        assert_eq!(solve_offsets(4, &pairs, 0.02).unwrap_err(), 2);
-    }
 }
