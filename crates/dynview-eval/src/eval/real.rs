@@ -170,7 +170,13 @@ impl Prepared {
 
     /// The package of every camera but `held_out`, prepared with their calibration in
     /// `root/without_<held_out>_<frames>` (or reused).
-    pub(crate) fn without(&self, capture: RealCapture, options: &Options, root: &Path, held_out: &str) -> anyhow::Result<(PrepRun, ScenePackage)> {
+    pub(crate) fn without(
+        &self,
+        capture: RealCapture,
+        options: &Options,
+        root: &Path,
+        held_out: &str,
+    ) -> anyhow::Result<(PrepRun, ScenePackage)> {
         let cameras = capture.cameras()?;
         let others: Vec<&str> = cameras.iter().filter(|c| *c != held_out).map(String::as_str).collect();
         let dir = root.join(format!("without_{held_out}_{}", self.frames));

@@ -95,7 +95,8 @@ fn evaluate_one(capture: RealCapture, options: &Options, root: &Path, prepared: 
     let first_frame = *cuts.iter().max().unwrap_or(&0);
     let mut offsets = Vec::new();
     for (camera, cut) in others.iter().zip(&cuts) {
-        let timing = report.time_alignment.cameras.get(*camera).with_context(|| format!("{}: no camera {camera}", report_path.display()))?;
+        let timing =
+            report.time_alignment.cameras.get(*camera).with_context(|| format!("{}: no camera {camera}", report_path.display()))?;
         let truth_s = (first_frame - cut) as f64 / CAPTURE_FPS;
         offsets.push((camera.to_string(), *cut, (timing.start_s - truth_s) * CAPTURE_FPS, timing.confidence));
     }
@@ -215,9 +216,14 @@ fn markdown(capture: RealCapture, results: &[UnsyncResult], frames: u32) -> Stri
             unsync[0] - sync[0]
         );
     }
-    let _ = writeln!(s, "\nPer input camera, offset error in frames (cut in frames; {} the 15 fps camera):\n", results.first().map_or("", |r| r.slow_camera.as_str()));
+    let _ = writeln!(
+        s,
+        "\nPer input camera, offset error in frames (cut in frames; {} the 15 fps camera):\n",
+        results.first().map_or("", |r| r.slow_camera.as_str())
+    );
     for r in results {
-        let cells: Vec<String> = r.offsets.iter().map(|(name, cut, error, confidence)| format!("{name} ({cut}) {error:+.3}, conf. {confidence:.2}")).collect();
+        let cells: Vec<String> =
+            r.offsets.iter().map(|(name, cut, error, confidence)| format!("{name} ({cut}) {error:+.3}, conf. {confidence:.2}")).collect();
         let _ = writeln!(s, "- {} held out: {}", r.held_out, cells.join("; "));
     }
     s.push('\n');

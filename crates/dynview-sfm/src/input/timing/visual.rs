@@ -31,8 +31,8 @@ use crate::estimators::geometry::essential_between;
 use crate::features::guided::guided_matches;
 use crate::features::sift::{DESCRIPTOR_LEN, FeatureOptions, Features, extract_gray_masked, read_gray};
 use crate::input::frames::RecordedCamera;
-use crate::input::timing::solve::{groups, solve_offsets};
 pub use crate::input::timing::solve::PairOffset;
+use crate::input::timing::solve::{groups, solve_offsets};
 
 /// How offsets are found from the pictures.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -84,7 +84,11 @@ impl VisualOptions {
         if counts.iter().any(|c| *c == 0 || *c > 100_000) || !(16..=8192).contains(&self.max_side_px) {
             return Err(SfmError::Option { option: "visual_sync", problem: format!("counts out of range: {self:?}") });
         }
-        if !(self.moving_threshold.is_finite() && self.max_epipolar_px.is_finite() && self.moving_threshold > 0.0 && self.max_epipolar_px > 0.0) {
+        if !(self.moving_threshold.is_finite()
+            && self.max_epipolar_px.is_finite()
+            && self.moving_threshold > 0.0
+            && self.max_epipolar_px > 0.0)
+        {
             return Err(SfmError::Option { option: "visual_sync", problem: format!("thresholds must be positive: {self:?}") });
         }
         Ok(())
