@@ -16,17 +16,45 @@
 //! - `scene/`: a ground-truth scene package whose clouds are noisy samples of the visible
 //!   surfaces with a share of outliers;
 //! - `synth.json`: the configuration and what was written.
+//!
+//! With [`SynthConfig::unsync`] ([`unsync::UnsyncConfig::phones`], `dynview synth --unsync`),
+//! the input cameras are not synchronized: each films on its own clock ([`unsync`] states the
+//! convention), starting a different, non-whole-frame time before the event and stopping a
+//! different time after it, at its own frame rate (one at twice the rate, one at a variable
+//! rate), one in portrait, one with a drifting clock, each with its own microphone
+//! ([`sound`]). Then:
+//!
+//! - `input/<camera>/<frame:05>.png` holds each camera's own frames in order, upright (the
+//!   portrait camera's `height x width`); PNGs carry no times: `unsync/<camera>.json` does;
+//! - `videos/<camera>.mp4` has each frame at its own time (the variable-rate camera's jittered
+//!   timestamps included), the portrait camera's frames stored in landscape with rotation
+//!   metadata (players show them upright), and, with audio, an AAC track at 48 kHz mono: the
+//!   event's sounds delayed by their distance at 343 m/s and the camera's own noise;
+//! - `unsync/<camera>.json`: per frame its video time and the event time it shows, and when each
+//!   discrete sound reaches the camera;
+//! - `synth.json`'s `time_alignment`: per camera `start_s`, `rate`, nominal fps, frame rate
+//!   variability, rotation, frame count and sound delay;
+//! - `colmap/` lists each camera's own frames with their poses at the event times they show
+//!   (the portrait camera with its portrait intrinsics); the held-out cameras, the clouds and
+//!   the scene package stay on the synchronized timeline, rendered at the time steps.
 
+mod record;
 pub mod render;
 pub mod rig;
 pub mod scene;
+pub mod sound;
 pub mod texture;
+pub mod unsync;
+mod video;
 mod write;
+#[cfg(test)]
+mod write_tests;
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+pub use video::ffmpeg_available;
 pub use write::generate;
 
 /// Marker file of a synth output folder.
@@ -61,6 +89,10 @@ pub struct SynthConfig {
     pub videos: bool,
     /// Where the input cameras stand and their lenses (default: a 60-degree arc, one lens).
     pub layout: rig::Layout,
+    /// Unsynchronized input cameras (own clocks, frame rates, orientation, audio); `None`:
+    /// every camera films every time step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unsync: Option<unsync::UnsyncConfig>,
 }
 
 impl Default for SynthConfig {
@@ -79,6 +111,7 @@ impl Default for SynthConfig {
             outlier_fraction: 0.02,
             videos: true,
             layout: rig::Layout::default(),
+            unsync: None,
         }
     }
 }
@@ -176,6 +209,9 @@ impl SynthConfig {
         if !(dx.is_finite() && dy.is_finite() && dx.abs() <= f64::from(self.width) / 4.0 && dy.abs() <= f64::from(self.height) / 4.0) {
             return bad("layout.principal_offset_px", format!("must be within a quarter of the image, found [{dx}, {dy}]"));
         }
+        if let Some(unsync) = &self.unsync {
+            unsync.validate(self.cameras)?;
+        }
         Ok(())
     }
 
@@ -206,4 +242,8 @@ pub struct SynthReport {
     pub points_per_step: Vec<u32>,
     /// Size of the ground-truth scene package in bytes.
     pub package_bytes: u64,
+    /// With unsynchronized cameras: each camera's clock and recording (the ground truth of a
+    /// time alignment).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_alignment: Option<unsync::TimeAlignment>,
 }

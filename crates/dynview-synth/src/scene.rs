@@ -88,6 +88,16 @@ impl Motion {
         }
     }
 
+    /// The times in `[from_s, to_s]` at which a bouncing object touches down (its height above
+    /// the centre of its motion is zero: `|sin(2 phase)| = 0`, every quarter period), in
+    /// order; empty for the other motions.
+    pub fn contact_times_s(&self, from_s: f64, to_s: f64) -> Vec<f64> {
+        let Self::Bouncing { period_s, .. } = *self else { return Vec::new() };
+        let quarter_s = 0.25 * period_s;
+        let (first, last) = ((from_s / quarter_s).ceil() as i64, (to_s / quarter_s).floor() as i64);
+        (first..=last).map(|k| k as f64 * quarter_s).collect()
+    }
+
     /// True when the object moves.
     pub fn is_dynamic(&self) -> bool {
         !matches!(self, Self::Static { .. })
@@ -358,6 +368,23 @@ mod tests {
         let rect = intersect_local(&Shape::Rect { half_x: 1.0, half_z: 1.0 }, DVec3::new(0.5, 2.0, 0.0), DVec3::NEG_Y).unwrap();
         assert!((rect.0 - 2.0).abs() < 1e-12);
         assert!(intersect_local(&Shape::Rect { half_x: 1.0, half_z: 1.0 }, DVec3::new(1.5, 2.0, 0.0), DVec3::NEG_Y).is_none());
+    }
+
+    #[test]
+    fn the_ball_touches_down_at_its_contact_times() {
+        let objects = default_objects(1);
+        let ball = objects.iter().find(|o| matches!(o.motion, Motion::Bouncing { .. })).unwrap();
+        let Motion::Bouncing { centre, period_s, .. } = ball.motion else { unreachable!() };
+        let contacts = ball.motion.contact_times_s(-1.0, 2.0);
+        assert_eq!(contacts, [-0.75, 0.0, 0.75, 1.5]);
+        for t in contacts {
+            assert!((ball.motion.pose(t).1.y - centre.y).abs() < 1e-12, "{t}");
+            // Up again just before and after.
+            for dt in [-0.01, 0.01] {
+                assert!(ball.motion.pose(t + dt).1.y - centre.y > 1e-3);
+            }
+        }
+        assert!(period_s > 0.0 && objects[0].motion.contact_times_s(0.0, 9.0).is_empty());
     }
 
     #[test]

@@ -2,7 +2,6 @@
 
 use std::fs;
 use std::path::Path;
-use std::process::Command;
 
 use glam::DVec2;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
@@ -16,19 +15,25 @@ use dynview_core::scene::manifest::{
     Bounds, CameraEntry, CloudsEntry, FORMAT_NAME, FORMAT_VERSION, FrameFormat, Manifest, PoseEntry, StartView,
 };
 use dynview_core::scene::{PointCloud, ScenePackage, SceneWriter};
-use dynview_core::{Camera, RgbRaster, StageProgress};
+use dynview_core::{Camera, RgbRaster, Rigid3, StageProgress};
 use dynview_interchange::camera_path::NerfstudioPath;
 use dynview_interchange::colmap::{ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
 
+use crate::record::write_recordings;
 use crate::render::{View, render_view};
 use crate::rig::{Heldout, Rig};
 use crate::scene::{Frame, default_objects};
+use crate::unsync::{Recording, recordings};
+use crate::video::{encode_video, ffmpeg_available};
 use crate::{SYNTH_MARKER, SynthConfig, SynthError, SynthReport};
 
 /// Noise-free surface points per input camera kept for the COLMAP model (frame 0).
 const COLMAP_POINTS_PER_CAMERA: usize = 400;
 /// Extra margin around the cloud bounds (m).
 const BOUNDS_MARGIN_M: f64 = 0.05;
+/// With unsynchronized cameras, where the time steps' input views wait for the scene package
+/// (removed before the output is committed).
+const STEP_FRAMES_DIR: &str = ".steps";
 
 /// A sampled surface point: noisy world position, color, and (for inliers) the exact
 /// position and the pixel it came from.
@@ -78,10 +83,22 @@ fn save_png(color: &RgbRaster, path: &Path) -> Result<(), SynthError> {
     fs::write(path, bytes).map_err(SynthError::io(path))
 }
 
+/// What one render task draws.
+#[derive(Clone, Copy, Debug)]
+enum Task {
+    /// An input camera at a time step of the synchronized timeline.
+    Step { camera: usize, t: u32 },
+    /// A held-out camera at a time step.
+    Heldout { heldout: Heldout, t: u32 },
+    /// Frame `frame` of an unsynchronized input camera's own recording.
+    Recorded { camera: usize, frame: usize },
+}
+
 /// One rendered task's by-products.
 enum TaskOutput {
     Input { camera: usize, t: u32, samples: Vec<Sample> },
-    Heldout,
+    Recorded { camera: usize, samples: Vec<Sample> },
+    Nothing,
 }
 
 /// Generates the event described by `config` into `out_dir` (created, or replaced if it holds
@@ -95,9 +112,14 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: StageProgress) -
     let rig =
         Rig::with_layout(config.cameras, config.width, config.height, config.handheld, config.seed, config.duration_s(), &config.layout);
     let names: Vec<String> = (0..config.cameras).map(SynthConfig::camera_name).collect();
+    let recordings: Option<Vec<Recording>> = config.unsync.as_ref().map(|u| recordings(config, u));
+    // The time steps' input views: the input frames, or with unsynchronized cameras (whose own
+    // frames are the input) only the scene package's.
+    let step_root = if recordings.is_some() { root.join(STEP_FRAMES_DIR) } else { root.join("input") };
     for name in &names {
-        let dir = root.join("input").join(name);
-        fs::create_dir_all(&dir).map_err(SynthError::io(&dir))?;
+        for dir in [root.join("input").join(name), step_root.join(name)] {
+            fs::create_dir_all(&dir).map_err(SynthError::io(&dir))?;
+        }
     }
     let depth_scale = DepthScale::MILLIMETERS;
     for heldout in Heldout::ALL {
@@ -108,35 +130,55 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: StageProgress) -
         write_json(&root.join(heldout.name()).join("depth").join(SCALE_FILE), &depth_scale)?;
     }
 
-    // Every (camera, frame) of the inputs, then the held-out cameras (indices from `cameras`).
-    let views_per_step = config.cameras + Heldout::ALL.len();
-    let tasks: Vec<(usize, u32)> = (0..config.frames).flat_map(|t| (0..views_per_step).map(move |c| (c, t))).collect();
+    // Every (camera, time step) of the inputs and the held-out cameras, then the unsynchronized
+    // cameras' own frames.
+    let mut tasks: Vec<Task> = (0..config.frames)
+        .flat_map(|t| {
+            let steps = (0..config.cameras).map(move |camera| Task::Step { camera, t });
+            steps.chain(Heldout::ALL.into_iter().map(move |heldout| Task::Heldout { heldout, t }))
+        })
+        .collect();
+    for (camera, recording) in recordings.iter().flatten().enumerate() {
+        tasks.extend((0..recording.video_times_s.len()).map(|frame| Task::Recorded { camera, frame }));
+    }
     let total = tasks.len() as u64;
     let done = std::sync::atomic::AtomicU64::new(0);
     progress("render", 0, total);
     let outputs = tasks
         .par_iter()
-        .map(|&(camera_index, t)| -> Result<TaskOutput, SynthError> {
-            let time_s = config.time_s(t);
-            let frame = Frame::at(&objects, time_s);
-            let heldout = camera_index.checked_sub(config.cameras).map(|k| Heldout::ALL[k]);
-            let camera = match heldout {
-                Some(h) => h.camera(&rig, time_s),
-                None => rig.input(camera_index, time_s),
-            };
-            let view = render_view(&frame, &camera, config.supersample);
-            let file = format!("{t:05}.png");
-            let output = if let Some(h) = heldout {
-                save_png(&view.color, &root.join(h.name()).join("color").join(&file))?;
-                let path = root.join(h.name()).join("depth").join(&file);
-                let bytes =
-                    depth_png_bytes(&view.depth_m, depth_scale).map_err(|source| SynthError::Image { path: path.clone(), source })?;
-                fs::write(&path, bytes).map_err(SynthError::io(&path))?;
-                TaskOutput::Heldout
-            } else {
-                save_png(&view.color, &root.join("input").join(&names[camera_index]).join(&file))?;
-                let samples = sample_points(&view, &camera, config, camera_index, t);
-                TaskOutput::Input { camera: camera_index, t, samples }
+        .map(|&task| -> Result<TaskOutput, SynthError> {
+            let output = match task {
+                Task::Heldout { heldout: h, t } => {
+                    let time_s = config.time_s(t);
+                    let view = render_view(&Frame::at(&objects, time_s), &h.camera(&rig, time_s), config.supersample);
+                    let file = format!("{t:05}.png");
+                    save_png(&view.color, &root.join(h.name()).join("color").join(&file))?;
+                    let path = root.join(h.name()).join("depth").join(&file);
+                    let bytes =
+                        depth_png_bytes(&view.depth_m, depth_scale).map_err(|source| SynthError::Image { path: path.clone(), source })?;
+                    fs::write(&path, bytes).map_err(SynthError::io(&path))?;
+                    TaskOutput::Nothing
+                }
+                Task::Step { camera: camera_index, t } => {
+                    let time_s = config.time_s(t);
+                    let camera = rig.input(camera_index, time_s);
+                    let view = render_view(&Frame::at(&objects, time_s), &camera, config.supersample);
+                    save_png(&view.color, &step_root.join(&names[camera_index]).join(format!("{t:05}.png")))?;
+                    let samples = sample_points(&view, &camera, config, camera_index, t);
+                    TaskOutput::Input { camera: camera_index, t, samples }
+                }
+                Task::Recorded { camera: camera_index, frame: j } => {
+                    let Some(recording) = recordings.as_ref().map(|r| &r[camera_index]) else { return Ok(TaskOutput::Nothing) };
+                    let time_s = recording.event_time_s(recording.video_times_s[j]);
+                    let camera = recording.camera(rig.input(camera_index, time_s));
+                    let view = render_view(&Frame::at(&objects, time_s), &camera, config.supersample);
+                    save_png(&view.color, &root.join("input").join(&names[camera_index]).join(format!("{j:05}.png")))?;
+                    // The first frame's points go into the COLMAP model.
+                    match j {
+                        0 => TaskOutput::Recorded { camera: camera_index, samples: sample_points(&view, &camera, config, camera_index, 0) },
+                        _ => TaskOutput::Nothing,
+                    }
+                }
             };
             let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress("render", n, total);
@@ -146,13 +188,43 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: StageProgress) -
 
     // Clouds per time step, cameras in order (deterministic whatever the thread schedule).
     let mut per_step: Vec<Vec<Vec<Sample>>> = (0..config.frames).map(|_| (0..config.cameras).map(|_| Vec::new()).collect()).collect();
+    let mut recorded_first: Vec<Vec<Sample>> = (0..config.cameras).map(|_| Vec::new()).collect();
     for output in outputs {
-        if let TaskOutput::Input { camera, t, samples } = output {
-            per_step[t as usize][camera] = samples;
+        match output {
+            TaskOutput::Input { camera, t, samples } => per_step[t as usize][camera] = samples,
+            TaskOutput::Recorded { camera, samples } => recorded_first[camera] = samples,
+            TaskOutput::Nothing => {}
         }
     }
 
-    write_colmap_models(config, &rig, &names, &per_step[0], &root)?;
+    let colmap_inputs: Vec<ColmapInput> = match &recordings {
+        None => (0..config.cameras)
+            .map(|c| ColmapInput {
+                camera: rig.input(c, 0.0),
+                images: (0..config.frames)
+                    .map(|t| (format!("{}/{t:05}.png", names[c]), rig.input(c, config.time_s(t)).camera_from_world))
+                    .collect(),
+                first_samples: &per_step[0][c],
+            })
+            .collect(),
+        Some(recordings) => recordings
+            .iter()
+            .enumerate()
+            .map(|(c, recording)| {
+                let times = recording.event_times_s();
+                ColmapInput {
+                    camera: recording.camera(rig.input(c, times[0])),
+                    images: times
+                        .iter()
+                        .enumerate()
+                        .map(|(j, &e)| (format!("{}/{j:05}.png", names[c]), rig.input(c, e).camera_from_world))
+                        .collect(),
+                    first_samples: &recorded_first[c],
+                }
+            })
+            .collect(),
+    };
+    write_colmap_models(config, &rig, &colmap_inputs, &root)?;
     for heldout in Heldout::ALL {
         let path: Vec<(Camera, f64)> = (0..config.frames)
             .map(|t| (heldout.camera(&rig, config.time_s(t)), f64::from(t) / f64::from(config.frames.saturating_sub(1).max(1))))
@@ -168,16 +240,19 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: StageProgress) -
         })
         .collect();
     progress("package", 0, u64::from(config.frames));
-    let package_bytes = write_package(config, &rig, &names, &clouds, &root, progress)?;
+    let package_bytes = write_package(config, &rig, &names, &clouds, &step_root, &root, progress)?;
 
-    let mut videos_written = false;
-    if config.videos && ffmpeg_available() {
+    let videos_written = config.videos && ffmpeg_available();
+    let mut time_alignment = None;
+    if let Some(recordings) = &recordings {
+        fs::remove_dir_all(&step_root).map_err(SynthError::io(&step_root))?;
+        time_alignment = Some(write_recordings(config, &rig, &objects, recordings, &root, videos_written, progress)?);
+    } else if videos_written {
         for (i, name) in names.iter().enumerate() {
             progress("video", i as u64, names.len() as u64);
             encode_video(&root, name, config.fps)?;
         }
         progress("video", names.len() as u64, names.len() as u64);
-        videos_written = true;
     }
 
     let report = SynthReport {
@@ -185,45 +260,52 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: StageProgress) -
         videos_written,
         points_per_step: clouds.iter().map(|c| c.len() as u32).collect(),
         package_bytes,
+        time_alignment,
     };
     write_json(&root.join(SYNTH_MARKER), &report)?;
     staged.commit()?;
     Ok(report)
 }
 
-fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), SynthError> {
+pub(crate) fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), SynthError> {
     let text =
         serde_json::to_string_pretty(value).map_err(|e| SynthError::Io { path: path.to_path_buf(), source: std::io::Error::other(e) })?;
     write_atomic(path, text.as_bytes()).map_err(SynthError::io(path))
 }
 
-fn write_colmap_models(config: &SynthConfig, rig: &Rig, names: &[String], step0: &[Vec<Sample>], root: &Path) -> Result<(), SynthError> {
+/// What the ground-truth COLMAP model lists for one input camera.
+struct ColmapInput<'a> {
+    /// Its lens and image size.
+    camera: Camera,
+    /// Its images: name and pose.
+    images: Vec<(String, Rigid3)>,
+    /// Points sampled from its first image.
+    first_samples: &'a [Sample],
+}
+
+fn write_colmap_models(config: &SynthConfig, rig: &Rig, inputs: &[ColmapInput], root: &Path) -> Result<(), SynthError> {
     let mut model = ColmapModel::default();
-    let image_id = |camera: usize, t: u32| (camera as u32) * config.frames + t + 1;
-    for (c, name) in names.iter().enumerate() {
-        let cam = rig.input(c, 0.0);
+    let mut first_id = 1;
+    for (c, input) in inputs.iter().enumerate() {
+        let cam = &input.camera;
         model.cameras.insert(c as u32 + 1, ColmapCamera::pinhole(&cam.intrinsics, cam.width_px, cam.height_px));
-        for t in 0..config.frames {
+        for (k, (name, camera_from_world)) in input.images.iter().enumerate() {
             model.images.insert(
-                image_id(c, t),
-                ColmapImage {
-                    camera_id: c as u32 + 1,
-                    camera_from_world: rig.input(c, config.time_s(t)).camera_from_world,
-                    name: format!("{name}/{t:05}.png"),
-                    points2d: Vec::new(),
-                },
+                first_id + k as u32,
+                ColmapImage { camera_id: c as u32 + 1, camera_from_world: *camera_from_world, name: name.clone(), points2d: Vec::new() },
             );
         }
-        // Noise-free points of frame 0, each observed by the camera that sampled it.
+        // Noise-free points of the first image, each observed by the camera that sampled it.
         let mut next_id = model.points3d.len() as u64 + 1;
-        for sample in step0[c].iter().filter_map(|s| s.exact.map(|e| (e, s.color))).take(COLMAP_POINTS_PER_CAMERA) {
+        for sample in input.first_samples.iter().filter_map(|s| s.exact.map(|e| (e, s.color))).take(COLMAP_POINTS_PER_CAMERA) {
             let ((xyz, pixel), rgb) = sample;
-            let Some(image) = model.images.get_mut(&image_id(c, 0)) else { continue };
+            let Some(image) = model.images.get_mut(&first_id) else { continue };
             let idx = image.points2d.len() as u32;
             image.points2d.push(Point2D { xy: [pixel.x + 0.5, pixel.y + 0.5], point3d_id: Some(next_id) });
-            model.points3d.insert(next_id, ColmapPoint3D { xyz, rgb, error: 0.0, track: vec![(image_id(c, 0), idx)] });
+            model.points3d.insert(next_id, ColmapPoint3D { xyz, rgb, error: 0.0, track: vec![(first_id, idx)] });
             next_id += 1;
         }
+        first_id += input.images.len() as u32;
     }
     write_colmap(&model, &root.join("colmap"))?;
 
@@ -276,6 +358,7 @@ fn write_package(
     rig: &Rig,
     names: &[String],
     clouds: &[PointCloud],
+    step_root: &Path,
     root: &Path,
     progress: StageProgress,
 ) -> Result<u64, SynthError> {
@@ -318,7 +401,7 @@ fn write_package(
     let done = std::sync::atomic::AtomicU64::new(0);
     (0..config.frames).into_par_iter().try_for_each(|t| -> Result<(), SynthError> {
         for (c, name) in names.iter().enumerate() {
-            let path = root.join("input").join(name).join(format!("{t:05}.png"));
+            let path = step_root.join(name).join(format!("{t:05}.png"));
             let image = image::open(&path).map_err(|source| SynthError::Image { path: path.clone(), source })?.to_rgb8();
             writer.write_frame(c, t, &image)?;
         }
@@ -331,30 +414,4 @@ fn write_package(
     }
     writer.finish()?;
     Ok(ScenePackage::open(root.join("scene"))?.size_on_disk()?)
-}
-
-/// True when an `ffmpeg` binary runs.
-pub fn ffmpeg_available() -> bool {
-    Command::new("ffmpeg")
-        .arg("-version")
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
-}
-
-fn encode_video(root: &Path, name: &str, fps: f64) -> Result<(), SynthError> {
-    let dir = root.join("videos");
-    fs::create_dir_all(&dir).map_err(SynthError::io(&dir))?;
-    let output = Command::new("ffmpeg")
-        .args(["-y", "-loglevel", "error", "-framerate", &fps.to_string(), "-i"])
-        .arg(root.join("input").join(name).join("%05d.png"))
-        .args(["-c:v", "libx264", "-preset", "veryfast", "-crf", "14", "-pix_fmt", "yuv420p"])
-        .arg(dir.join(format!("{name}.mp4")))
-        .output()
-        .map_err(SynthError::io(&dir))?;
-    if !output.status.success() {
-        return Err(SynthError::Video { camera: name.to_owned(), message: String::from_utf8_lossy(&output.stderr).trim().to_owned() });
-    }
-    Ok(())
 }

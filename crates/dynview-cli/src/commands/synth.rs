@@ -6,6 +6,7 @@ use std::time::Instant;
 use anyhow::Context;
 use dynview_synth::SynthConfig;
 use dynview_synth::rig::Layout;
+use dynview_synth::unsync::UnsyncConfig;
 
 use crate::progress::StageBars;
 
@@ -62,6 +63,45 @@ pub struct Args {
     /// alternates from camera to camera.
     #[arg(long, value_delimiter = ',', num_args = 1, value_name = "DX,DY", default_value = "0,0")]
     principal_offset: Vec<f64>,
+    /// Unsynchronized cameras, as phones started by hand: each on its own clock, starting a
+    /// different, non-whole-frame time (up to 0.8 s) before the event and stopping after it;
+    /// camera 1 films at twice --fps, camera 2 at a variable frame rate, camera 3 in portrait
+    /// (rotation metadata), camera 4's clock drifts (numbers modulo --cameras); every video gets
+    /// the event's sound as heard at its camera. `input/<camera>/` then holds each camera's own
+    /// frames; the true clocks go to synth.json's `time_alignment` and `unsync/<camera>.json`.
+    #[arg(long)]
+    unsync: bool,
+    /// With --unsync: the unsynchronized recording as a JSON file of `UnsyncConfig` instead of
+    /// the phones preset (per-camera `start_offsets_s`, `tail_s`, `fps`; `vfr_camera`,
+    /// `vfr_jitter`, `portrait_camera`, `drift_camera`, `drift_ms_per_min`, `audio`, `noise_db`).
+    #[arg(long, value_name = "FILE", requires = "unsync", conflicts_with_all = ["no_audio", "audio_noise_db", "drift_ms_per_min"])]
+    unsync_config: Option<PathBuf>,
+    /// With --unsync: videos without audio tracks.
+    #[arg(long, requires = "unsync")]
+    no_audio: bool,
+    /// With --unsync: each camera's own microphone noise, this many dB below the event's sound.
+    #[arg(long, value_name = "DB", requires = "unsync")]
+    audio_noise_db: Option<f64>,
+    /// With --unsync: how many ms the drifting camera's clock gains per minute (negative: loses).
+    #[arg(long, value_name = "MS", requires = "unsync", allow_negative_numbers = true)]
+    drift_ms_per_min: Option<f64>,
+}
+
+/// The unsynchronized recording the arguments ask for, if any.
+fn unsync_config(args: &Args) -> anyhow::Result<Option<UnsyncConfig>> {
+    if !args.unsync {
+        return Ok(None);
+    }
+    if let Some(path) = &args.unsync_config {
+        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let config = serde_json::from_str(&text).with_context(|| format!("{}: not an unsync configuration", path.display()))?;
+        return Ok(Some(config));
+    }
+    let mut config = UnsyncConfig::phones(args.cameras, args.fps, args.seed);
+    config.audio = !args.no_audio;
+    config.noise_db = args.audio_noise_db.unwrap_or(config.noise_db);
+    config.drift_ms_per_min = args.drift_ms_per_min.unwrap_or(config.drift_ms_per_min);
+    Ok(Some(config))
 }
 
 /// Two comma-separated numbers of option `name`, when given.
@@ -71,6 +111,7 @@ fn pair(name: &str, values: Option<&[f64]>) -> anyhow::Result<Option<[f64; 2]>> 
 
 /// Runs `dynview synth`.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let unsync = unsync_config(&args)?;
     let config = SynthConfig {
         cameras: args.cameras,
         frames: args.frames,
@@ -89,6 +130,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             focal_range: pair("--focal-range", args.focal_range.as_deref())?,
             principal_offset_px: pair("--principal-offset", Some(&args.principal_offset))?.unwrap_or_default(),
         },
+        unsync,
     };
     let start = Instant::now();
     let bars = StageBars::new();
@@ -111,5 +153,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         report.package_bytes as f64 / (1024.0 * 1024.0),
         if report.videos_written { "written" } else { "skipped (no ffmpeg or --no-video)" }
     );
+    if let Some(alignment) = &report.time_alignment {
+        println!("unsynchronized cameras (video time of event time 0, clock rate, frames):");
+        for (name, c) in &alignment.cameras {
+            let kind = [(c.vfr, " variable rate"), (c.portrait, " portrait"), (c.rate != 1.0, " drifting")];
+            let kind: String = kind.iter().filter(|(on, _)| *on).map(|(_, k)| *k).collect();
+            println!("  {name}: start {:.4} s, rate {:.6}, {} frames at {} fps{kind}", c.start_s, c.rate, c.frame_count, c.fps);
+        }
+    }
     Ok(())
 }
