@@ -13,6 +13,10 @@ use crate::error::{SyncError, SyncResult};
 /// Most time steps a timeline may have (a hostile timestamp cannot make it allocate gigabytes).
 pub const MAX_STEPS: usize = 100_000;
 
+/// The frame rates cameras and phones record at (fps): a variable-rate phone's mean near one of
+/// them is taken as it.
+pub const STANDARD_FPS: [f64; 11] = [15.0, 23.976, 24.0, 25.0, 29.97, 30.0, 48.0, 50.0, 59.94, 60.0, 120.0];
+
 /// One camera's recorded frames.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CameraTimes {
@@ -29,16 +33,19 @@ impl CameraTimes {
         Self { camera: camera.to_owned(), frame_times_s: (0..frames).map(|j| j as f64 / fps).collect() }
     }
 
-    /// The camera's typical frame rate: one over the median interval between frames, to a
-    /// thousandth of a frame per second (`None` with fewer than two frames or no interval above
-    /// zero).
+    /// The camera's frame rate: frames less one over the time from the first to the last (a
+    /// variable rate's mean), taken as the standard rate ([`STANDARD_FPS`]) within 3% of it,
+    /// else to a thousandth of a frame per second; `None` with fewer than two frames or no time
+    /// between them.
     pub fn nominal_fps(&self) -> Option<f64> {
-        let mut intervals: Vec<f64> = self.frame_times_s.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
-        if intervals.is_empty() {
+        let (first, last) = (self.frame_times_s.first()?, self.frame_times_s.last()?);
+        let span = last - first;
+        if !(span > 0.0 && span.is_finite()) {
             return None;
         }
-        intervals.sort_by(f64::total_cmp);
-        Some((1000.0 / intervals[intervals.len() / 2]).round() / 1000.0)
+        let mean = (self.frame_times_s.len() - 1) as f64 / span;
+        let standard = STANDARD_FPS.iter().copied().min_by(|a, b| (a / mean - 1.0).abs().total_cmp(&(b / mean - 1.0).abs()))?;
+        Some(if (standard / mean - 1.0).abs() <= 0.03 { standard } else { (mean * 1000.0).round() / 1000.0 })
     }
 
     fn check(&self) -> SyncResult<()> {
@@ -216,6 +223,16 @@ mod tests {
         assert_eq!(timeline.frames[1][0], 0);
         assert!((timeline.clocks[0].start_s - 0.5).abs() < 1e-12 && timeline.clocks[1].start_s.abs() < 1e-12);
         assert_eq!(timeline.steps(), 75);
+    }
+
+    #[test]
+    fn a_variable_rate_counts_as_the_standard_rate_near_its_mean() {
+        let jittered = CameraTimes { camera: "v".into(), frame_times_s: vec![0.0, 0.03, 0.075, 0.1, 0.13, 0.171, 0.2, 0.235] };
+        assert_eq!(jittered.nominal_fps(), Some(29.97), "7 intervals in 0.235 s: 29.79 fps, the nearest standard rate within 3%");
+        let odd = CameraTimes::evenly_spaced("o", 10, 37.0);
+        assert_eq!(odd.nominal_fps(), Some(37.0));
+        assert_eq!(CameraTimes::evenly_spaced("s", 10, 29.97).nominal_fps(), Some(29.97));
+        assert_eq!(CameraTimes::evenly_spaced("one", 1, 30.0).nominal_fps(), None);
     }
 
     #[test]
