@@ -215,3 +215,37 @@ fn the_panoptic_arc_cut_apart_is_put_back_together_from_the_pictures() {
         assert_eq!(frames.file_name(0), format!("{:05}.jpg", 25 - cut), "{camera}");
     }
 }
+
+/// The synthetic phones event (offsets that are not whole frames, a 60 fps camera, a variable
+/// rate, a portrait phone, a drifting clock), aligned from the pictures with the true
+/// calibration: every camera within a quarter frame of the truth.
+#[test]
+fn synthetic_phones_are_aligned_within_a_quarter_frame_from_the_pictures() {
+    if !ffmpeg_available() {
+        eprintln!("skipped: no ffmpeg");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let event = dir.path().join("event");
+    let mut config =
+        dynview_synth::SynthConfig { cameras: 5, frames: 45, width: 320, height: 180, ..dynview_synth::SynthConfig::default() };
+    let mut phones = dynview_synth::unsync::UnsyncConfig::phones(config.cameras, config.fps, 7);
+    phones.audio = false;
+    config.unsync = Some(phones);
+    let truth = dynview_synth::generate(&config, &event, &|_, _, _| {}).expect("synth").time_alignment.expect("unsynchronized");
+    let options = PrepOptions { poses: Some(event.join("colmap")), sync: SyncMethod::Visual, ..frames_only() };
+    let (report, frames) = prep(&event.join("videos"), &options).expect("visual alignment");
+    let time = report.time_alignment.expect("reported");
+    // The event time of the first step by each camera's true clock: all the same moment.
+    let first_step_s: Vec<f64> =
+        time.cameras.iter().map(|(name, found)| (found.start_s - truth.cameras[name].start_s) / truth.cameras[name].rate).collect();
+    let mut sorted = first_step_s.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    for ((name, _), moment) in time.cameras.iter().zip(&first_step_s) {
+        assert!((moment - median).abs() < 0.25 / config.fps, "{name}: {:+.2} ms off ({:?})", (moment - median) * 1e3, time.pairs);
+    }
+    assert!((time.fps - 30.0).abs() < 0.05, "the variable-rate camera counts as a standard rate near 30 fps: {}", time.fps);
+    let portrait = frames.cameras.iter().find(|c| c.height > c.width).expect("the portrait camera, upright");
+    assert_eq!((portrait.width, portrait.height), (180, 320));
+}
