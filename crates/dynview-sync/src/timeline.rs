@@ -98,6 +98,12 @@ impl Timeline {
 /// earliest last frame. Errors name the camera whose frames are unusable, or say when the
 /// cameras share no stretch of time.
 pub fn build(cameras: &[CameraTimes], clocks: &[Clock], fps: Option<f64>) -> SyncResult<Timeline> {
+    build_from(cameras, clocks, fps, None)
+}
+
+/// [`build`] with the first step at common time `start_s` when given (it must lie in the span
+/// every camera filmed; the steps still end where the first camera to stop stops).
+pub fn build_from(cameras: &[CameraTimes], clocks: &[Clock], fps: Option<f64>, start_s: Option<f64>) -> SyncResult<Timeline> {
     if cameras.is_empty() {
         return Err(SyncError::Failed("no cameras".into()));
     }
@@ -135,6 +141,16 @@ pub fn build(cameras: &[CameraTimes], clocks: &[Clock], fps: Option<f64>) -> Syn
             cameras[earliest].camera
         )));
     }
+    let start = match start_s {
+        None => start,
+        Some(s) if s.is_finite() && s >= start - slack_s && s <= end + slack_s => s,
+        Some(s) => {
+            return Err(SyncError::Option {
+                option: "start-at",
+                problem: format!("{s:.4} s is outside the {:.4} to {:.4} s every camera filmed (on the first camera's clock)", start, end),
+            });
+        }
+    };
     let span_steps = ((end - start).max(0.0) * fps + slack_s * fps).floor();
     if span_steps >= MAX_STEPS as f64 {
         return Err(SyncError::Failed(format!("{span_steps} time steps at {fps} fps: more than {MAX_STEPS}")));
@@ -233,6 +249,19 @@ mod tests {
         assert_eq!(odd.nominal_fps(), Some(37.0));
         assert_eq!(CameraTimes::evenly_spaced("s", 10, 29.97).nominal_fps(), Some(29.97));
         assert_eq!(CameraTimes::evenly_spaced("one", 1, 30.0).nominal_fps(), None);
+    }
+
+    #[test]
+    fn a_chosen_start_inside_the_span_moves_the_first_step_and_one_outside_is_refused() {
+        let a = CameraTimes::evenly_spaced("a", 90, 30.0);
+        let b = CameraTimes::evenly_spaced("b", 90, 30.0);
+        let clocks = [Clock::SYNCHRONIZED, Clock { start_s: -0.5, rate: 1.0 }];
+        let timeline = build_from(&[a.clone(), b.clone()], &clocks, None, Some(1.0)).unwrap();
+        assert_eq!((timeline.frames[0][0], timeline.frames[1][0]), (30, 15));
+        assert!((timeline.clocks[0].start_s - 1.0).abs() < 1e-12);
+        assert_eq!(timeline.steps(), 60);
+        let err = build_from(&[a, b], &clocks, None, Some(0.2)).unwrap_err().to_string();
+        assert!(err.contains("start-at") && err.contains("0.2000"), "{err}");
     }
 
     #[test]

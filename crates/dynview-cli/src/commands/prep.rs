@@ -143,6 +143,10 @@ pub struct Args {
     /// taken grows with it).
     #[arg(long, value_name = "SECONDS", default_value_t = dynview_sfm::input::timing::visual::VisualOptions::default().max_offset_s, value_parser = parse_max_offset)]
     sync_max_offset: f64,
+    /// The package's first time step at SECONDS of CAMERA's video (by default where the last
+    /// camera to start starts); it must lie in the stretch every camera filmed.
+    #[arg(long, value_name = "CAMERA=SECONDS", value_parser = parse_start_at)]
+    start_at: Option<(String, f64)>,
     /// The time (s) in CAMERA's video of one moment every camera filmed (a clap), given for
     /// every camera (repeatable): the clocks by hand, instead of `--sync`.
     #[arg(long, value_name = "CAMERA=SECONDS")]
@@ -173,6 +177,14 @@ fn parse_loss_scale(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
         Ok(px) if px.is_finite() && (0.01..=100.0).contains(&px) => Ok(px),
         _ => Err(format!("{text:?}: expected pixels between 0.01 and 100, e.g. 0.5")),
+    }
+}
+
+fn parse_start_at(text: &str) -> Result<(String, f64), String> {
+    let (camera, seconds) = text.split_once('=').ok_or_else(|| format!("{text:?}: expected CAMERA=SECONDS"))?;
+    match seconds.trim().parse::<f64>() {
+        Ok(s) if s.is_finite() => Ok((camera.trim().to_string(), s)),
+        _ => Err(format!("{text:?}: {seconds:?} is not a time in seconds")),
     }
 }
 
@@ -218,6 +230,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         fps: args.fps,
         sync: args.sync,
         offsets_s: parse_offsets(&args.offsets)?,
+        start_at: args.start_at,
         ..PrepOptions::default()
     };
     options.steps.working_width = args.working_width;

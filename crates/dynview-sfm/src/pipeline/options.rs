@@ -96,6 +96,9 @@ pub struct PrepOptions {
     /// Per camera, the time in its video (s) of one moment every camera filmed (`--offsets`).
     #[serde(default)]
     pub offsets_s: BTreeMap<String, f64>,
+    /// The package's first time step at this time (s) of this camera's video (`--start-at`).
+    #[serde(default)]
+    pub start_at: Option<(String, f64)>,
     /// How offsets are found from the pictures (`sync` visual).
     #[serde(default)]
     pub visual_sync: VisualOptions,
@@ -123,6 +126,7 @@ impl Default for PrepOptions {
             sync: SyncMethod::default(),
             offsets_s: BTreeMap::new(),
             visual_sync: VisualOptions::default(),
+            start_at: None,
         }
     }
 }

@@ -67,6 +67,7 @@ pub(crate) fn pose_stages(
         fps: options.fps,
         strict_frame_counts: !options.trim,
         visual: options.visual_sync.clone(),
+        start_at: options.start_at.clone(),
     };
     let (mut frames, alignment, warnings) = align_in_time(&recorded, &time, calibration.as_deref(), work, progress, interrupt)?;
     report.warnings.extend(warnings);

@@ -68,6 +68,10 @@ pub struct TimeOptions {
     /// Time steps per second (default: the slowest camera's rate; image folders count as
     /// [`DEFAULT_FPS`] unless this is given).
     pub fps: Option<f64>,
+    /// The first time step at this time (s) of this camera's video, instead of where the last
+    /// camera to start starts.
+    #[serde(default)]
+    pub start_at: Option<(String, f64)>,
     /// Differing frame counts without a clock are an error instead of a cut to the shortest.
     pub strict_frame_counts: bool,
     /// How offsets are found from the pictures.
@@ -147,7 +151,17 @@ pub fn align_in_time(
             ));
         }
     }
-    let built = timeline::build(&times, &clocks, options.fps).map_err(sync_error)?;
+    let start_s = match &options.start_at {
+        None => None,
+        Some((camera, seconds)) => {
+            let i = recorded.iter().position(|r| &r.frames.name == camera).ok_or_else(|| SfmError::Option {
+                option: "start-at",
+                problem: format!("no camera is named {camera:?} (cameras: {})", names(recorded)),
+            })?;
+            Some(clocks[i].timeline_time_s(*seconds))
+        }
+    };
+    let built = timeline::build_from(&times, &clocks, options.fps, start_s).map_err(sync_error)?;
     let mut cameras = Vec::new();
     let mut report = BTreeMap::new();
     for (i, r) in recorded.iter().enumerate() {
@@ -301,12 +315,16 @@ fn recordings_differ(times: &[CameraTimes]) -> bool {
     lengths.iter().any(|(count, length)| *count != lengths[0].0 || (length - lengths[0].1).abs() > frame_s)
 }
 
+/// The cameras' names, for messages.
+fn names(recorded: &[RecordedCamera]) -> String {
+    recorded.iter().map(|r| r.frames.name.as_str()).collect::<Vec<_>>().join(", ")
+}
+
 /// Clocks from `--offsets`: each camera's video time of one common moment.
 fn given_clocks(recorded: &[RecordedCamera], offsets_s: &BTreeMap<String, f64>) -> SfmResult<Vec<Clock>> {
     let bad = |problem: String| SfmError::Option { option: "offsets", problem };
     if let Some(unknown) = offsets_s.keys().find(|k| !recorded.iter().any(|r| &r.frames.name == *k)) {
-        let names = recorded.iter().map(|r| r.frames.name.as_str()).collect::<Vec<_>>().join(", ");
-        return Err(bad(format!("no camera is named {unknown:?} (cameras: {names})")));
+        return Err(bad(format!("no camera is named {unknown:?} (cameras: {})", names(recorded))));
     }
     let missing: Vec<&str> = recorded.iter().map(|r| r.frames.name.as_str()).filter(|n| !offsets_s.contains_key(*n)).collect();
     if !missing.is_empty() {
