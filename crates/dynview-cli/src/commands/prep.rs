@@ -132,12 +132,14 @@ pub struct Args {
     /// folders count as this rate, else 30).
     #[arg(long)]
     fps: Option<f64>,
-    /// How the cameras' clocks are found: `visual` (from the pictures: the offsets at which
-    /// what moves agrees with the calibration of `--poses`; cameras on tripods), `none` (every
-    /// camera taken to have started with the others), or `auto` (`visual` when `--poses` is
-    /// given and the recordings differ in length, else `none`). `report.json`'s
-    /// `time_alignment` says what was found.
-    #[arg(long, default_value = "auto", value_name = "auto|visual|none")]
+    /// How the cameras' clocks are found: `audio` (from their sound: onset envelopes for a
+    /// coarse offset, GCC-PHAT refined below a sample, drift from windows along the recording,
+    /// all pairs solved together), `visual` (from the pictures: the offsets at which what moves
+    /// agrees with the calibration of `--poses`; cameras on tripods), `none` (every camera taken
+    /// to have started with the others), or `auto` (`audio` when every camera is a video with a
+    /// sound track, else `visual` when `--poses` is given and the recordings differ in length,
+    /// else `none`). `report.json`'s `time_alignment` says what was found.
+    #[arg(long, default_value = "auto", value_name = "auto|audio|visual|none")]
     sync: SyncMethod,
     /// With `--sync visual`: the largest offset (s) looked for between two cameras (the time
     /// taken grows with it).

@@ -10,13 +10,15 @@ use std::sync::atomic::AtomicBool;
 use serde::{Deserialize, Serialize};
 
 use dynview_sync::Clock;
+use dynview_sync::audio::{AudioOptions, AudioTrack, align_audio};
 use dynview_sync::timeline::{self, CameraTimes};
 
 use dynview_core::StageProgress;
 use dynview_interchange::poses::CameraPoses;
 
 use crate::error::{SfmError, SfmResult};
-use crate::input::frames::{CameraFrames, EventFrames, RecordedCamera};
+use crate::input::frames::{CameraFrames, CameraSource, EventFrames, RecordedCamera};
+use crate::input::sound::{ANALYSIS_RATE_HZ, has_sound, read_sound};
 
 use crate::work::WorkDir;
 use visual::{PairOffset, VisualOptions, visual_clocks};
@@ -33,10 +35,12 @@ pub const LOW_CONFIDENCE: f64 = 0.3;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SyncMethod {
-    /// From the pictures when a calibration is given and the cameras' recordings differ in
-    /// length; else `none`.
+    /// From their sound when every camera is a video with a sound track; else from the pictures
+    /// when a calibration is given and the cameras' recordings differ in length; else `none`.
     #[default]
     Auto,
+    /// From their sound ([`dynview_sync::audio`]; an error when a camera has none).
+    Audio,
     /// From the pictures: the offsets at which what moves agrees with the given calibration's
     /// epipolar geometry (cameras on tripods).
     Visual,
@@ -50,9 +54,10 @@ impl std::str::FromStr for SyncMethod {
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
             "auto" => Ok(Self::Auto),
+            "audio" => Ok(Self::Audio),
             "visual" => Ok(Self::Visual),
             "none" => Ok(Self::None),
-            other => Err(format!("unknown sync method {other:?} (expected auto, visual or none)")),
+            other => Err(format!("unknown sync method {other:?} (expected auto, audio, visual or none)")),
         }
     }
 }
@@ -110,8 +115,9 @@ pub struct TimeAlignment {
     pub max_error_s: f64,
     /// Per camera name.
     pub cameras: BTreeMap<String, CameraTiming>,
-    /// What each pair of cameras measured, for a user checking an unsure camera:
-    /// `"a-b: offset s, matches, confidence"` (the offset: b's video time minus a's of one moment).
+    /// What each pair of cameras measured, for a user checking an unsure camera (the offset:
+    /// b's video time minus a's of one moment; from the sound, at a time of a's track, with
+    /// b's clock rate against a's).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub pairs: Vec<String>,
 }
@@ -195,20 +201,7 @@ pub fn align_in_time(
         steps: built.steps(),
         max_error_s: built.largest_error_s(),
         cameras: report,
-        pairs: pairs
-            .iter()
-            .map(|p| {
-                let name = |i: usize| recorded[i].frames.name.as_str();
-                format!(
-                    "{}-{}: {:.4} s, {} matches, confidence {:.2}",
-                    name(p.cameras[0]),
-                    name(p.cameras[1]),
-                    p.offset_s,
-                    p.matches,
-                    p.confidence
-                )
-            })
-            .collect(),
+        pairs,
     };
     Ok((EventFrames { cameras }, alignment, warnings))
 }
@@ -243,7 +236,8 @@ struct Clocks {
     method: &'static str,
     clocks: Vec<Clock>,
     confidence: Vec<f64>,
-    pairs: Vec<PairOffset>,
+    /// What each pair measured, as `report.json` shows it.
+    pairs: Vec<String>,
 }
 
 impl Clocks {
@@ -273,7 +267,15 @@ impl Found<'_> {
         if !options.offsets_s.is_empty() {
             return given_clocks(recorded, &options.offsets_s).map(|c| Clocks::certain("given", c));
         }
+        let videos: Vec<Option<&PathBuf>> = recorded
+            .iter()
+            .map(|r| match &r.source {
+                CameraSource::Video(p) => Some(p),
+                CameraSource::Images(_) => None,
+            })
+            .collect();
         let method = match options.sync {
+            SyncMethod::Auto if n >= 2 && videos.iter().all(|v| v.is_some_and(|p| has_sound(p))) => SyncMethod::Audio,
             SyncMethod::Auto if self.calibration.is_some() && recordings_differ(self.times) => SyncMethod::Visual,
             SyncMethod::Auto => SyncMethod::None,
             chosen => chosen,
@@ -282,9 +284,56 @@ impl Found<'_> {
             return Err(SfmError::TimeAlignment("aligning cameras in time needs two cameras or more".into()));
         }
         match method {
+            SyncMethod::Audio => self.audio(&videos),
             SyncMethod::Visual => self.visual(),
             _ => Ok(Clocks::certain("none", vec![Clock::SYNCHRONIZED; n])),
         }
+    }
+
+    fn audio(&self, videos: &[Option<&PathBuf>]) -> SfmResult<Clocks> {
+        let mut tracks = Vec::new();
+        let mut starts = Vec::new();
+        for (r, video) in self.recorded.iter().zip(videos) {
+            SfmError::check_interrupt(self.interrupt)?;
+            let Some(video) = video else {
+                return Err(SfmError::TimeAlignment(format!(
+                    "camera {} is an image folder: it has no sound for --sync audio",
+                    r.frames.name
+                )));
+            };
+            let sound = read_sound(video)?;
+            starts.push(sound.start_in_video_s);
+            tracks.push(AudioTrack { camera: r.frames.name.clone(), sample_rate_hz: ANALYSIS_RATE_HZ, samples: sound.samples });
+        }
+        (self.progress)("sound sync", 0, 1);
+        let found = align_audio(&tracks, &AudioOptions::default()).map_err(sync_error)?;
+        (self.progress)("sound sync", 1, 1);
+        // The sound's clocks map camera 0's track time a0 to camera c's a_c = start + rate a0;
+        // a video's time is its track's time plus where the track starts in the video.
+        let clocks = found
+            .cameras
+            .iter()
+            .zip(&starts)
+            .map(|(c, start_c)| Clock { start_s: c.clock.start_s + start_c - c.clock.rate * starts[0], rate: c.clock.rate })
+            .collect();
+        let name = |i: usize| self.recorded[i].frames.name.as_str();
+        let pairs = found
+            .pairs
+            .iter()
+            .map(|p| {
+                format!(
+                    "{}-{}: {:.5} s at {:.1} s, rate {:.7}, confidence {:.2}{}",
+                    name(p.track_a),
+                    name(p.track_b),
+                    p.offset_s,
+                    p.time_a_s,
+                    p.rate_ratio,
+                    p.confidence,
+                    if p.used { "" } else { ", not used" }
+                )
+            })
+            .collect();
+        Ok(Clocks { method: "audio", clocks, confidence: found.cameras.iter().map(|c| c.confidence).collect(), pairs })
     }
 
     fn visual(&self) -> SfmResult<Clocks> {
@@ -303,6 +352,20 @@ impl Found<'_> {
             self.work.mark_done("time/visual", &key)?;
             found
         };
+        let name = |i: usize| self.recorded[i].frames.name.as_str();
+        let pairs = pairs
+            .iter()
+            .map(|p| {
+                format!(
+                    "{}-{}: {:.4} s, {} matches, confidence {:.2}",
+                    name(p.cameras[0]),
+                    name(p.cameras[1]),
+                    p.offset_s,
+                    p.matches,
+                    p.confidence
+                )
+            })
+            .collect();
         Ok(Clocks { method: "visual", clocks, confidence, pairs })
     }
 }

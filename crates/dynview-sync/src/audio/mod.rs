@@ -1,0 +1,209 @@
+//! Clocks from the cameras' sound: every camera that recorded the same event heard the same
+//! claps, whistles and ball hits, so the lag between two tracks' sounds gives their offset, and
+//! the way that lag creeps along the recording gives their drift.
+//!
+//! [`align_audio`] works in four steps:
+//! 1. **Coarse lag** per pair of tracks: an onset-strength envelope per track (log energy in
+//!    10 ms hops, half-wave-rectified difference) cross-correlated by FFT over lags within
+//!    ±[`AudioOptions::max_offset_s`]; the best lag and its peak-to-sidelobe ratio.
+//! 2. **Drift guess**: the same envelopes correlated in segments along the overlap give a line
+//!    lag(t) good to a few milliseconds.
+//! 3. **GCC-PHAT refinement** in windows along the overlap (short ones first, then windows of
+//!    [`AudioOptions::drift_window_s`]), on the raw samples with the second track resampled to
+//!    follow the lag line, so drift does not blur the peak; the sub-sample peak of each window
+//!    is fitted by a robust line: the pair's offset and rate ratio.
+//! 4. **Joint solve**: weighted least squares over all reliable pairs (log-rates first, then
+//!    starts) with the first track fixed, dropping the pair that disagrees most while it is over
+//!    [`AudioOptions::outlier_threshold_s`] and the others still connect every camera.
+//!
+//! The timeline is the first track's clock: track 0 gets [`Clock::SYNCHRONIZED`], and track `c`
+//! gets the clock that maps track-0 time to track-`c` time (a sound heard at `s0` in track 0 is
+//! heard at `start_s + rate * s0` in track `c`).
+
+mod envelope;
+mod fft;
+mod gcc;
+mod input;
+mod line;
+mod options;
+mod pair;
+mod solve;
+
+#[cfg(test)]
+mod test_signal;
+#[cfg(test)]
+mod tests;
+
+use serde::{Deserialize, Serialize};
+
+use crate::clock::Clock;
+use crate::error::{SyncError, SyncResult};
+
+pub use options::{AudioOptions, MAX_SAMPLE_RATE_HZ, MAX_TRACK_S, MAX_TRACKS, MIN_SAMPLE_RATE_HZ, MIN_TRACK_S};
+
+/// One camera's sound, mono, starting with the camera's first video frame (shift it by the
+/// stream's start before, if the sound and picture streams start apart).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AudioTrack {
+    /// The camera's name (for errors and the report).
+    pub camera: String,
+    /// Samples per second; every track of one call must share it (16 kHz is plenty).
+    pub sample_rate_hz: u32,
+    /// The samples, any scale.
+    pub samples: Vec<f32>,
+}
+
+/// One camera's clock found from its sound.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AudioClock {
+    /// The camera's name.
+    pub camera: String,
+    /// Maps the first track's time to this track's time.
+    pub clock: Clock,
+    /// How far to trust the clock, 0 to 1: the best confidence of the pairs that placed it,
+    /// lowered by their disagreement with the solution; below
+    /// [`AudioOptions::min_confidence`] when no reliable pair ties the camera to the first track
+    /// (the caller should warn and may prefer another method for it).
+    pub confidence: f64,
+    /// Reliable pairs with this camera used in the joint solve.
+    pub pairs_used: usize,
+}
+
+/// What one pair of tracks measured (for the report).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PairOffset {
+    /// Index of the first track of the pair in the input (and in [`AudioAlignment::cameras`]).
+    pub track_a: usize,
+    /// Index of the second track, greater than `track_a`.
+    pub track_b: usize,
+    /// Track b's time minus track a's time for the same sound, from the onset envelopes (s).
+    pub coarse_offset_s: f64,
+    /// Peak-to-sidelobe ratio of the envelope correlation (about 4 for unrelated sounds).
+    pub coarse_peak_ratio: f64,
+    /// The time in track a (s) at which `offset_s` holds: the middle of the windows used.
+    pub time_a_s: f64,
+    /// Track b's time minus track a's time for the same sound, at `time_a_s` (s).
+    pub offset_s: f64,
+    /// Seconds of track b per second of track a (1 when not measured).
+    pub rate_ratio: f64,
+    /// True when two or more windows of [`AudioOptions::drift_window_s`] measured the rate.
+    pub rate_measured: bool,
+    /// Windows whose GCC-PHAT peak agreed with the fitted line.
+    pub windows_used: usize,
+    /// Windows tried.
+    pub windows_total: usize,
+    /// How far to trust the measurement, 0 to 1.
+    pub confidence: f64,
+    /// True when the joint solve used this pair.
+    pub used: bool,
+    /// How far the solved clocks disagree with this measurement (s): the offset's difference,
+    /// or the rate's difference times half the measured span where that is larger.
+    pub residual_s: f64,
+}
+
+/// The clocks of all tracks and what each pair measured.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AudioAlignment {
+    /// One clock per input track, in input order; the first is [`Clock::SYNCHRONIZED`].
+    pub cameras: Vec<AudioClock>,
+    /// Every pair of tracks, `(0, 1), (0, 2), ..., (1, 2), ...`.
+    pub pairs: Vec<PairOffset>,
+}
+
+/// Finds each track's clock against the first track's from the sound they share (see the
+/// module's documentation for the method).
+///
+/// Errors: fewer than two tracks or more than [`MAX_TRACKS`]; an option out of range; a track
+/// with no samples, silence only, a non-finite sample, a sample rate outside
+/// [`MIN_SAMPLE_RATE_HZ`]..=[`MAX_SAMPLE_RATE_HZ`] or unlike the first track's, shorter than
+/// [`MIN_TRACK_S`] or longer than [`MAX_TRACK_S`] ([`SyncError::Camera`] naming it);
+/// [`SyncError::NoOverlap`] when no two tracks share a recognisable sound. A camera that shares
+/// none with the others still gets a clock, from its best pair, with a low confidence.
+///
+/// ```
+/// use dynview_sync::audio::{AudioOptions, AudioTrack, align_audio};
+///
+/// // A crowd's noise, heard by two phones; the second started 0.05 s before the first.
+/// let rate_hz = 16_000u32;
+/// let mut seed = 1u32;
+/// let crowd: Vec<f32> = (0..6 * rate_hz)
+///     .map(|_| {
+///         seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+///         (seed >> 8) as f32 / (1 << 24) as f32 - 0.5
+///     })
+///     .collect();
+/// let early = (0.05 * f64::from(rate_hz)) as usize;
+/// let tracks = [
+///     AudioTrack { camera: "first".into(), sample_rate_hz: rate_hz, samples: crowd[early..].to_vec() },
+///     AudioTrack { camera: "second".into(), sample_rate_hz: rate_hz, samples: crowd.clone() },
+/// ];
+/// let alignment = align_audio(&tracks, &AudioOptions::default())?;
+/// // A sound at time s of the first track is at 0.05 + s in the second.
+/// assert!((alignment.cameras[1].clock.start_s - 0.05).abs() < 1e-4);
+/// assert_eq!(alignment.cameras[1].clock.rate, 1.0);
+/// # Ok::<(), dynview_sync::SyncError>(())
+/// ```
+pub fn align_audio(tracks: &[AudioTrack], options: &AudioOptions) -> SyncResult<AudioAlignment> {
+    options.check()?;
+    input::check_tracks(tracks)?;
+    let sample_rate_hz = f64::from(tracks[0].sample_rate_hz);
+    let envelopes: Vec<_> = tracks.iter().map(|t| envelope::Envelope::from_samples(&t.samples, sample_rate_hz)).collect();
+    let mut fft = fft::FftWork::new();
+    let mut measured = Vec::new();
+    for a in 0..tracks.len() {
+        for b in a + 1..tracks.len() {
+            let pair = pair::PairInput {
+                a,
+                b,
+                samples_a: &tracks[a].samples,
+                samples_b: &tracks[b].samples,
+                envelope_a: &envelopes[a],
+                envelope_b: &envelopes[b],
+                sample_rate_hz,
+            };
+            measured.push(pair::measure_pair(&mut fft, &pair, options));
+        }
+    }
+    if !measured.iter().any(|p| p.confidence >= options.min_confidence && p.confidence > 0.0) {
+        let best = measured.iter().max_by(|p, q| p.confidence.total_cmp(&q.confidence));
+        let best = best.map_or(String::new(), |p| {
+            format!(" (best pair: {} and {}, confidence {:.2})", tracks[p.a].camera, tracks[p.b].camera, p.confidence)
+        });
+        return Err(SyncError::NoOverlap(format!(
+            "no two sound tracks share a recognisable sound within ±{} s with confidence {} or more{best}",
+            options.max_offset_s, options.min_confidence
+        )));
+    }
+    let names: Vec<String> = tracks.iter().map(|t| t.camera.clone()).collect();
+    let solution = solve::solve_clocks(&names, &measured, options)?;
+    let cameras = tracks
+        .iter()
+        .enumerate()
+        .map(|(c, track)| AudioClock {
+            camera: track.camera.clone(),
+            clock: solution.clocks[c],
+            confidence: solution.confidence[c],
+            pairs_used: solution.pairs_used[c],
+        })
+        .collect();
+    let pairs = measured
+        .iter()
+        .enumerate()
+        .map(|(p, m)| PairOffset {
+            track_a: m.a,
+            track_b: m.b,
+            coarse_offset_s: m.coarse_offset_s,
+            coarse_peak_ratio: m.coarse_peak_ratio,
+            time_a_s: m.time_a_s,
+            offset_s: m.offset_s,
+            rate_ratio: m.rate_ratio,
+            rate_measured: m.rate_measured,
+            windows_used: m.windows_used,
+            windows_total: m.windows_total,
+            confidence: m.confidence,
+            used: solution.used[p],
+            residual_s: solution.residual_s[p],
+        })
+        .collect();
+    Ok(AudioAlignment { cameras, pairs })
+}

@@ -1,0 +1,193 @@
+//! One pair of tracks: coarse lag, drift guess, then two passes of GCC-PHAT windows along the
+//! overlap, each following the line the one before found.
+
+use super::AudioOptions;
+use super::envelope::{self, Envelope};
+use super::fft::FftWork;
+use super::gcc::{self, Window, WindowLag};
+use super::line::{LagLine, robust_line};
+
+/// Shortest overlap of two tracks that is measured (s).
+pub(super) const MIN_OVERLAP_S: f64 = 1.0;
+/// How far the coarse lag may be off (s): a few envelope hops.
+const COARSE_TOLERANCE_S: f64 = 0.05;
+/// Segments of the drift guess farther than this from its line are outliers (s).
+const SEGMENT_TOLERANCE_S: f64 = 0.015;
+/// Search radius of the first pass around the drift guess (s).
+const FIRST_PASS_RADIUS_S: f64 = 0.025;
+/// Windows of the first pass farther than this from its line are outliers (s).
+const FIRST_PASS_TOLERANCE_S: f64 = 0.002;
+/// The first pass's windows are this fraction of [`AudioOptions::drift_window_s`]: short
+/// enough that the drift guess's error does not blur them.
+const FIRST_PASS_WINDOW_FRACTION: f64 = 0.25;
+/// Search radius of the second pass around the first pass's line (s).
+const SECOND_PASS_RADIUS_S: f64 = 0.003;
+/// Windows of the second pass farther than this from the final line are outliers (s).
+const SECOND_PASS_TOLERANCE_S: f64 = 0.0005;
+/// A window's GCC-PHAT peak counts from this peak-to-sidelobe ratio: unrelated sounds reach
+/// about 4 over the few hundred lags searched.
+const MIN_PEAK_RATIO: f64 = 7.0;
+/// A window's peak counts fully from this peak-to-sidelobe ratio.
+const FULL_PEAK_RATIO: f64 = 15.0;
+
+/// The two tracks of a pair and what was computed from them once per track.
+pub(super) struct PairInput<'a> {
+    /// Index of track a.
+    pub a: usize,
+    /// Index of track b.
+    pub b: usize,
+    /// Track a's samples.
+    pub samples_a: &'a [f32],
+    /// Track b's samples.
+    pub samples_b: &'a [f32],
+    /// Track a's onset envelope.
+    pub envelope_a: &'a Envelope,
+    /// Track b's onset envelope.
+    pub envelope_b: &'a Envelope,
+    /// The tracks' sample rate.
+    pub sample_rate_hz: f64,
+}
+
+/// What a pair measured; see [`super::PairOffset`] for the fields.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct PairMeasurement {
+    pub a: usize,
+    pub b: usize,
+    pub coarse_offset_s: f64,
+    pub coarse_peak_ratio: f64,
+    pub time_a_s: f64,
+    pub offset_s: f64,
+    pub rate_ratio: f64,
+    pub rate_measured: bool,
+    /// Time in track a from the first to the last window used (s).
+    pub span_s: f64,
+    pub windows_used: usize,
+    pub windows_total: usize,
+    pub confidence: f64,
+}
+
+/// Measures the pair's offset and rate ratio (confidence 0 when nothing was found).
+pub(super) fn measure_pair(fft: &mut FftWork, pair: &PairInput<'_>, options: &AudioOptions) -> PairMeasurement {
+    let rate_hz = pair.sample_rate_hz;
+    let duration_a_s = pair.samples_a.len() as f64 / rate_hz;
+    let duration_b_s = pair.samples_b.len() as f64 / rate_hz;
+    let max_drift_s = options.max_rate_deviation * duration_a_s.min(duration_b_s);
+    let coarse = envelope::coarse_lag(fft, pair.envelope_a, pair.envelope_b, options.max_offset_s, MIN_OVERLAP_S, max_drift_s);
+    let coarse_offset_s = coarse.map_or(0.0, |c| c.lag_s);
+    let mut result = PairMeasurement {
+        a: pair.a,
+        b: pair.b,
+        coarse_offset_s,
+        coarse_peak_ratio: coarse.map_or(0.0, |c| c.peak_ratio),
+        time_a_s: 0.0,
+        offset_s: coarse_offset_s,
+        rate_ratio: 1.0,
+        rate_measured: false,
+        span_s: 0.0,
+        windows_used: 0,
+        windows_total: 0,
+        confidence: 0.0,
+    };
+    if coarse.is_none() {
+        return result;
+    }
+
+    // Drift guess from envelope segments.
+    let flat = LagLine { time_a_s: 0.0, lag_s: coarse_offset_s, slope: 0.0 };
+    let (start_a_s, end_a_s) = overlap_in_a(&flat, duration_a_s, duration_b_s);
+    result.time_a_s = 0.5 * (start_a_s + end_a_s);
+    if end_a_s - start_a_s < MIN_OVERLAP_S {
+        return result;
+    }
+    let segments =
+        envelope::segment_lags(pair.envelope_a, pair.envelope_b, start_a_s, end_a_s, coarse_offset_s, COARSE_TOLERANCE_S + max_drift_s);
+    let guess = robust_line(&segments, SEGMENT_TOLERANCE_S, options.max_rate_deviation).filter(|fit| fit.inlier_count >= 2);
+    let (guess, guess_radius_s) = match guess {
+        Some(fit) => (fit.line, FIRST_PASS_RADIUS_S),
+        None => (LagLine { time_a_s: result.time_a_s, ..flat }, FIRST_PASS_RADIUS_S + 0.5 * max_drift_s),
+    };
+
+    // First pass: short windows around the guess.
+    let (start_a_s, end_a_s) = overlap_in_a(&guess, duration_a_s, duration_b_s);
+    result.windows_total = windows_count(end_a_s - start_a_s, options.drift_window_s, options.max_windows_per_pair);
+    let short_s = (options.drift_window_s * FIRST_PASS_WINDOW_FRACTION).max(MIN_OVERLAP_S);
+    let first = measure_windows(fft, pair, options, (start_a_s, end_a_s), short_s, guess_radius_s, &guess);
+    let first: Vec<(f64, f64)> = first.iter().map(|w| (w.time_a_s, w.lag_s)).collect();
+    let first_fit = robust_line(&first, FIRST_PASS_TOLERANCE_S, options.max_rate_deviation).filter(|fit| fit.inlier_count >= 1);
+    let Some(first_fit) = first_fit else { return result };
+    let (first_line, second_radius_s) = if first_fit.inlier_count >= 2 {
+        (first_fit.line, SECOND_PASS_RADIUS_S)
+    } else {
+        (LagLine { slope: guess.slope, ..first_fit.line }, SECOND_PASS_RADIUS_S + 0.5 * max_drift_s)
+    };
+
+    // Second pass: full windows following the first pass's line.
+    let (start_a_s, end_a_s) = overlap_in_a(&first_line, duration_a_s, duration_b_s);
+    let second = measure_windows(fft, pair, options, (start_a_s, end_a_s), options.drift_window_s, second_radius_s, &first_line);
+    let windows_total = windows_count(end_a_s - start_a_s, options.drift_window_s, options.max_windows_per_pair);
+    let points: Vec<(f64, f64)> = second.iter().map(|w| (w.time_a_s, w.lag_s)).collect();
+    let Some(fit) = robust_line(&points, SECOND_PASS_TOLERANCE_S, options.max_rate_deviation) else {
+        return PairMeasurement { windows_total, ..result };
+    };
+    let used: Vec<&WindowLag> = second.iter().zip(&fit.inliers).filter(|(_, inlier)| **inlier).map(|(w, _)| w).collect();
+    let mut strengths: Vec<f64> =
+        used.iter().map(|w| ((w.peak_ratio - MIN_PEAK_RATIO) / (FULL_PEAK_RATIO - MIN_PEAK_RATIO)).clamp(0.0, 1.0)).collect();
+    strengths.sort_by(f64::total_cmp);
+    let median_strength = strengths.get(strengths.len().saturating_sub(1) / 2).copied().unwrap_or(0.0);
+    let times = used.iter().map(|w| w.time_a_s);
+    let span_s = times.clone().fold(f64::NEG_INFINITY, f64::max) - times.fold(f64::INFINITY, f64::min);
+    let rate_measured = fit.inlier_count >= 2;
+    PairMeasurement {
+        time_a_s: fit.line.time_a_s,
+        offset_s: fit.line.lag_s,
+        rate_ratio: if rate_measured { 1.0 + fit.line.slope } else { 1.0 },
+        rate_measured,
+        span_s: if span_s.is_finite() { span_s } else { 0.0 },
+        windows_used: fit.inlier_count,
+        windows_total,
+        confidence: fit.inlier_count as f64 / windows_total.max(1) as f64 * median_strength,
+        ..result
+    }
+}
+
+/// The stretch of track a's time (s) whose sound track b also holds under `line`.
+fn overlap_in_a(line: &LagLine, duration_a_s: f64, duration_b_s: f64) -> (f64, f64) {
+    // b's time t + lag(t) = (1 + slope) t + lag_s - slope * time_a_s must lie in [0, duration_b].
+    let rate = 1.0 + line.slope;
+    let intercept = line.lag_s - line.slope * line.time_a_s;
+    let start = ((0.0 - intercept) / rate).max(0.0);
+    let end = ((duration_b_s - intercept) / rate).min(duration_a_s);
+    (start, end.max(start))
+}
+
+/// Windows of `length_s` that fit in `overlap_s`: as many as tile it, at least one, at most
+/// `max_windows`.
+fn windows_count(overlap_s: f64, length_s: f64, max_windows: usize) -> usize {
+    ((overlap_s / length_s).floor().max(1.0) as usize).min(max_windows)
+}
+
+/// GCC-PHAT lags of windows of `length_s` (the overlap's length if shorter) spread evenly over
+/// `(start_a_s, end_a_s)`, searched within `radius_s` of `line`; only clear peaks.
+fn measure_windows(
+    fft: &mut FftWork,
+    pair: &PairInput<'_>,
+    options: &AudioOptions,
+    (start_a_s, end_a_s): (f64, f64),
+    length_s: f64,
+    radius_s: f64,
+    line: &LagLine,
+) -> Vec<WindowLag> {
+    let overlap_s = end_a_s - start_a_s;
+    if overlap_s < MIN_OVERLAP_S {
+        return Vec::new();
+    }
+    let count = windows_count(overlap_s, length_s, options.max_windows_per_pair);
+    let length_s = length_s.min(overlap_s);
+    (0..count)
+        .filter_map(|k| {
+            let window = Window { centre_a_s: start_a_s + (k as f64 + 0.5) * overlap_s / count as f64, length_s, radius_s };
+            gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, &window, line)
+        })
+        .filter(|w| w.peak_ratio >= MIN_PEAK_RATIO)
+        .collect()
+}
