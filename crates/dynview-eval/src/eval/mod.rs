@@ -10,3 +10,4 @@ pub mod plane_view;
 pub mod real;
 pub mod scoring;
 pub mod synthetic;
+pub mod unsync_synthetic;

@@ -49,6 +49,11 @@ pub struct Options {
     /// own, named after the arguments.
     #[arg(long = "prep-arg", allow_hyphen_values = true)]
     pub prep_args: Vec<String>,
+    /// Instead of the tables: the event filmed by unsynchronized phones, aligned by prep from
+    /// the pictures and from the sound, against the synchronized event
+    /// (`unsync_synthetic.md`).
+    #[arg(long)]
+    pub unsync: bool,
 }
 
 impl Options {

@@ -19,6 +19,9 @@ use crate::eval::scoring::{Options, Row, Sequence, VIDEOS_DIR, evaluate_method};
 /// The evaluation: renders, scores, and writes `eval.md` and `eval_strip.png` into
 /// `options.out` when every method was run.
 pub fn run(mut options: Options) -> anyhow::Result<()> {
+    if options.unsync {
+        return crate::eval::unsync_synthetic::run(&options);
+    }
     if options.methods.is_empty() {
         options.methods = Method::ALL.to_vec();
     }
@@ -92,7 +95,8 @@ pub fn run(mut options: Options) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn load_sequence(event: &Path, path_file: &str, folder: &str, frames: usize) -> anyhow::Result<Sequence> {
+/// The held-out path `path_file` of `event` and its first `frames` ground-truth frames.
+pub(crate) fn load_sequence(event: &Path, path_file: &str, folder: &str, frames: usize) -> anyhow::Result<Sequence> {
     let path = parse_path(&fs::read(event.join(path_file))?, path_file, None)?;
     let truth = (0..frames)
         .map(|t| {
