@@ -38,6 +38,8 @@
 //!   (the portrait camera with its portrait intrinsics); the held-out cameras, the clouds and
 //!   the scene package stay on the synchronized timeline, rendered at the time steps.
 
+mod error;
+mod files;
 mod record;
 pub mod render;
 pub mod rig;
@@ -50,10 +52,9 @@ mod write;
 #[cfg(test)]
 mod write_tests;
 
-use std::path::{Path, PathBuf};
-
 use serde::{Deserialize, Serialize};
 
+pub use error::SynthError;
 pub use video::ffmpeg_available;
 pub use write::generate;
 
@@ -113,57 +114,6 @@ impl Default for SynthConfig {
             layout: rig::Layout::default(),
             unsync: None,
         }
-    }
-}
-
-/// Errors of synthetic generation.
-#[derive(Debug, thiserror::Error)]
-pub enum SynthError {
-    /// A configuration value is out of range.
-    #[error("synth option `{field}`: {problem}")]
-    Config {
-        /// The option.
-        field: &'static str,
-        /// What is wrong.
-        problem: String,
-    },
-    /// Writing a file failed.
-    #[error("{path}: {source}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The underlying error.
-        #[source]
-        source: std::io::Error,
-    },
-    /// Encoding an image failed.
-    #[error("{path}: {source}")]
-    Image {
-        /// The file.
-        path: PathBuf,
-        /// The underlying error.
-        #[source]
-        source: image::ImageError,
-    },
-    /// Writing the scene package failed.
-    #[error(transparent)]
-    Scene(#[from] dynview_core::scene::SceneError),
-    /// The output folder could not be staged or replaced.
-    #[error(transparent)]
-    Stage(#[from] dynview_core::fsutil::StageError),
-    /// ffmpeg failed on a camera's frames.
-    #[error("ffmpeg failed for camera {camera}: {message}")]
-    Video {
-        /// The camera.
-        camera: String,
-        /// ffmpeg's complaint.
-        message: String,
-    },
-}
-
-impl SynthError {
-    pub(crate) fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Self + '_ {
-        move |source| Self::Io { path: path.to_path_buf(), source }
     }
 }
 

@@ -6,12 +6,12 @@ use std::path::Path;
 
 use dynview_core::StageProgress;
 
+use crate::files::write_json;
 use crate::rig::{LOOK_AT, Rig};
 use crate::scene::Object;
 use crate::sound::{EventSound, SAMPLE_RATE_HZ, SPEED_OF_SOUND_M_S};
 use crate::unsync::{CameraTiming, FrameTimes, PORTRAIT_ROTATION_DEG, Recording, SoundArrival, TimeAlignment, UNSYNC_DIR};
 use crate::video::encode_recording;
-use crate::write::write_json;
 use crate::{SynthConfig, SynthError};
 
 /// What `time_alignment.timeline` says.

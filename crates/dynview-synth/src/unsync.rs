@@ -15,8 +15,8 @@ use serde::{Deserialize, Serialize};
 
 use dynview_core::{Camera, Intrinsics};
 
+use crate::error::SynthError;
 use crate::sound::SoundEvent;
-use crate::{SynthConfig, SynthError};
 
 /// Ticks per second of the variable-frame-rate camera's timestamps (the 90 kHz of MPEG): its
 /// frame times are whole ticks, which its video stores exactly.
@@ -186,18 +186,19 @@ impl Recording {
     }
 }
 
-/// Every input camera's recording of the event of `config` (validated) under `unsync`: frames
+/// Every input camera's recording of an event of `cameras` cameras and `duration_s` (a validated
+/// configuration, its `seed`) under `unsync`: frames
 /// from video time 0 until `tail_s` after the event's end, at the nominal rate or, for the
 /// variable-frame-rate camera, at jittered intervals in whole 90 kHz ticks drawn from the seed.
-pub fn recordings(config: &SynthConfig, unsync: &UnsyncConfig) -> Vec<Recording> {
-    let mut rng = SmallRng::seed_from_u64(config.seed ^ 0x0FF5_E75E_ED00_0002);
-    (0..config.cameras)
+pub fn recordings(seed: u64, cameras: usize, duration_s: f64, unsync: &UnsyncConfig) -> Vec<Recording> {
+    let mut rng = SmallRng::seed_from_u64(seed ^ 0x0FF5_E75E_ED00_0002);
+    (0..cameras)
         .map(|c| {
             let fps = unsync.fps[c];
             let start_s = unsync.start_offsets_s[c];
             let rate = if unsync.drift_camera == Some(c) { 1.0 + unsync.drift_ms_per_min / 60_000.0 } else { 1.0 };
             let vfr = unsync.vfr_camera == Some(c);
-            let end_s = start_s + rate * config.duration_s() + unsync.tail_s[c];
+            let end_s = start_s + rate * duration_s + unsync.tail_s[c];
             let mut video_times_s = Vec::new();
             if vfr {
                 let mut ticks: u64 = 0;
@@ -304,6 +305,7 @@ pub struct SoundArrival {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::SynthConfig;
     use crate::rig::{LOOK_AT, Rig};
 
     fn event() -> SynthConfig {
@@ -315,7 +317,7 @@ mod tests {
         let config = event();
         let unsync = UnsyncConfig::phones(config.cameras, config.fps, 7);
         unsync.validate(config.cameras).unwrap();
-        let recordings = recordings(&config, &unsync);
+        let recordings = recordings(config.seed, config.cameras, config.duration_s(), &unsync);
         for (c, r) in recordings.iter().enumerate() {
             assert!(r.start_s > 0.0 && r.start_s <= PHONES_MAX_START_S, "{c}: {}", r.start_s);
             let frac = (r.start_s * r.fps).fract();

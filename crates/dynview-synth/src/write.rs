@@ -19,6 +19,7 @@ use dynview_core::{Camera, RgbRaster, Rigid3, StageProgress};
 use dynview_interchange::camera_path::NerfstudioPath;
 use dynview_interchange::colmap::{ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
 
+use crate::files::write_json;
 use crate::record::write_recordings;
 use crate::render::{View, render_view};
 use crate::rig::{Heldout, Rig};
@@ -112,7 +113,8 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: StageProgress) -
     let rig =
         Rig::with_layout(config.cameras, config.width, config.height, config.handheld, config.seed, config.duration_s(), &config.layout);
     let names: Vec<String> = (0..config.cameras).map(SynthConfig::camera_name).collect();
-    let recordings: Option<Vec<Recording>> = config.unsync.as_ref().map(|u| recordings(config, u));
+    let recordings: Option<Vec<Recording>> =
+        config.unsync.as_ref().map(|u| recordings(config.seed, config.cameras, config.duration_s(), u));
     // The time steps' input views: the input frames, or with unsynchronized cameras (whose own
     // frames are the input) only the scene package's.
     let step_root = if recordings.is_some() { root.join(STEP_FRAMES_DIR) } else { root.join("input") };
@@ -265,12 +267,6 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: StageProgress) -
     write_json(&root.join(SYNTH_MARKER), &report)?;
     staged.commit()?;
     Ok(report)
-}
-
-pub(crate) fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), SynthError> {
-    let text =
-        serde_json::to_string_pretty(value).map_err(|e| SynthError::Io { path: path.to_path_buf(), source: std::io::Error::other(e) })?;
-    write_atomic(path, text.as_bytes()).map_err(SynthError::io(path))
 }
 
 /// What the ground-truth COLMAP model lists for one input camera.

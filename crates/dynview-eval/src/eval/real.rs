@@ -13,7 +13,7 @@
 mod report;
 mod run;
 pub mod scores;
-mod unsync;
+pub mod unsync;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -50,18 +50,7 @@ const STRIP_PANEL_WIDTH_PX: u32 = 320;
 /// The leave-one-out evaluation: writes `real.md` and one strip per held-out camera into
 /// `options.out`.
 pub fn run(options: Options) -> anyhow::Result<()> {
-    let captures = if options.capture.is_empty() { RealCapture::ALL.to_vec() } else { options.capture.clone() };
-    let work = workspace_root().join(work_folder(&options.prep_args));
-    let mut known = Vec::new();
-    for &capture in &captures {
-        known.extend(capture.cameras()?);
-    }
-    if let Some(unknown) = options.held_out.iter().find(|c| !known.contains(c)) {
-        bail!("--held-out {unknown}: no such camera in {}", captures.iter().map(|c| c.label()).collect::<Vec<_>>().join(", "));
-    }
-    if options.unsync {
-        return run_unsync(&options, &captures, &work);
-    }
+    let (captures, work) = captures_and_work(&options)?;
     for capture in captures {
         let held_out = held_out_cameras(capture, &options.held_out)?;
         if held_out.is_empty() {
@@ -91,42 +80,24 @@ pub fn run(options: Options) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The `--unsync` evaluation of the Panoptic arcs among `captures`: writes `unsync.md`.
-fn run_unsync(options: &Options, captures: &[RealCapture], work: &Path) -> anyhow::Result<()> {
-    let arcs: Vec<RealCapture> = captures.iter().copied().filter(|c| *c != RealCapture::Pose2sim).collect();
-    let section_of = |capture: RealCapture| work.join(capture.label()).join("unsync_section.md");
-    for &capture in &arcs {
-        let held_out = held_out_cameras(capture, &options.held_out)?;
-        if held_out.is_empty() {
-            continue;
-        }
-        let section = unsync::evaluate(capture, options, &work.join(capture.label()), &held_out)?;
-        println!("\n{section}");
-        let path = section_of(capture);
-        dynview_core::fsutil::write_atomic(&path, section.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+/// The captures `options` names (all when none) and the work folder, once every `--held-out`
+/// camera is known to one of them.
+pub(crate) fn captures_and_work(options: &Options) -> anyhow::Result<(Vec<RealCapture>, PathBuf)> {
+    let captures = if options.capture.is_empty() { RealCapture::ALL.to_vec() } else { options.capture.clone() };
+    let work = workspace_root().join(work_folder(&options.prep_args));
+    let mut known = Vec::new();
+    for &capture in &captures {
+        known.extend(capture.cameras()?);
     }
-    let mut report = String::from(
-        "# Unsynchronized cameras on real captures\n\nThe Panoptic arcs cut apart as hand-started phones would film them, put back together by `dynview prep` \
-         from the pictures (issue 34). Reproduce: `cargo xtask eval --real --unsync` (add `--capture panoptic --held-out cam08` for one).\n\n",
-    );
-    for capture in [RealCapture::Panoptic, RealCapture::PanopticArc2] {
-        match std::fs::read_to_string(section_of(capture)) {
-            Ok(section) => report.push_str(&section),
-            Err(_) => {
-                let _ = writeln!(report, "## {}\n\nNot evaluated in this run.\n", capture.label());
-            }
-        }
+    if let Some(unknown) = options.held_out.iter().find(|c| !known.contains(c)) {
+        bail!("--held-out {unknown}: no such camera in {}", captures.iter().map(|c| c.label()).collect::<Vec<_>>().join(", "));
     }
-    std::fs::create_dir_all(&options.out)?;
-    let path = options.out.join("unsync.md");
-    dynview_core::fsutil::write_atomic(&path, report.as_bytes())?;
-    println!("wrote {}", path.display());
-    Ok(())
+    Ok((captures, work))
 }
 
 /// The cameras of `capture` to leave out: its interior ones, or those of `requested` it has
 /// (none when it has none of them).
-fn held_out_cameras(capture: RealCapture, requested: &[String]) -> anyhow::Result<Vec<String>> {
+pub(crate) fn held_out_cameras(capture: RealCapture, requested: &[String]) -> anyhow::Result<Vec<String>> {
     if requested.is_empty() {
         return capture.held_out();
     }

@@ -2,13 +2,15 @@
 //! [`super::synthetic`], those from `dynview prep`'s packages in [`super::pipeline`]): the
 //! options, the held-out sequences, and one method rendered along them and scored.
 
-use std::path::PathBuf;
+use std::fs;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use anyhow::Context;
 use dynview_core::metrics::{flicker, psnr, ssim};
 use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer, TimeStepInputs};
 use dynview_core::{RgbRaster, ScalarRaster};
-use dynview_interchange::camera_path::PathFrame;
+use dynview_interchange::camera_path::{PathFrame, parse_path};
 
 use crate::paths::{results_dir, workspace_root};
 
@@ -150,4 +152,17 @@ pub fn render_sequence(
         out.push((output.color, output.depth));
     }
     Ok((out, start.elapsed().as_secs_f64() * 1000.0 / path.len().max(1) as f64))
+}
+
+/// The held-out path `path_file` of `event` and its first `frames` ground-truth frames.
+pub fn load_sequence(event: &Path, path_file: &str, folder: &str, frames: usize) -> anyhow::Result<Sequence> {
+    let path = parse_path(&fs::read(event.join(path_file))?, path_file, None)?;
+    let truth = (0..frames)
+        .map(|t| {
+            let file = event.join(folder).join("color").join(format!("{t:05}.png"));
+            let img = image::open(&file).with_context(|| format!("reading {}", file.display()))?;
+            Ok(RgbRaster::from_rgb8(&img.to_rgb8()))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    Ok((path.into_iter().take(frames).collect(), truth))
 }

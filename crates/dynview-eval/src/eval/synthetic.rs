@@ -9,12 +9,11 @@ use anyhow::{Context, bail};
 use dynview_core::render::{Method, TimeStepInputs};
 use dynview_core::scene::ScenePackage;
 use dynview_core::{RgbRaster, ScalarRaster};
-use dynview_interchange::camera_path::parse_path;
 use dynview_synth::SynthConfig;
 
 use crate::datasets::sfm::layout_config;
 use crate::eval::pipeline::{TRUE_POSES, markdown_section, run as run_pipeline};
-use crate::eval::scoring::{Options, Row, Sequence, VIDEOS_DIR, evaluate_method};
+use crate::eval::scoring::{Options, Row, VIDEOS_DIR, evaluate_method, load_sequence};
 
 /// The evaluation: renders, scores, and writes `eval.md` and `eval_strip.png` into
 /// `options.out` when every method was run.
@@ -93,19 +92,6 @@ pub fn run(mut options: Options) -> anyhow::Result<()> {
     write_strip(&options.out.join("eval_strip.png"), &moving.1[strip_frame], &strips)?;
     println!("wrote {} and {}", options.out.join("eval.md").display(), options.out.join("eval_strip.png").display());
     Ok(())
-}
-
-/// The held-out path `path_file` of `event` and its first `frames` ground-truth frames.
-pub(crate) fn load_sequence(event: &Path, path_file: &str, folder: &str, frames: usize) -> anyhow::Result<Sequence> {
-    let path = parse_path(&fs::read(event.join(path_file))?, path_file, None)?;
-    let truth = (0..frames)
-        .map(|t| {
-            let file = event.join(folder).join("color").join(format!("{t:05}.png"));
-            let img = image::open(&file).with_context(|| format!("reading {}", file.display()))?;
-            Ok(RgbRaster::from_rgb8(&img.to_rgb8()))
-        })
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    Ok((path.into_iter().take(frames).collect(), truth))
 }
 
 fn markdown_table(rows: &[Row], frames: usize, config: &SynthConfig) -> String {

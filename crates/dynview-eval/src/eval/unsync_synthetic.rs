@@ -19,8 +19,7 @@ use dynview_synth::unsync::{TimeAlignment, UnsyncConfig};
 use dynview_synth::{SYNTH_MARKER, SynthConfig, SynthReport};
 use serde::Deserialize;
 
-use crate::eval::scoring::{Options, VIDEOS_DIR, render_sequence};
-use crate::eval::synthetic::load_sequence;
+use crate::eval::scoring::{Options, VIDEOS_DIR, load_sequence, render_sequence};
 use crate::runs::prep::prep_once;
 use crate::runs::programs::dynview_binary;
 

@@ -1,8 +1,21 @@
 //! Checks of the tracks before any work: every problem is an error naming the camera.
 
-use super::AudioTrack;
+use serde::{Deserialize, Serialize};
+
 use super::options::{MAX_SAMPLE_RATE_HZ, MAX_TRACK_S, MAX_TRACKS, MIN_SAMPLE_RATE_HZ, MIN_TRACK_S};
 use crate::error::{SyncError, SyncResult};
+
+/// One camera's sound, mono, starting with the camera's first video frame (shift it by the
+/// stream's start before, if the sound and picture streams start apart).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AudioTrack {
+    /// The camera's name (for errors and the report).
+    pub camera: String,
+    /// Samples per second; every track of one call must share it (16 kHz is plenty).
+    pub sample_rate_hz: u32,
+    /// The samples, any scale.
+    pub samples: Vec<f32>,
+}
 
 /// A track whose samples all lie within this of their mean is silent (about -120 dB of a
 /// full-scale ±1 signal).

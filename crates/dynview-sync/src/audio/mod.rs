@@ -20,6 +20,8 @@
 //! gets the clock that maps track-0 time to track-`c` time (a sound heard at `s0` in track 0 is
 //! heard at `start_s + rate * s0` in track `c`).
 
+pub use input::AudioTrack;
+
 mod envelope;
 mod fft;
 mod gcc;
@@ -40,18 +42,6 @@ use crate::clock::Clock;
 use crate::error::{SyncError, SyncResult};
 
 pub use options::{AudioOptions, MAX_SAMPLE_RATE_HZ, MAX_TRACK_S, MAX_TRACKS, MIN_SAMPLE_RATE_HZ, MIN_TRACK_S};
-
-/// One camera's sound, mono, starting with the camera's first video frame (shift it by the
-/// stream's start before, if the sound and picture streams start apart).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct AudioTrack {
-    /// The camera's name (for errors and the report).
-    pub camera: String,
-    /// Samples per second; every track of one call must share it (16 kHz is plenty).
-    pub sample_rate_hz: u32,
-    /// The samples, any scale.
-    pub samples: Vec<f32>,
-}
 
 /// One camera's clock found from its sound.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

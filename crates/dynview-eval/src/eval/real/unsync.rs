@@ -15,7 +15,7 @@ use anyhow::{Context, bail};
 use serde::Deserialize;
 
 use super::run::Options;
-use super::{Prepared, Steps, evaluate_camera, open};
+use super::{Prepared, Steps, captures_and_work, evaluate_camera, held_out_cameras, open};
 use crate::datasets::real_captures::RealCapture;
 use crate::runs::prep::prep_once;
 
@@ -59,8 +59,44 @@ struct CameraTiming {
     confidence: f64,
 }
 
+/// The `--unsync` evaluation of the Panoptic arcs among the captures `options` names: writes
+/// `unsync.md`.
+pub fn run(options: Options) -> anyhow::Result<()> {
+    let (captures, work) = captures_and_work(&options)?;
+    let options = &options;
+    let arcs: Vec<RealCapture> = captures.iter().copied().filter(|c| *c != RealCapture::Pose2sim).collect();
+    let section_of = |capture: RealCapture| work.join(capture.label()).join("unsync_section.md");
+    for &capture in &arcs {
+        let held_out = held_out_cameras(capture, &options.held_out)?;
+        if held_out.is_empty() {
+            continue;
+        }
+        let section = evaluate(capture, options, &work.join(capture.label()), &held_out)?;
+        println!("\n{section}");
+        let path = section_of(capture);
+        dynview_core::fsutil::write_atomic(&path, section.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+    }
+    let mut report = String::from(
+        "# Unsynchronized cameras on real captures\n\nThe Panoptic arcs cut apart as hand-started phones would film them, put back together by `dynview prep` \
+         from the pictures (issue 34). Reproduce: `cargo xtask eval --real --unsync` (add `--capture panoptic --held-out cam08` for one).\n\n",
+    );
+    for capture in [RealCapture::Panoptic, RealCapture::PanopticArc2] {
+        match std::fs::read_to_string(section_of(capture)) {
+            Ok(section) => report.push_str(&section),
+            Err(_) => {
+                let _ = writeln!(report, "## {}\n\nNot evaluated in this run.\n", capture.label());
+            }
+        }
+    }
+    std::fs::create_dir_all(&options.out)?;
+    let path = options.out.join("unsync.md");
+    dynview_core::fsutil::write_atomic(&path, report.as_bytes())?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
 /// Scores the unsynchronized runs of `capture` for `held_out`; returns the report's section.
-pub(super) fn evaluate(capture: RealCapture, options: &Options, root: &Path, held_out: &[String]) -> anyhow::Result<String> {
+fn evaluate(capture: RealCapture, options: &Options, root: &Path, held_out: &[String]) -> anyhow::Result<String> {
     if capture == RealCapture::Pose2sim {
         bail!("--unsync: Pose2Sim's four cameras leave three when one is held out; the Panoptic arcs are evaluated");
     }
