@@ -8,6 +8,23 @@ use serde::Deserialize;
 
 use crate::error::{SfmError, SfmResult};
 
+/// Runs `ffprobe -v error <args> -of json <video>` and reads its answer as `T`; errors name the
+/// file and say what the answer was `needed_for`.
+fn ffprobe_json<T: serde::de::DeserializeOwned>(video: &Path, args: &[&str], needed_for: &str) -> SfmResult<T> {
+    let decode = |problem: String| SfmError::Decode { path: video.to_path_buf(), problem };
+    let output = Command::new("ffprobe")
+        .args(["-v", "error"])
+        .args(args)
+        .args(["-of", "json"])
+        .arg(video)
+        .output()
+        .map_err(|e| decode(format!("running ffprobe (needed {needed_for}): {e}")))?;
+    if !output.status.success() {
+        return Err(decode(format!("ffprobe: {}", String::from_utf8_lossy(&output.stderr).trim())));
+    }
+    serde_json::from_slice(&output.stdout).map_err(|e| decode(format!("ffprobe's answer: {e}")))
+}
+
 #[derive(Deserialize)]
 struct Probe {
     #[serde(default)]
@@ -24,15 +41,7 @@ struct ProbeStream {
 /// when the file has no sound, `Err` when ffprobe is missing or cannot read the file.
 pub(crate) fn stream_starts(video: &Path) -> SfmResult<(f64, Option<f64>)> {
     let decode = |problem: String| SfmError::Decode { path: video.to_path_buf(), problem };
-    let output = Command::new("ffprobe")
-        .args(["-v", "error", "-show_entries", "stream=codec_type,start_time", "-of", "json"])
-        .arg(video)
-        .output()
-        .map_err(|e| decode(format!("running ffprobe (needed to read the sound): {e}")))?;
-    if !output.status.success() {
-        return Err(decode(format!("ffprobe: {}", String::from_utf8_lossy(&output.stderr).trim())));
-    }
-    let probe: Probe = serde_json::from_slice(&output.stdout).map_err(|e| decode(format!("ffprobe's answer: {e}")))?;
+    let probe: Probe = ffprobe_json(video, &["-show_entries", "stream=codec_type,start_time"], "to read the sound")?;
     let start = |kind: &str| {
         probe
             .streams
@@ -68,15 +77,8 @@ struct TimeBase {
 /// timestamp, a bad time base.
 pub fn frame_times_s(video: &Path) -> SfmResult<Vec<f64>> {
     let decode = |problem: String| SfmError::Decode { path: video.to_path_buf(), problem };
-    let output = Command::new("ffprobe")
-        .args(["-v", "error", "-select_streams", "v:0", "-show_entries", "packet=pts:stream=time_base", "-of", "json"])
-        .arg(video)
-        .output()
-        .map_err(|e| decode(format!("running ffprobe (needed for the frames' timestamps): {e}")))?;
-    if !output.status.success() {
-        return Err(decode(format!("ffprobe: {}", String::from_utf8_lossy(&output.stderr).trim())));
-    }
-    let probe: PacketProbe = serde_json::from_slice(&output.stdout).map_err(|e| decode(format!("ffprobe's answer: {e}")))?;
+    let probe: PacketProbe =
+        ffprobe_json(video, &["-select_streams", "v:0", "-show_entries", "packet=pts:stream=time_base"], "for the frames' timestamps")?;
     let base = probe.streams.first().map(|s| s.time_base.as_str()).unwrap_or("");
     let seconds_per_tick = base
         .split_once('/')
@@ -115,15 +117,11 @@ struct SideData {
 /// 270 degrees): the display matrix a phone writes, else the older `rotate` tag (clockwise).
 pub fn display_rotation_ccw_deg(video: &Path) -> SfmResult<u32> {
     let decode = |problem: String| SfmError::Decode { path: video.to_path_buf(), problem };
-    let output = Command::new("ffprobe")
-        .args(["-v", "error", "-select_streams", "v:0", "-show_entries", "stream_side_data=rotation:stream_tags=rotate", "-of", "json"])
-        .arg(video)
-        .output()
-        .map_err(|e| decode(format!("running ffprobe (needed for the video's orientation): {e}")))?;
-    if !output.status.success() {
-        return Err(decode(format!("ffprobe: {}", String::from_utf8_lossy(&output.stderr).trim())));
-    }
-    let probe: RotationProbe = serde_json::from_slice(&output.stdout).map_err(|e| decode(format!("ffprobe's answer: {e}")))?;
+    let probe: RotationProbe = ffprobe_json(
+        video,
+        &["-select_streams", "v:0", "-show_entries", "stream_side_data=rotation:stream_tags=rotate"],
+        "for the video's orientation",
+    )?;
     let Some(stream) = probe.streams.first() else { return Ok(0) };
     let ccw = stream
         .side_data_list
