@@ -28,6 +28,10 @@ pub mod visual;
 
 /// Frames per second of image folders and of the timeline when nothing else says.
 pub const DEFAULT_FPS: f64 = 30.0;
+/// The revision of the visual alignment, part of its work-folder key: a work folder aligned
+/// by an earlier revision aligns again. 2: the sub-frame refinement in seconds from the frames'
+/// real times (variable rates), both neighbour frames in one fit.
+pub const VISUAL_SYNC_REVISION: u32 = 2;
 /// Below this confidence a camera's clock is named in a warning.
 pub const LOW_CONFIDENCE: f64 = 0.3;
 
@@ -340,8 +344,14 @@ impl Found<'_> {
         let Some(calibration) = self.calibration else {
             return Err(SfmError::TimeAlignment("--sync visual needs the cameras placed: give --poses (a calibration)".into()));
         };
-        let key =
-            ("visual sync", self.recorded.iter().map(|r| &r.frames).collect::<Vec<_>>(), self.times, calibration, &self.options.visual);
+        let key = (
+            "visual sync",
+            VISUAL_SYNC_REVISION,
+            self.recorded.iter().map(|r| &r.frames).collect::<Vec<_>>(),
+            self.times,
+            calibration,
+            &self.options.visual,
+        );
         let file = "time/visual.json";
         let (clocks, confidence, pairs): (Vec<Clock>, Vec<f64>, Vec<PairOffset>) = if self.work.is_done("time/visual", &key) {
             self.work.read_json(file)?

@@ -330,13 +330,11 @@ fn pair_offset_stepping_by_b(views: &[View], a: usize, b: usize, options: &Visua
     let near_bins = ((NEAR_OFFSET_S / frame_b_s).ceil() as usize).max(2);
     let runner_up = votes.iter().enumerate().filter(|(bin, _)| bin.abs_diff(winner) > near_bins).map(|(_, c)| *c).max().unwrap_or(0);
     let confidence = 1.0 - runner_up as f64 / count as f64;
-    let coarse = (winner as i64 - bins) as f64 * frame_b_s;
-    let fine = sub_frame(va, vb, &e, &best_pairs[winner]).unwrap_or(0.0);
-    // The winning bin's frames were picked nearest to t + coarse; the refinement is measured
-    // from the frames actually matched.
+    // Without a refinement, the frames actually matched (picked nearest to each coarse offset).
     let measured: Vec<f64> = best_pairs[winner].iter().map(|(i, j, _)| vb.times_s[*j] - va.times_s[*i]).collect();
-    let base = if measured.is_empty() { coarse } else { median(measured) };
-    Some((base + fine * frame_b_s, count, confidence))
+    let coarse = if measured.is_empty() { (winner as i64 - bins) as f64 * frame_b_s } else { median(measured) };
+    let offset = refine_offset(va, vb, &e, &best_pairs[winner], frame_b_s).unwrap_or(coarse);
+    Some((offset, count, confidence))
 }
 
 /// Up to `count` frames spread over the recording, `margin_s` from its ends where it is long
@@ -357,14 +355,22 @@ fn median(mut values: Vec<f64>) -> f64 {
     values[values.len() / 2]
 }
 
-/// How far (in frames of `b`, within one either way) the matched points of `b` must move along
-/// their motion to lie on their epipolar lines: the least-squares step along the forward motion
-/// (to the same feature in the next frame) or the backward one, whichever fits better.
-fn sub_frame(a: &View, b: &View, e: &Matrix3<f64>, pairs: &[FrameMatches]) -> Option<f64> {
-    let mut sides: [Vec<(f64, f64)>; 2] = [Vec::new(), Vec::new()];
+/// The pair's offset (b's video time minus a's) at which the matched points of `b`, moved along
+/// their motion, lie on their epipolar lines: each match's frames give a base offset (the
+/// frames' times) and a velocity (the same feature in `b`'s next and previous frames, over
+/// their real time apart, so variable frame rates count), and the offset is the least-squares
+/// fit of `distance + (offset - base) * velocity = 0` over them, the worst fifth dropped once,
+/// kept within `max_shift_s` of the median base.
+fn refine_offset(a: &View, b: &View, e: &Matrix3<f64>, pairs: &[FrameMatches], max_shift_s: f64) -> Option<f64> {
+    // Per match and neighbour frame: (base offset s, distance, velocity per s).
+    let mut samples: Vec<(f64, f64, f64)> = Vec::new();
     for (i, j, matches) in pairs {
-        for (side, next) in [(0usize, j.checked_add(1)), (1, j.checked_sub(1))] {
-            let Some(next) = next.filter(|k| *k < b.features.len()) else { continue };
+        let base = b.times_s[*j] - a.times_s[*i];
+        for next in [j.checked_add(1), j.checked_sub(1)].into_iter().flatten().filter(|k| *k < b.features.len()) {
+            let dt = b.times_s[next] - b.times_s[*j];
+            if dt.abs() < 1e-6 {
+                continue;
+            }
             for m in matches {
                 let from = b.features[*j].xy[m[1] as usize];
                 let Some(to) = same_feature(&b.features[*j], m[1] as usize, &b.features[next], MAX_MOTION_PX) else { continue };
@@ -377,33 +383,25 @@ fn sub_frame(a: &View, b: &View, e: &Matrix3<f64>, pairs: &[FrameMatches]) -> Op
                     line.dot(&Vector3::new(n.x, n.y, 1.0)) / norm
                 };
                 let d0 = distance(from);
-                sides[side].push((d0, distance(to) - d0));
+                samples.push((base, d0, (distance(to) - d0) / dt));
             }
         }
     }
-    // Least squares of d0 + step v = 0 over the matches, the worst fifth dropped once.
-    let fit = |pairs: &[(f64, f64)]| -> Option<(f64, f64)> {
-        let solve = |set: &[(f64, f64)]| {
-            let (dv, vv) = set.iter().fold((0.0, 0.0), |(dv, vv), (d, v)| (dv + d * v, vv + v * v));
-            (vv > 1e-12).then(|| (-dv / vv).clamp(0.0, 1.0))
-        };
-        if pairs.len() < 6 {
-            return None;
-        }
-        let step = solve(pairs)?;
-        let mut kept: Vec<(f64, f64)> = pairs.to_vec();
-        kept.sort_by(|x, y| (x.0 + step * x.1).abs().total_cmp(&(y.0 + step * y.1).abs()));
-        kept.truncate(pairs.len() * 4 / 5);
-        let step = solve(&kept)?;
-        let cost = kept.iter().map(|(d, v)| (d + step * v).powi(2)).sum::<f64>() / kept.len() as f64;
-        Some((step, cost))
-    };
-    match (fit(&sides[0]), fit(&sides[1])) {
-        (Some((f, cf)), Some((bk, cb))) => Some(if cf <= cb { f } else { -bk }),
-        (Some((f, _)), None) => Some(f),
-        (None, Some((bk, _))) => Some(-bk),
-        (None, None) => None,
+    if samples.len() < 6 {
+        return None;
     }
+    let mut bases: Vec<f64> = samples.iter().map(|s| s.0).collect();
+    bases.sort_by(f64::total_cmp);
+    let middle = bases[bases.len() / 2];
+    let solve = |set: &[(f64, f64, f64)]| {
+        let (num, den) = set.iter().fold((0.0, 0.0), |(num, den), (base, d, w)| (num + w * (w * base - d), den + w * w));
+        (den > 1e-12).then(|| (num / den).clamp(middle - max_shift_s, middle + max_shift_s))
+    };
+    let first = solve(&samples)?;
+    let residual = |s: &(f64, f64, f64)| (s.1 + (first - s.0) * s.2).abs();
+    samples.sort_by(|x, y| residual(x).total_cmp(&residual(y)));
+    samples.truncate(samples.len() * 4 / 5);
+    solve(&samples)
 }
 
 /// Farthest (px, full size) a feature is looked for in the next frame.
