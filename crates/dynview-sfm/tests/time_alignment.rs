@@ -279,3 +279,20 @@ fn synthetic_phones_are_aligned_from_their_sound() {
         assert!(found.confidence > 0.3, "{name}: confidence {}", found.confidence);
     }
 }
+
+/// A "video" with no picture (a phone's sound-only recording) is an error naming the file.
+#[test]
+fn a_video_without_frames_is_named() {
+    if !ffmpeg_available() {
+        eprintln!("skipped: no ffmpeg");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let input = dir.path().join("input");
+    std::fs::create_dir_all(&input).expect("mkdir");
+    let sound_only = input.join("sound_only.mp4").to_string_lossy().into_owned();
+    assert!(ffmpeg(&["-f", "lavfi", "-i", "sine=frequency=440:duration=1", "-c:a", "aac", &sound_only]));
+    video(&input.join("b.mp4"), 30, 1.0, None, &[]);
+    let err = prep(&input, &frames_only()).expect_err("no frames").to_string();
+    assert!(err.contains("sound_only.mp4") && err.contains("cannot decode"), "{err}");
+}
