@@ -173,8 +173,8 @@ pub fn build_from(cameras: &[CameraTimes], clocks: &[Clock], fps: Option<f64>, s
     Ok(Timeline { fps, frames, clocks: clocks.iter().map(|c| c.shifted(start)).collect(), max_error_s })
 }
 
-/// Index of the time in sorted `times` nearest to `tau` (the earlier on a tie).
-fn nearest(times: &[f64], tau: f64) -> usize {
+/// Index of the time in sorted `times` (not empty) nearest to `tau` (the earlier on a tie).
+pub fn nearest(times: &[f64], tau: f64) -> usize {
     let after = times.partition_point(|t| *t < tau);
     match after {
         0 => 0,

@@ -23,7 +23,8 @@ fn rays(features: &Features, intrinsics: &Radial) -> Vec<Vector3<f64>> {
         .collect()
 }
 
-fn squared_distance(a: &[u8], b: &[u8]) -> u32 {
+/// Squared Euclidean distance of two byte descriptors.
+pub(crate) fn squared_distance(a: &[u8], b: &[u8]) -> u32 {
     a.iter().zip(b).map(|(x, y)| (i32::from(*x) - i32::from(*y)).pow(2) as u32).sum()
 }
 

@@ -21,6 +21,7 @@
 //! heard at `start_s + rate * s0` in track `c`).
 
 pub use input::AudioTrack;
+pub use pair::PairMeasurement;
 
 mod envelope;
 mod fft;
@@ -59,31 +60,12 @@ pub struct AudioClock {
     pub pairs_used: usize,
 }
 
-/// What one pair of tracks measured (for the report).
+/// What one pair of tracks measured, and what the joint solve made of it (for the report).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PairOffset {
-    /// Index of the first track of the pair in the input (and in [`AudioAlignment::cameras`]).
-    pub track_a: usize,
-    /// Index of the second track, greater than `track_a`.
-    pub track_b: usize,
-    /// Track b's time minus track a's time for the same sound, from the onset envelopes (s).
-    pub coarse_offset_s: f64,
-    /// Peak-to-sidelobe ratio of the envelope correlation (about 4 for unrelated sounds).
-    pub coarse_peak_ratio: f64,
-    /// The time in track a (s) at which `offset_s` holds: the middle of the windows used.
-    pub time_a_s: f64,
-    /// Track b's time minus track a's time for the same sound, at `time_a_s` (s).
-    pub offset_s: f64,
-    /// Seconds of track b per second of track a (1 when not measured).
-    pub rate_ratio: f64,
-    /// True when two or more windows of [`AudioOptions::drift_window_s`] measured the rate.
-    pub rate_measured: bool,
-    /// Windows whose GCC-PHAT peak agreed with the fitted line.
-    pub windows_used: usize,
-    /// Windows tried.
-    pub windows_total: usize,
-    /// How far to trust the measurement, 0 to 1.
-    pub confidence: f64,
+    /// The measurement.
+    #[serde(flatten)]
+    pub measured: PairMeasurement,
     /// True when the joint solve used this pair.
     pub used: bool,
     /// How far the solved clocks disagree with this measurement (s): the offset's difference,
@@ -179,21 +161,7 @@ pub fn align_audio(tracks: &[AudioTrack], options: &AudioOptions) -> SyncResult<
     let pairs = measured
         .iter()
         .enumerate()
-        .map(|(p, m)| PairOffset {
-            track_a: m.a,
-            track_b: m.b,
-            coarse_offset_s: m.coarse_offset_s,
-            coarse_peak_ratio: m.coarse_peak_ratio,
-            time_a_s: m.time_a_s,
-            offset_s: m.offset_s,
-            rate_ratio: m.rate_ratio,
-            rate_measured: m.rate_measured,
-            windows_used: m.windows_used,
-            windows_total: m.windows_total,
-            confidence: m.confidence,
-            used: solution.used[p],
-            residual_s: solution.residual_s[p],
-        })
+        .map(|(p, m)| PairOffset { measured: m.clone(), used: solution.used[p], residual_s: solution.residual_s[p] })
         .collect();
     Ok(AudioAlignment { cameras, pairs })
 }

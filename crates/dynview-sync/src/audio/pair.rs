@@ -1,6 +1,8 @@
 //! One pair of tracks: coarse lag, drift guess, then two passes of GCC-PHAT windows along the
 //! overlap, each following the line the one before found.
 
+use serde::{Deserialize, Serialize};
+
 use super::AudioOptions;
 use super::envelope::{self, Envelope};
 use super::fft::FftWork;
@@ -48,21 +50,34 @@ pub(super) struct PairInput<'a> {
     pub sample_rate_hz: f64,
 }
 
-/// What a pair measured; see [`super::PairOffset`] for the fields.
-#[derive(Clone, Debug, PartialEq)]
-pub(super) struct PairMeasurement {
+/// What one pair of tracks measured.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PairMeasurement {
+    /// Index of the first track of the pair in the input (and in `AudioAlignment::cameras`).
+    #[serde(rename = "track_a")]
     pub a: usize,
+    /// Index of the second track, greater than `a`.
+    #[serde(rename = "track_b")]
     pub b: usize,
+    /// Track b's time minus track a's time for the same sound, from the onset envelopes (s).
     pub coarse_offset_s: f64,
+    /// Peak-to-sidelobe ratio of the envelope correlation (about 4 for unrelated sounds).
     pub coarse_peak_ratio: f64,
+    /// The time in track a (s) at which `offset_s` holds: the middle of the windows used.
     pub time_a_s: f64,
+    /// Track b's time minus track a's time for the same sound, at `time_a_s` (s).
     pub offset_s: f64,
+    /// Seconds of track b per second of track a (1 when not measured).
     pub rate_ratio: f64,
+    /// True when two or more windows of [`AudioOptions::drift_window_s`] measured the rate.
     pub rate_measured: bool,
     /// Time in track a from the first to the last window used (s).
     pub span_s: f64,
+    /// Windows whose GCC-PHAT peak agreed with the fitted line.
     pub windows_used: usize,
+    /// Windows tried.
     pub windows_total: usize,
+    /// How far to trust the measurement, 0 to 1.
     pub confidence: f64,
 }
 

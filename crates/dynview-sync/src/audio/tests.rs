@@ -78,7 +78,7 @@ fn a_camera_that_heard_nothing_gets_a_low_confidence() {
     eprintln!("pocket: confidence {:.3}", pocket.confidence);
     assert!(pocket.confidence < AudioOptions::default().min_confidence, "confidence {}", pocket.confidence);
     assert_eq!(pocket.pairs_used, 0);
-    assert!(alignment.pairs.iter().filter(|p| p.track_b == 5).all(|p| !p.used));
+    assert!(alignment.pairs.iter().filter(|p| p.measured.b == 5).all(|p| !p.used));
 }
 
 #[test]
@@ -86,16 +86,21 @@ fn pairs_are_reported_in_order_with_their_measurements() {
     let (_, alignment) = scene();
     let specs = cameras();
     assert_eq!(alignment.pairs.len(), 15);
-    assert_eq!((alignment.pairs[0].track_a, alignment.pairs[0].track_b), (0, 1));
-    assert_eq!((alignment.pairs[14].track_a, alignment.pairs[14].track_b), (4, 5));
-    for pair in alignment.pairs.iter().filter(|p| p.track_b != 5) {
-        let (a, b) = (&specs[pair.track_a], &specs[pair.track_b]);
+    assert_eq!((alignment.pairs[0].measured.a, alignment.pairs[0].measured.b), (0, 1));
+    assert_eq!((alignment.pairs[14].measured.a, alignment.pairs[14].measured.b), (4, 5));
+    for pair in alignment.pairs.iter().filter(|p| p.measured.b != 5) {
+        let (a, b) = (&specs[pair.measured.a], &specs[pair.measured.b]);
         // Truth: b's time of the sound heard at time t of a.
-        let truth_b_s = b.start_s + b.rate * (pair.time_a_s - a.start_s) / a.rate;
-        let error_s = pair.time_a_s + pair.offset_s - truth_b_s;
-        assert!(error_s.abs() < 1e-4, "pair {}-{}: offset error {error_s} s", pair.track_a, pair.track_b);
-        assert!((pair.coarse_offset_s - pair.offset_s).abs() < 0.06, "pair {}-{} coarse", pair.track_a, pair.track_b);
-        assert!(pair.used && pair.rate_measured && pair.residual_s < 5e-4);
+        let truth_b_s = b.start_s + b.rate * (pair.measured.time_a_s - a.start_s) / a.rate;
+        let error_s = pair.measured.time_a_s + pair.measured.offset_s - truth_b_s;
+        assert!(error_s.abs() < 1e-4, "pair {}-{}: offset error {error_s} s", pair.measured.a, pair.measured.b);
+        assert!(
+            (pair.measured.coarse_offset_s - pair.measured.offset_s).abs() < 0.06,
+            "pair {}-{} coarse",
+            pair.measured.a,
+            pair.measured.b
+        );
+        assert!(pair.used && pair.measured.rate_measured && pair.residual_s < 5e-4);
     }
 }
 
@@ -111,7 +116,7 @@ fn short_tracks_keep_rate_one() {
     let alignment = align_audio(&tracks, &AudioOptions::default()).expect("two short tracks align");
     let found = alignment.cameras[1].clock;
     assert_eq!(found.rate, 1.0);
-    assert!(!alignment.pairs[0].rate_measured);
+    assert!(!alignment.pairs[0].measured.rate_measured);
     assert!((found.start_s - specs[1].start_s).abs() < 5e-4, "start {} truth {}", found.start_s, specs[1].start_s);
 }
 

@@ -325,14 +325,15 @@ impl Found<'_> {
             .pairs
             .iter()
             .map(|p| {
+                let m = &p.measured;
                 format!(
                     "{}-{}: {:.5} s at {:.1} s, rate {:.7}, confidence {:.2}{}",
-                    name(p.track_a),
-                    name(p.track_b),
-                    p.offset_s,
-                    p.time_a_s,
-                    p.rate_ratio,
-                    p.confidence,
+                    name(m.a),
+                    name(m.b),
+                    m.offset_s,
+                    m.time_a_s,
+                    m.rate_ratio,
+                    m.confidence,
                     if p.used { "" } else { ", not used" }
                 )
             })

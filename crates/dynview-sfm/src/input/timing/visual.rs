@@ -24,11 +24,11 @@ use dynview_camera::{Model, OpenCv, OpenCvDistortion, Pinhole, Radial, Rigid3};
 use dynview_core::StageProgress;
 use dynview_interchange::poses::CameraPoses;
 use dynview_sync::Clock;
-use dynview_sync::timeline::CameraTimes;
+use dynview_sync::timeline::{CameraTimes, nearest};
 
 use crate::error::{SfmError, SfmResult};
 use crate::estimators::geometry::essential_between;
-use crate::features::guided::guided_matches;
+use crate::features::guided::{guided_matches, squared_distance};
 use crate::features::sift::{DESCRIPTOR_LEN, FeatureOptions, Features, extract_gray_masked, read_gray};
 use crate::input::frames::RecordedCamera;
 pub use crate::input::timing::solve::PairOffset;
@@ -100,6 +100,8 @@ impl VisualOptions {
 struct View {
     name: String,
     times_s: Vec<f64>,
+    /// Its frame rate ([`CameraTimes::nominal_fps`]).
+    fps: Option<f64>,
     features: Vec<Features>,
     pinhole: Radial,
     camera_from_world: Rigid3,
@@ -120,7 +122,7 @@ pub fn visual_clocks(
     for (i, (r, calib)) in recorded.iter().zip(calibration).enumerate() {
         progress("visual sync: moving features", i as u64, n as u64);
         SfmError::check_interrupt(interrupt)?;
-        views.push(prepare_view(r, &times[i].frame_times_s, calib, options)?);
+        views.push(prepare_view(r, &times[i], calib, options)?);
     }
     progress("visual sync: moving features", n as u64, n as u64);
     let measure = |pairs: &[(usize, usize)]| -> Vec<PairOffset> {
@@ -169,7 +171,7 @@ pub fn visual_clocks(
     Ok((offsets.iter().map(|o| Clock { start_s: *o, rate: 1.0 }).collect(), confidence, measured))
 }
 
-fn prepare_view(recorded: &RecordedCamera, times_s: &[f64], calib: &CameraPoses, options: &VisualOptions) -> SfmResult<View> {
+fn prepare_view(recorded: &RecordedCamera, times: &CameraTimes, calib: &CameraPoses, options: &VisualOptions) -> SfmResult<View> {
     let frames = &recorded.frames;
     let pose = calib
         .frames
@@ -207,7 +209,8 @@ fn prepare_view(recorded: &RecordedCamera, times_s: &[f64], calib: &CameraPoses,
         .collect::<SfmResult<_>>()?;
     Ok(View {
         name: frames.name.clone(),
-        times_s: times_s.to_vec(),
+        times_s: times.frame_times_s.clone(),
+        fps: times.nominal_fps(),
         features,
         pinhole: Radial::from_pinhole(&pinhole_in),
         camera_from_world: pose.camera_from_world(),
@@ -291,8 +294,7 @@ type FrameMatches = (usize, usize, Vec<[u32; 2]>);
 /// too few moving features match at any offset. The candidate offsets step by a frame of the
 /// faster camera of the two.
 fn pair_offset(views: &[View], a: usize, b: usize, options: &VisualOptions) -> Option<(f64, usize, f64)> {
-    let fps = |v: &View| CameraTimes { camera: String::new(), frame_times_s: v.times_s.clone() }.nominal_fps().unwrap_or(0.0);
-    if fps(&views[a]) > fps(&views[b]) {
+    if views[a].fps.unwrap_or(0.0) > views[b].fps.unwrap_or(0.0) {
         return pair_offset_stepping_by_b(views, b, a, options).map(|(offset_s, matches, confidence)| (-offset_s, matches, confidence));
     }
     pair_offset_stepping_by_b(views, a, b, options)
@@ -302,7 +304,7 @@ fn pair_offset(views: &[View], a: usize, b: usize, options: &VisualOptions) -> O
 fn pair_offset_stepping_by_b(views: &[View], a: usize, b: usize, options: &VisualOptions) -> Option<(f64, usize, f64)> {
     let (va, vb) = (&views[a], &views[b]);
     let e = essential_between(&va.camera_from_world, &vb.camera_from_world);
-    let frame_b_s = 1.0 / CameraTimes { camera: String::new(), frame_times_s: vb.times_s.clone() }.nominal_fps()?;
+    let frame_b_s = 1.0 / vb.fps?;
     let bins = (options.max_offset_s / frame_b_s).ceil() as i64;
     let mut votes = vec![0usize; (2 * bins + 1) as usize];
     // Sampled frames of a, away from its ends by the search range where it can.
@@ -343,11 +345,6 @@ fn sample_frames(times_s: &[f64], count: usize, margin_s: f64) -> Vec<usize> {
     let (first, last) = (times_s[0], times_s[times_s.len() - 1]);
     let (lo, hi) = if last - first > 4.0 * margin_s { (first + margin_s, last - margin_s) } else { (first, last) };
     (0..count.max(1)).map(|k| nearest(times_s, lo + (hi - lo) * (k as f64 + 0.5) / count.max(1) as f64)).collect()
-}
-
-fn nearest(times: &[f64], tau: f64) -> usize {
-    let after = times.partition_point(|t| *t < tau).min(times.len() - 1);
-    if after > 0 && tau - times[after - 1] <= times[after] - tau { after - 1 } else { after }
 }
 
 fn median(mut values: Vec<f64>) -> f64 {
@@ -417,11 +414,7 @@ fn same_feature(from: &Features, k: usize, to: &Features, radius_px: f32) -> Opt
         if (other[0] - xy[0]).hypot(other[1] - xy[1]) > radius_px {
             continue;
         }
-        let d: u32 = descriptor
-            .iter()
-            .zip(&to.descriptors[q * DESCRIPTOR_LEN..(q + 1) * DESCRIPTOR_LEN])
-            .map(|(x, y)| (i32::from(*x) - i32::from(*y)).pow(2) as u32)
-            .sum();
+        let d = squared_distance(descriptor, &to.descriptors[q * DESCRIPTOR_LEN..(q + 1) * DESCRIPTOR_LEN]);
         if d < best.0 {
             second = best.0;
             best = (d, q);
