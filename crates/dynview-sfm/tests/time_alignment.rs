@@ -296,3 +296,50 @@ fn a_video_without_frames_is_named() {
     let err = prep(&input, &frames_only()).expect_err("no frames").to_string();
     assert!(err.contains("sound_only.mp4") && err.contains("cannot decode"), "{err}");
 }
+
+/// Mean squared difference of two images of one size (8-bit RGB).
+fn mse(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
+    assert_eq!(a.dimensions(), b.dimensions());
+    a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| (f64::from(*x) - f64::from(*y)).powi(2)).sum::<f64>() / a.as_raw().len() as f64
+}
+
+/// Phones that filmed between the time steps: with their true clocks given, each step's frame
+/// of a camera is made from its frames before and after (`--retime flow`, the default), and is
+/// nearer to what the camera would have filmed at the step's moment (the synchronized event's
+/// frame) than the frame filmed nearest to it (`--retime nearest`).
+#[test]
+fn frames_made_between_filmed_frames_show_the_steps_moment() {
+    if !ffmpeg_available() {
+        eprintln!("skipped: no ffmpeg");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let config = dynview_synth::SynthConfig { cameras: 4, frames: 24, width: 320, height: 180, ..dynview_synth::SynthConfig::default() };
+    let synchronized = dir.path().join("synchronized");
+    dynview_synth::generate(&config, &synchronized, &|_, _, _| {}).expect("synth");
+    let mut phones = dynview_synth::unsync::UnsyncConfig::phones(config.cameras, config.fps, 5);
+    phones.audio = false;
+    let event = dir.path().join("phones");
+    let unsync = dynview_synth::SynthConfig { unsync: Some(phones), ..config.clone() };
+    let truth = dynview_synth::generate(&unsync, &event, &|_, _, _| {}).expect("synth").time_alignment.expect("unsynchronized");
+    let offsets = truth.cameras.iter().map(|(name, c)| (name.clone(), c.start_s)).collect();
+    let start_at = truth.cameras.iter().next().map(|(name, c)| (name.clone(), c.start_s));
+    let given = PrepOptions { offsets_s: offsets, start_at, ..frames_only() };
+    let (made_report, made) = prep(&event.join("videos"), &given).expect("frames made between");
+    let nearest_options = PrepOptions { retime: dynview_sfm::input::timing::retime::Retime::Nearest, ..given };
+    let (nearest_report, nearest) = prep(&event.join("videos"), &nearest_options).expect("nearest frames");
+    let (made_time, nearest_time) = (made_report.time_alignment.expect("reported"), nearest_report.time_alignment.expect("reported"));
+    // cam00 films a fraction of a frame off every step: every step's frame is made.
+    let name = "cam00";
+    let camera = made.cameras.iter().position(|c| c.name == name).expect("cam00");
+    assert_eq!(made_time.cameras[name].retimed, made_time.steps, "{:?}", made_time.cameras[name]);
+    assert_eq!(nearest_time.cameras[name].retimed, 0);
+    let (mut made_error, mut nearest_error) = (0.0, 0.0);
+    for t in 0..made_time.steps.min(config.frames as usize) {
+        let truth_frame = image::open(synchronized.join(format!("input/{name}/{t:05}.png"))).expect("truth").to_rgb8();
+        made_error += mse(&image::open(&made.cameras[camera].files[t]).expect("made").to_rgb8(), &truth_frame);
+        nearest_error += mse(&image::open(&nearest.cameras[camera].files[t]).expect("nearest").to_rgb8(), &truth_frame);
+    }
+    eprintln!("made {made_error:.1}, nearest {nearest_error:.1}");
+    assert!(made_error < 0.8 * nearest_error, "made frames: {made_error:.1}, nearest frames: {nearest_error:.1} (summed MSE)");
+}

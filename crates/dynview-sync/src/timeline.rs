@@ -79,6 +79,32 @@ pub struct Timeline {
     pub clocks: Vec<Clock>,
     /// Per camera, the largest gap (s) between a step's time and the time its frame was filmed.
     pub max_error_s: Vec<f64>,
+    /// Per camera (in the order given), per time step, where the step's moment falls between
+    /// the camera's frames (for making the frame it would have filmed then).
+    pub moments: Vec<Vec<Moment>>,
+}
+
+/// Where a moment falls in one camera's recording: between frame `before` and the next, a
+/// `fraction` of the way (0 at `before`; always 0 before the first frame or after the last).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Moment {
+    /// The frame filmed at or before the moment (the first frame before the recording starts).
+    pub before: usize,
+    /// How far (0 to below 1) from frame `before` to frame `before + 1` the moment lies.
+    pub fraction: f64,
+}
+
+impl Moment {
+    /// The moment `tau` in sorted `times` (not empty).
+    pub fn locate(times: &[f64], tau: f64) -> Self {
+        let after = times.partition_point(|t| *t <= tau);
+        if after == 0 || after == times.len() {
+            return Self { before: after.saturating_sub(1), fraction: 0.0 };
+        }
+        let (t0, t1) = (times[after - 1], times[after]);
+        let fraction = if t1 > t0 { ((tau - t0) / (t1 - t0)).clamp(0.0, 1.0) } else { 0.0 };
+        Self { before: after - 1, fraction }
+    }
 }
 
 impl Timeline {
@@ -158,19 +184,23 @@ pub fn build_from(cameras: &[CameraTimes], clocks: &[Clock], fps: Option<f64>, s
     let steps = span_steps as usize + 1;
     let mut frames = Vec::with_capacity(cameras.len());
     let mut max_error_s = Vec::with_capacity(cameras.len());
+    let mut moments = Vec::with_capacity(cameras.len());
     for times in &common {
         let mut picks = Vec::with_capacity(steps);
+        let mut located = Vec::with_capacity(steps);
         let mut worst: f64 = 0.0;
         for k in 0..steps {
             let tau = start + k as f64 / fps;
             let j = nearest(times, tau);
             worst = worst.max((times[j] - tau).abs());
             picks.push(j);
+            located.push(Moment::locate(times, tau));
         }
         frames.push(picks);
         max_error_s.push(worst);
+        moments.push(located);
     }
-    Ok(Timeline { fps, frames, clocks: clocks.iter().map(|c| c.shifted(start)).collect(), max_error_s })
+    Ok(Timeline { fps, frames, clocks: clocks.iter().map(|c| c.shifted(start)).collect(), max_error_s, moments })
 }
 
 /// Index of the time in sorted `times` (not empty) nearest to `tau` (the earlier on a tie).
@@ -301,5 +331,28 @@ mod tests {
         assert!(build(std::slice::from_ref(&a), &[Clock::SYNCHRONIZED], Some(f64::NAN)).is_err());
         let err = build(&[a.clone(), a], &[Clock::SYNCHRONIZED, Clock { start_s: 0.0, rate: 3.0 }], None).unwrap_err().to_string();
         assert!(err.contains("implausible"), "{err}");
+    }
+
+    #[test]
+    fn a_moment_is_placed_between_the_frames_around_it() {
+        let times = [0.0, 0.1, 0.3];
+        assert_eq!(Moment::locate(&times, -1.0), Moment { before: 0, fraction: 0.0 });
+        assert_eq!(Moment::locate(&times, 0.0), Moment { before: 0, fraction: 0.0 });
+        let m = Moment::locate(&times, 0.25);
+        assert_eq!(m.before, 1);
+        assert!((m.fraction - 0.75).abs() < 1e-12, "{m:?}");
+        assert_eq!(Moment::locate(&times, 0.3), Moment { before: 2, fraction: 0.0 });
+        assert_eq!(Moment::locate(&times, 9.0), Moment { before: 2, fraction: 0.0 });
+        // A camera that films a third of a frame early: every step a third of the way to its
+        // next frame.
+        let early = CameraTimes::evenly_spaced("early", 30, 30.0);
+        let on_time = CameraTimes::evenly_spaced("on time", 30, 30.0);
+        let clock = Clock { start_s: 1.0 / 90.0, rate: 1.0 };
+        let timeline = build(&[on_time, early], &[Clock::SYNCHRONIZED, clock], None).unwrap();
+        assert!(timeline.moments[0].iter().all(|m| m.fraction == 0.0));
+        for (k, m) in timeline.moments[1].iter().enumerate().take(timeline.steps() - 1) {
+            assert_eq!(m.before, k, "step {k}");
+            assert!((m.fraction - 1.0 / 3.0).abs() < 1e-9, "step {k}: {m:?}");
+        }
     }
 }

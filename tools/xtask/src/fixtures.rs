@@ -1,6 +1,7 @@
 //! Fixtures of the page's end-to-end tests, made with the `dynview` CLI: a small synthetic
-//! event, its native renders (the reference the page's renders are compared with) and a
-//! corrupted copy of its package. (The wasm API's tests make their own fixture on the host:
+//! event, its native renders (the reference the page's renders are compared with), a
+//! corrupted copy of its package, and the package `prep` makes of the event filmed by
+//! unsynchronized phones. (The wasm API's tests make their own fixture on the host:
 //! `crates/dynview-web-fixture`.)
 
 use std::path::{Path, PathBuf};
@@ -18,6 +19,10 @@ pub struct BrowserFixture {
     pub corrupt_scene: PathBuf,
     /// The package repacked with its frames as video (format v2).
     pub video_scene: PathBuf,
+    /// The event filmed by phones started by hand (`dynview synth --unsync`: a portrait phone,
+    /// a 60 fps one, a variable rate, sound tracks), with `truth/` its upright frames as
+    /// filmed and `prep/` what `dynview prep` made of its videos (clocks from the sound).
+    pub phones: PathBuf,
 }
 
 /// Makes (or reuses) the fixture under `root` with the `dynview` binary `dynview`:
@@ -27,8 +32,9 @@ pub fn browser_fixture(dynview: &Path, root: &Path, frames: u32, width: u32, hei
     let native_render = root.join("native");
     let corrupt_scene = root.join("corrupt");
     let video_scene = root.join("video");
+    let phones = root.join("phones");
     let stamp = root.join("fixture.json");
-    let config = format!("{{\"frames\":{frames},\"width\":{width},\"height\":{height},\"v\":3}}");
+    let config = format!("{{\"frames\":{frames},\"width\":{width},\"height\":{height},\"v\":4}}");
     let binary_time = std::fs::metadata(dynview).and_then(|m| m.modified()).ok();
     let stamp_time = std::fs::metadata(&stamp).and_then(|m| m.modified()).ok();
     let current = std::fs::read_to_string(&stamp).is_ok_and(|s| s == config) && stamp_time >= binary_time;
@@ -53,9 +59,29 @@ pub fn browser_fixture(dynview: &Path, root: &Path, frames: u32, width: u32, hei
         let mut repack = Command::new(dynview);
         repack.arg("repack").arg(event.join("scene")).arg("--out").arg(&video_scene).args(["--keyframe-every", "3"]);
         run_step("repack the browser-test package with video frames", repack)?;
+        phones_fixture(dynview, &phones, width, height)?;
         std::fs::write(&stamp, config)?;
     }
-    Ok(BrowserFixture { event, corrupt_scene, video_scene })
+    Ok(BrowserFixture { event, corrupt_scene, video_scene, phones })
+}
+
+/// The synthetic event filmed by unsynchronized phones (1.6 s, enough sound to align) and the
+/// package `prep` makes of their videos, as a user would (clocks from the sound, the true poses
+/// given; no densification, plates or hull, which the other fixtures' tests cover).
+fn phones_fixture(dynview: &Path, root: &Path, width: u32, height: u32) -> anyhow::Result<()> {
+    if root.exists() {
+        std::fs::remove_dir_all(root).with_context(|| format!("cannot remove {}", root.display()))?;
+    }
+    let event = root.join("truth");
+    let mut synth = Command::new(dynview);
+    synth.arg("synth").arg("--unsync").arg("--out").arg(&event).args(["--cameras", "4", "--frames", "48"]);
+    synth.args(["--width", &width.to_string(), "--height", &height.to_string()]);
+    run_step("make the browser-test phones event", synth)?;
+    let mut prep = Command::new(dynview);
+    prep.arg("prep").arg("--input").arg(event.join("videos")).arg("--out").arg(root.join("prep"));
+    prep.arg("--poses").arg(event.join("colmap")).args(["--no-densify", "--no-plates", "--no-hull"]);
+    run_step("prepare the phones' videos", prep)?;
+    Ok(())
 }
 
 /// Gives `cam01` of the fixture package a color balance, so that every comparison of the

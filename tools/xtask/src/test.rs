@@ -111,6 +111,7 @@ fn end_to_end(fixture: &BrowserFixture) -> anyhow::Result<f64> {
             ("e2e".into(), fixture.event.join("scene")),
             ("corrupt".into(), fixture.corrupt_scene.clone()),
             ("video".into(), fixture.video_scene.clone()),
+            ("phones".into(), fixture.phones.join("prep/scene")),
         ],
     };
     let server = serve::start(&site, 0)?;
@@ -124,6 +125,7 @@ fn end_to_end(fixture: &BrowserFixture) -> anyhow::Result<f64> {
         .env("DYNVIEW_E2E_OUT", &out)
         .env("DYNVIEW_E2E_SCENE", fixture.event.join("scene"))
         .env("DYNVIEW_E2E_VIDEO_SCENE", &fixture.video_scene)
+        .env("DYNVIEW_E2E_PHONES", &fixture.phones)
         .env("CHROMIUM", which("chromium").unwrap_or_else(|| "/usr/bin/chromium".into()));
     let secs = run_step("end-to-end tests of the page in headless Chromium", e2e)?;
     drop(server);

@@ -10,6 +10,7 @@ use std::ops::Range;
 
 use dynview_sfm::dense::densify::DensifyOptions;
 use dynview_sfm::input::timing::SyncMethod;
+use dynview_sfm::input::timing::retime::Retime;
 use dynview_sfm::mapping::step_adjust::StepAdjustOptions;
 use dynview_sfm::pipeline::timesteps::StepOptions;
 use dynview_sfm::{PrepOptions, Stage};
@@ -153,6 +154,12 @@ pub struct Args {
     /// every camera (repeatable): the clocks by hand, instead of `--sync`.
     #[arg(long, value_name = "CAMERA=SECONDS")]
     offsets: Vec<String>,
+    /// How a time step gets the frame of a camera that did not film at its moment: `flow` (made
+    /// from the frames filmed before and after it, moved along the optical flow between them)
+    /// or `nearest` (the frame filmed nearest to it, as it is). Synchronized cameras film every
+    /// step's moment and are not affected.
+    #[arg(long, default_value = "flow", value_name = "flow|nearest")]
+    retime: Retime,
 }
 
 /// `--offsets` as a map; a camera given twice with different times is an error.
@@ -233,6 +240,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         sync: args.sync,
         offsets_s: parse_offsets(&args.offsets)?,
         start_at: args.start_at,
+        retime: args.retime,
         ..PrepOptions::default()
     };
     options.steps.working_width = args.working_width;

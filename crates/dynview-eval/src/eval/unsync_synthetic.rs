@@ -88,9 +88,13 @@ pub fn run(options: &Options) -> anyhow::Result<()> {
     // The true clocks given by hand first: what the phones' own timing costs, alignment aside.
     let true_offsets: Vec<String> =
         truth.cameras.iter().flat_map(|(name, c)| ["--offsets".to_string(), format!("{name}={}", c.start_s)]).collect();
-    for (label, sync) in
-        [("given", true_offsets), ("visual", vec!["--sync".into(), "visual".into()]), ("audio", vec!["--sync".into(), "audio".into()])]
-    {
+    let nearest = [true_offsets.clone(), vec!["--retime".into(), "nearest".into()]].concat();
+    for (label, sync) in [
+        ("given-nearest", nearest),
+        ("given", true_offsets),
+        ("visual", vec!["--sync".into(), "visual".into()]),
+        ("audio", vec!["--sync".into(), "audio".into()]),
+    ] {
         let start = format!("{first}={}", truth.cameras[&first].start_s);
         let colmap = unsync_event.join("colmap").display().to_string();
         let mut args: Vec<String> =
@@ -99,7 +103,11 @@ pub fn run(options: &Options) -> anyhow::Result<()> {
         let run = prep_once(&dynview, &unsync_event.join(VIDEOS_DIR), &root.join(format!("prep-unsync-{label}")), &args, options.fresh)?;
         let report: Report = serde_json::from_str(&fs::read_to_string(run.out.join("report.json"))?).context("report.json")?;
         let (psnr_db, steps) = score(&ScenePackage::open(run.scene_dir())?)?;
-        let method = if label == "given" { "true clocks given (--offsets)".to_string() } else { report.time_alignment.method.clone() };
+        let method = match label {
+            "given-nearest" => "true clocks given, nearest frames (--retime nearest)".to_string(),
+            "given" => "true clocks given (--offsets)".to_string(),
+            _ => report.time_alignment.method.clone(),
+        };
         rows.push(Row { method, cameras: clock_errors(&report.time_alignment, &truth), psnr_db, steps });
     }
     let table = markdown(&rows, &truth);
@@ -155,8 +163,9 @@ fn markdown(rows: &[Row], truth: &TimeAlignment) -> String {
         s,
         "The default synthetic event (`SynthConfig::default()`) filmed by the phones preset of `dynview synth --unsync`: {}. \
          Prepared with the true poses, `--fps 30`, `--start-at` the first camera's video time of event time 0, and the clocks \
-         as in the row (the true ones given with `--offsets`, or found by `--sync`); the control is the synchronized event \
-         prepared with the same true poses. Clock error: how far from the \
+         as in the row (the true ones given with `--offsets`, or found by `--sync`); each step's frame of a camera that did \
+         not film at its moment made from the frames around it (`--retime flow`, the default) unless the row says nearest \
+         frames; the control is the synchronized event prepared with the same true poses. Clock error: how far from the \
          other cameras (median) a camera's clock puts the first time step, by its true clock. Full method, PSNR of the moving \
          held-out camera. Reproduce: `cargo xtask eval --unsync` (`--fresh` to prepare again).\n",
         roles.join("; ")

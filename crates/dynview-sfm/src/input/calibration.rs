@@ -88,7 +88,7 @@ pub fn known_intrinsics(calibration: &[&CameraPoses]) -> KnownCameras {
 }
 
 /// Undistorts the frames of every camera whose calibration has a distortion into
-/// `out_dir/<camera>/<t:05>.png` (same camera matrix, no distortion, lossless); returns the frame list
+/// `out_dir/<camera>/<frame's file stem>.png` (same camera matrix, no distortion, lossless); returns the frame list
 /// with those files. Finished frames are not redone.
 pub fn undistort_frames(
     frames: &EventFrames,
@@ -116,8 +116,12 @@ pub fn undistort_frames(
             .enumerate()
             .map(|(t, source)| {
                 SfmError::check_interrupt(interrupt)?;
-                let path = dir.join(format!("{t:05}.{WORK_FRAME_EXTENSION}"));
-                let stamp_path = dir.join(format!(".{t:05}.calibration"));
+                // Named after the frame it shows (a time step's frame changes with the time
+                // alignment, and later stages are keyed by frame names).
+                let stem = source.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| format!("{t:05}"));
+                let path = dir.join(format!("{stem}.{WORK_FRAME_EXTENSION}"));
+                let stamp_path = dir.join(format!(".{stem}.calibration"));
+                let stamp = format!("{stamp} {}", source.display());
                 if !(path.is_file() && std::fs::read_to_string(&stamp_path).is_ok_and(|s| s == stamp)) {
                     let image = read_bgr(source)?;
                     let mut undistorted = Mat::default();

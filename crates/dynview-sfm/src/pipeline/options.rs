@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{SfmError, SfmResult};
 use crate::features::matching::MatchOptions;
 use crate::features::sift::FeatureOptions;
+use crate::input::timing::retime::Retime;
 use crate::input::timing::visual::VisualOptions;
 use crate::input::timing::{SyncMethod, TimeAlignment};
 use crate::mapping::incremental::MapperOptions;
@@ -102,6 +103,9 @@ pub struct PrepOptions {
     /// How offsets are found from the pictures (`sync` visual).
     #[serde(default)]
     pub visual_sync: VisualOptions,
+    /// How a step gets the frame of a camera that did not film at its moment (`--retime`).
+    #[serde(default)]
+    pub retime: Retime,
 }
 
 impl Default for PrepOptions {
@@ -127,6 +131,7 @@ impl Default for PrepOptions {
             offsets_s: BTreeMap::new(),
             visual_sync: VisualOptions::default(),
             start_at: None,
+            retime: Retime::default(),
         }
     }
 }

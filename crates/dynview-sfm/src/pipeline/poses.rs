@@ -68,6 +68,7 @@ pub(crate) fn pose_stages(
         strict_frame_counts: !options.trim,
         visual: options.visual_sync.clone(),
         start_at: options.start_at.clone(),
+        retime: options.retime,
     };
     let (mut frames, alignment, warnings) = align_in_time(&recorded, &time, calibration.as_deref(), work, progress, interrupt)?;
     report.warnings.extend(warnings);

@@ -222,7 +222,8 @@ fn markdown(capture: RealCapture, results: &[UnsyncResult], frames: u32) -> Stri
         s,
         "Of its first {frames} frames, each input camera's recording starts {} frames late by camera, in camera order (`cut_frames`); \
          the second input camera is a 15 fps lossless video of every other frame. Prepared with the calibration, `--fps 30`, \
-         aligned from the pictures. Full method, colour-corrected PSNR (dB) on the moments every camera covers; beside it the \
+         aligned from the pictures; the 15 fps camera's frames for the steps between its frames made along the optical flow \
+         (`--retime flow`, the default; `docs/results/retime.md` has the figures with its nearest frames). Full method, colour-corrected PSNR (dB) on the moments every camera covers; beside it the \
          control: the same cameras' synchronized frames of the same moments, prepared alike.\n",
         (0..8).map(|i| cut_frames(i).to_string()).collect::<Vec<_>>().join(", ")
     );

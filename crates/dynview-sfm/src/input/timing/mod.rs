@@ -1,28 +1,33 @@
 //! The cameras put on one timeline: their clocks found ([`SyncMethod`]: from the pictures
 //! ([`visual`]), given by the user, or taken as started together), then
 //! [`dynview_sync::timeline::build`] picks, for every time step, each camera's frame filmed
-//! nearest to it.
+//! nearest to it, and [`retime`] makes the frame a camera would have filmed at a step's moment
+//! from its frames before and after.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+use rayon::prelude::*;
 
 use serde::{Deserialize, Serialize};
 
 use dynview_sync::Clock;
 use dynview_sync::audio::{AudioOptions, AudioTrack, align_audio};
-use dynview_sync::timeline::{self, CameraTimes};
+use dynview_sync::timeline::{self, CameraTimes, Moment};
 
 use dynview_core::StageProgress;
 use dynview_interchange::poses::CameraPoses;
 
 use crate::error::{SfmError, SfmResult};
-use crate::input::frames::{CameraFrames, CameraSource, EventFrames, RecordedCamera};
+use crate::input::frames::{CameraFrames, CameraSource, EventFrames, RecordedCamera, WORK_FRAME_EXTENSION, encode_work_frame, read_bgr};
 use crate::input::sound::{ANALYSIS_RATE_HZ, has_sound, read_sound};
 
 use crate::work::WorkDir;
+use retime::{MIN_FRACTION, RETIME_REVISION, Retime, frame_between};
 use visual::{PairOffset, VisualOptions, visual_clocks};
 
+pub mod retime;
 pub mod solve;
 pub mod visual;
 
@@ -86,6 +91,9 @@ pub struct TimeOptions {
     /// How offsets are found from the pictures.
     #[serde(default)]
     pub visual: VisualOptions,
+    /// How a step gets the frame of a camera that did not film at its moment.
+    #[serde(default)]
+    pub retime: Retime,
 }
 
 /// One camera's place on the timeline, as `report.json` shows it.
@@ -102,8 +110,12 @@ pub struct CameraTiming {
     pub fps: f64,
     /// Frames it recorded.
     pub frames: usize,
-    /// The largest gap (s) between a time step and the time its frame of this camera was filmed.
+    /// The largest gap (s) between a time step and the time its nearest frame of this camera was
+    /// filmed.
     pub max_error_s: f64,
+    /// Time steps whose frame was made from the frames filmed before and after it ([`retime`]).
+    #[serde(default)]
+    pub retimed: usize,
 }
 
 /// `report.json`'s `time_alignment`.
@@ -175,10 +187,18 @@ pub fn align_in_time(
     let mut cameras = Vec::new();
     let mut report = BTreeMap::new();
     for (i, r) in recorded.iter().enumerate() {
-        let mut files: Vec<PathBuf> = built.frames[i].iter().map(|j| r.frames.files[*j].clone()).collect();
-        if built.frames[i].windows(2).any(|w| w[0] == w[1]) {
-            files = one_file_per_step(&files, &work.join("timeline").join(&r.frames.name))?;
-        }
+        let sources: Vec<StepSource> = built.frames[i]
+            .iter()
+            .zip(&built.moments[i])
+            .map(|(nearest, moment)| StepSource::of(*nearest, *moment, options.retime))
+            .collect();
+        let retimed = sources.iter().filter(|s| matches!(s, StepSource::Between(..))).count();
+        let repeats = built.frames[i].windows(2).any(|w| w[0] == w[1]);
+        let files = if retimed > 0 || repeats {
+            steps_files(&r.frames, &sources, &work.join("timeline").join(&r.frames.name), progress, interrupt)?
+        } else {
+            built.frames[i].iter().map(|j| r.frames.files[*j].clone()).collect()
+        };
         cameras.push(CameraFrames { files, ..r.frames.clone() });
         let clock = built.clocks[i];
         report.insert(
@@ -190,6 +210,7 @@ pub fn align_in_time(
                 fps: times[i].nominal_fps().unwrap_or(built.fps),
                 frames: r.frames.files.len(),
                 max_error_s: built.max_error_s[i],
+                retimed,
             },
         );
         if confidence[i] < LOW_CONFIDENCE {
@@ -210,25 +231,94 @@ pub fn align_in_time(
     Ok((EventFrames { cameras }, alignment, warnings))
 }
 
-/// A camera that shows one frame at several time steps gets a file per step (`dir/<t:05>.<ext>`,
-/// hard links where the file system allows): frame file names stay unique in `poses.json` and
-/// the keyframe models.
-fn one_file_per_step(files: &[PathBuf], dir: &std::path::Path) -> SfmResult<Vec<PathBuf>> {
+/// Where a time step's frame of one camera comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum StepSource {
+    /// The camera's frame, as filmed.
+    Frame(usize),
+    /// Made a fraction of the way from the camera's frame to its next.
+    Between(usize, f64),
+}
+
+impl StepSource {
+    fn of(nearest: usize, moment: Moment, retime: Retime) -> Self {
+        let between = (MIN_FRACTION..=1.0 - MIN_FRACTION).contains(&moment.fraction);
+        if retime == Retime::Flow && between { Self::Between(moment.before, moment.fraction) } else { Self::Frame(nearest) }
+    }
+
+    /// The step's file name: the step, the frame and how far past it, so that a stage keyed by
+    /// file names sees a new frame whenever the alignment or the retiming changes.
+    fn file_name(&self, t: usize, extension: &str) -> String {
+        match self {
+            Self::Frame(j) => format!("{t:05}-{j:05}.{extension}"),
+            Self::Between(j, f) => format!("{t:05}-{j:05}+{:04}r{RETIME_REVISION}.{WORK_FRAME_EXTENSION}", (f * 1e4).round()),
+        }
+    }
+}
+
+/// A camera's files for every step in `dir`: a filmed frame shown at a step is linked there
+/// (hard links where the file system allows, so that frame file names stay unique in
+/// `poses.json` and the keyframe models), a frame between two filmed ones is made there; a file
+/// made by the same revision after its frames is kept (its name says what it shows), files of
+/// earlier alignments are removed.
+fn steps_files(
+    frames: &CameraFrames,
+    sources: &[StepSource],
+    dir: &Path,
+    progress: StageProgress,
+    interrupt: &AtomicBool,
+) -> SfmResult<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(SfmError::io(dir))?;
-    files
+    let extension = |j: usize| frames.files[j].extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
+    let names: Vec<String> = sources
         .iter()
         .enumerate()
-        .map(|(t, from)| {
-            let extension = from.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
-            let to = dir.join(format!("{t:05}.{extension}"));
-            // Made again every run: a link left by an earlier alignment may show another frame.
-            let _ = std::fs::remove_file(&to);
-            if std::fs::hard_link(from, &to).is_err() {
-                std::fs::copy(from, &to).map_err(SfmError::io(&to))?;
+        .map(|(t, s)| match s {
+            StepSource::Frame(j) | StepSource::Between(j, _) => s.file_name(t, &extension(*j)),
+        })
+        .collect();
+    for entry in std::fs::read_dir(dir).map_err(SfmError::io(dir))?.flatten() {
+        if !names.iter().any(|n| entry.file_name().to_string_lossy() == n.as_str()) {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+    let total = sources.iter().filter(|s| matches!(s, StepSource::Between(..))).count() as u64;
+    let done = AtomicU64::new(0);
+    let label = format!("retime {}", frames.name);
+    sources
+        .par_iter()
+        .zip(&names)
+        .map(|(source, name)| {
+            SfmError::check_interrupt(interrupt)?;
+            let to = dir.join(name);
+            match *source {
+                StepSource::Frame(j) => {
+                    // Linked again every run: the frames may have been decoded again.
+                    let _ = std::fs::remove_file(&to);
+                    if std::fs::hard_link(&frames.files[j], &to).is_err() {
+                        std::fs::copy(&frames.files[j], &to).map_err(SfmError::io(&to))?;
+                    }
+                }
+                StepSource::Between(j, fraction) => {
+                    let after = frames.files.get(j + 1).unwrap_or(&frames.files[j]);
+                    if is_newer(&to, &[&frames.files[j], after]) {
+                        return Ok(to);
+                    }
+                    let made = frame_between(&read_bgr(&frames.files[j])?, &read_bgr(after)?, fraction)?;
+                    dynview_core::fsutil::write_atomic(&to, encode_work_frame(&made)?.as_slice()).map_err(SfmError::io(&to))?;
+                    progress(&label, done.fetch_add(1, Ordering::Relaxed) + 1, total);
+                }
             }
             Ok(to)
         })
         .collect()
+}
+
+/// True when `file` exists and was written after every one of `sources`.
+fn is_newer(file: &Path, sources: &[&PathBuf]) -> bool {
+    let modified = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
+    let Some(made) = modified(file) else { return false };
+    sources.iter().all(|s| modified(s).is_some_and(|m| m <= made))
 }
 
 fn sync_error(error: dynview_sync::SyncError) -> SfmError {
