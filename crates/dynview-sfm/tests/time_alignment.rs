@@ -343,3 +343,43 @@ fn frames_made_between_filmed_frames_show_the_steps_moment() {
     eprintln!("made {made_error:.1}, nearest {nearest_error:.1}");
     assert!(made_error < 0.8 * nearest_error, "made frames: {made_error:.1}, nearest frames: {nearest_error:.1} (summed MSE)");
 }
+
+/// A second run in the same folder with other clocks (a user correcting `--offsets`) makes the
+/// steps' frames again: their files are named by the frame and the moment they show, so the
+/// stages keyed by frame names see new frames, and the first run's files are gone.
+#[test]
+fn a_rerun_with_other_offsets_makes_new_frames() {
+    if !ffmpeg_available() {
+        eprintln!("skipped: no ffmpeg");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let input = dir.path().join("input");
+    std::fs::create_dir_all(&input).expect("mkdir");
+    video(&input.join("a.mp4"), 30, 1.0, None, &[]);
+    video(&input.join("b.mp4"), 30, 1.0, None, &[]);
+    let out = dir.path().join("out");
+    let run_with = |b_offset_s: f64| {
+        let offsets = [("a".to_string(), 0.2), ("b".to_string(), b_offset_s)].into_iter().collect();
+        let options = PrepOptions { offsets_s: offsets, ..frames_only() };
+        let report = run(&input, &out, &options, &|_, _, _| {}, &AtomicBool::new(false)).expect("prep");
+        let text = std::fs::read_to_string(out.join("work/frames.json")).expect("frames.json");
+        let frames: EventFrames = serde_json::from_str(&text).expect("frames.json parses");
+        (report.time_alignment.expect("reported"), frames)
+    };
+    // b started a third of a frame (then two thirds) after one of a's frames: the steps follow
+    // b, the last to start, and a's frames are made.
+    let (first, first_frames) = run_with(0.1 + 1.0 / 90.0);
+    let (second, second_frames) = run_with(0.1 + 2.0 / 90.0);
+    assert!(first.cameras["a"].retimed > 0 && second.cameras["a"].retimed > 0, "{first:?}");
+    assert_eq!(first.cameras["b"].retimed, 0);
+    let names = |f: &EventFrames| (0..f.cameras[0].files.len()).map(|t| f.cameras[0].file_name(t)).collect::<Vec<_>>();
+    let (before, after) = (names(&first_frames), names(&second_frames));
+    assert!(before.iter().zip(&after).all(|(x, y)| x != y), "{before:?} / {after:?}");
+    let mut listed: Vec<String> = std::fs::read_dir(out.join("work/timeline/a"))
+        .expect("timeline folder")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    listed.sort();
+    assert_eq!(listed, after, "only the second run's frames are left");
+}
