@@ -103,6 +103,20 @@ impl UnsyncConfig {
         }
     }
 
+    /// The same cameras (frame rates, portrait phone, sound) as if they had been synchronized:
+    /// each start moved to the nearest whole frame of `fps` (a step of the timeline), no
+    /// variable frame rate, no drift. What the phones would give when timing costs nothing.
+    pub fn synchronized(&self, fps: f64) -> Self {
+        Self {
+            start_offsets_s: self.start_offsets_s.iter().map(|s| (s * fps).round() / fps).collect(),
+            vfr_camera: None,
+            vfr_jitter: 0.0,
+            drift_camera: None,
+            drift_ms_per_min: 0.0,
+            ..self.clone()
+        }
+    }
+
     /// Checks every option against `cameras` input cameras.
     pub fn validate(&self, cameras: usize) -> Result<(), SynthError> {
         let bad = |field, problem: String| Err(SynthError::Config { field, problem });
@@ -341,6 +355,29 @@ mod tests {
         assert!(vfr.video_times_s.iter().all(|s| ((s * 9e4) - (s * 9e4).round()).abs() < 1e-6));
         // Different seeds, different starts.
         assert_ne!(UnsyncConfig::phones(5, 30.0, 8).start_offsets_s, unsync.start_offsets_s);
+    }
+
+    #[test]
+    fn synchronized_phones_film_every_step_and_keep_their_cameras() {
+        let config = event();
+        let phones = UnsyncConfig::phones(config.cameras, config.fps, 7);
+        let synchronized = phones.synchronized(config.fps);
+        synchronized.validate(config.cameras).unwrap();
+        let recordings = recordings(config.seed, config.cameras, config.duration_s(), &synchronized);
+        for (c, r) in recordings.iter().enumerate() {
+            // Every step of the event (k / fps) is a filmed frame's moment.
+            let times = r.event_times_s();
+            for k in 0..config.frames {
+                let step = f64::from(k) / config.fps;
+                assert!(times.iter().any(|t| (t - step).abs() < 1e-9), "camera {c} has no frame at step {k}");
+            }
+            assert_eq!(r.rate, 1.0);
+            assert!(!r.vfr);
+        }
+        assert_eq!(
+            (synchronized.fps.clone(), synchronized.portrait_camera, synchronized.audio),
+            (phones.fps, phones.portrait_camera, phones.audio)
+        );
     }
 
     #[test]
