@@ -136,7 +136,8 @@ pub struct Args {
     /// How the cameras' clocks are found: `audio` (from their sound: onset envelopes for a
     /// coarse offset, GCC-PHAT refined below a sample, drift from windows along the recording,
     /// all pairs solved together), `visual` (from the pictures: the offsets at which what moves
-    /// agrees with the calibration of `--poses`; cameras on tripods), `none` (every camera taken
+    /// agrees with the calibration of `--poses`, or without it with the cameras placed from the
+    /// static scene first; cameras on tripods), `none` (every camera taken
     /// to have started with the others), or `auto` (`audio` when every camera is a video with a
     /// sound track, else `visual` when `--poses` is given and the recordings differ in length,
     /// else `none`). `report.json`'s `time_alignment` says what was found.

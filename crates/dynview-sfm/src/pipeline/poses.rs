@@ -19,7 +19,7 @@ use crate::estimators::focal::PRIOR_FOCAL_FACTOR;
 use crate::features::sift::Features;
 use crate::input::calibration::{KnownCameras, KnownIntrinsics, calibration_for, known_intrinsics, read_poses, undistort_frames};
 use crate::input::frames::{DiscoveredCamera, EventFrames, decode_frames};
-use crate::input::timing::{TimeOptions, align_in_time};
+use crate::input::timing::{SyncMethod, TimeOptions, align_in_time};
 use crate::mapping::keyframe_model::{
     KeyframeModel, PRIOR_FOCAL_SOURCE, focal_std_fractions, intrinsics_groups, intrinsics_notes, per_group, reconstruct_keyframes,
     to_colmap, weak_focal_warnings, write_colmap_text,
@@ -28,6 +28,7 @@ use crate::mapping::keyframes::{Keyframe, keyframe_features, keyframes, match_al
 use crate::mapping::refine::{CameraTrack, KeyframeView, RefineReport, refine_camera};
 use crate::mapping::step_adjust::{StepAdjustReport, StepCameras, adjust_with_steps};
 use crate::pipeline::options::{PrepOptions, PrepReport, Stage};
+use crate::pipeline::still_placement::{check_confidence, place_still_cameras};
 use crate::work::WorkDir;
 
 /// The revision of the pose stages' work files (`keyframes/model.json`, `refine/<camera>.json`,
@@ -70,7 +71,19 @@ pub(crate) fn pose_stages(
         start_at: options.start_at.clone(),
         retime: options.retime,
     };
-    let (mut frames, alignment, warnings) = align_in_time(&recorded, &time, calibration.as_deref(), work, progress, interrupt)?;
+    // Aligning from the pictures without a calibration: the cameras placed from the static
+    // scene first (they are not a calibration for the later stages, which place them again).
+    let placed = if calibration.is_none() && options.offsets_s.is_empty() && options.sync == SyncMethod::Visual {
+        Some(place_still_cameras(work, &recorded_frames, options, progress, interrupt)?)
+    } else {
+        None
+    };
+    let placed_refs: Option<Vec<&CameraPoses>> = placed.as_ref().map(|p| p.iter().collect());
+    let sync_calibration = calibration.as_deref().or(placed_refs.as_deref());
+    let (mut frames, alignment, warnings) = align_in_time(&recorded, &time, sync_calibration, work, progress, interrupt)?;
+    if placed.is_some() {
+        check_confidence(&alignment)?;
+    }
     report.warnings.extend(warnings);
     report.time_alignment = Some(alignment);
     let mut known = KnownCameras::new();

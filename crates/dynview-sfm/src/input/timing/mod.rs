@@ -50,8 +50,9 @@ pub enum SyncMethod {
     Auto,
     /// From their sound ([`dynview_sync::audio`]; an error when a camera has none).
     Audio,
-    /// From the pictures: the offsets at which what moves agrees with the given calibration's
-    /// epipolar geometry (cameras on tripods).
+    /// From the pictures: the offsets at which what moves agrees with the epipolar geometry of
+    /// the given calibration, or of the cameras placed from the static scene without one
+    /// (`crate::pipeline::still_placement`; cameras on tripods).
     Visual,
     /// Every camera taken to have started with the others (frames still placed by their
     /// timestamps).
@@ -433,7 +434,9 @@ impl Found<'_> {
 
     fn visual(&self) -> SfmResult<Clocks> {
         let Some(calibration) = self.calibration else {
-            return Err(SfmError::TimeAlignment("--sync visual needs the cameras placed: give --poses (a calibration)".into()));
+            return Err(SfmError::TimeAlignment(
+                "--sync visual needs the cameras placed: give --poses (a calibration), or let prep place them from the static scene".into(),
+            ));
         };
         let key = (
             "visual sync",
