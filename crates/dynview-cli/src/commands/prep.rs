@@ -294,18 +294,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     println!("{} cameras x {} frames", report.cameras, report.frames);
     if let Some(time) = &report.time_alignment {
+        let made: usize = time.cameras.values().map(|c| c.retimed).sum();
         println!(
-            "timeline ({}): {} time steps at {:.3} fps, frames at most {:.1} ms from their step",
+            "timeline ({}): {} time steps at {:.3} fps, filmed frames at most {:.1} ms from their step{}",
             time.method,
             time.steps,
             time.fps,
-            time.max_error_s * 1e3
+            time.max_error_s * 1e3,
+            if made > 0 { format!("; {made} frames made for the steps' moments (--retime)") } else { String::new() }
         );
         if time.method != "none" || time.cameras.values().any(|c| c.rate != 1.0 || c.start_s.abs() > 1e-6) {
             for (name, c) in &time.cameras {
                 println!(
-                    "  {name}: first step at {:.4} s of its video, clock rate {:.6}, {:.2} fps, confidence {:.2}",
-                    c.start_s, c.rate, c.fps, c.confidence
+                    "  {name}: first step at {:.4} s of its video, clock rate {:.6}, {:.2} fps, confidence {:.2}{}",
+                    c.start_s,
+                    c.rate,
+                    c.fps,
+                    c.confidence,
+                    if c.retimed > 0 { format!(", {} frames made", c.retimed) } else { String::new() }
                 );
             }
         }
