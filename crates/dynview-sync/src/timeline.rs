@@ -120,7 +120,7 @@ impl Timeline {
 }
 
 /// Builds the timeline of `cameras` whose clocks against a common time are `clocks`: steps at
-/// `fps` (default: the slowest camera's nominal rate) from the latest first frame to the
+/// `fps` (default: the slowest camera's nominal rate, see [`default_fps`]) from the latest first frame to the
 /// earliest last frame. Errors name the camera whose frames are unusable, or say when the
 /// cameras share no stretch of time.
 pub fn build(cameras: &[CameraTimes], clocks: &[Clock], fps: Option<f64>) -> SyncResult<Timeline> {
@@ -145,7 +145,7 @@ pub fn build_from(cameras: &[CameraTimes], clocks: &[Clock], fps: Option<f64>, s
     let fps = match fps {
         Some(f) if f.is_finite() && f > 0.0 && f <= 1000.0 => f,
         Some(f) => return Err(SyncError::Option { option: "fps", problem: format!("must be in (0, 1000], found {f}") }),
-        None => cameras.iter().filter_map(CameraTimes::nominal_fps).fold(f64::INFINITY, f64::min),
+        None => default_fps(&cameras.iter().filter_map(CameraTimes::nominal_fps).collect::<Vec<_>>()),
     };
     let fps = if fps.is_finite() { fps } else { 30.0 };
     // Each camera's frames on the common time.
@@ -201,6 +201,23 @@ pub fn build_from(cameras: &[CameraTimes], clocks: &[Clock], fps: Option<f64>, s
         moments.push(located);
     }
     Ok(Timeline { fps, frames, clocks: clocks.iter().map(|c| c.shifted(start)).collect(), max_error_s, moments })
+}
+
+/// Rates this close (relative) count as one camera model's two namings (29.97 and 30 fps).
+pub const SAME_RATE: f64 = 0.002;
+
+/// The timeline's rate when none is given: the slowest of `rates` (a faster camera's frames
+/// would otherwise repeat), except that where rates within [`SAME_RATE`] of it differ only as
+/// 29.97 and 30 fps do, the one most cameras film at (the slowest on a tie): a variable-rate
+/// phone taken as 29.97 among 30 fps phones would otherwise put every other camera a little off
+/// the timeline. Infinite without rates.
+pub fn default_fps(rates: &[f64]) -> f64 {
+    let slowest = rates.iter().copied().fold(f64::INFINITY, f64::min);
+    let count = |rate: f64| rates.iter().filter(|r| ((*r / rate) - 1.0).abs() < 1e-9).count();
+    let mut near: Vec<f64> = rates.iter().copied().filter(|r| *r / slowest - 1.0 <= SAME_RATE).collect();
+    near.sort_by(f64::total_cmp);
+    near.dedup();
+    near.into_iter().fold(slowest, |best, r| if count(r) > count(best) { r } else { best })
 }
 
 /// Index of the time in sorted `times` (not empty) nearest to `tau` (the earlier on a tie).
@@ -354,5 +371,15 @@ mod tests {
             assert_eq!(m.before, k, "step {k}");
             assert!((m.fraction - 1.0 / 3.0).abs() < 1e-9, "step {k}: {m:?}");
         }
+    }
+
+    #[test]
+    fn the_default_rate_is_the_slowest_unless_it_is_a_naming_of_the_common_one() {
+        assert_eq!(default_fps(&[30.0, 15.0, 60.0]), 15.0);
+        assert_eq!(default_fps(&[30.0, 29.97, 30.0, 60.0]), 30.0, "a 29.97 phone among 30 fps ones");
+        assert_eq!(default_fps(&[29.97, 30.0]), 29.97, "a tie: the slowest");
+        assert_eq!(default_fps(&[29.97, 29.97, 30.0]), 29.97);
+        assert_eq!(default_fps(&[24.0, 25.0, 25.0]), 24.0, "24 and 25 fps are not one rate");
+        assert!(default_fps(&[]).is_infinite());
     }
 }

@@ -129,7 +129,8 @@ pub struct Args {
     /// job of a scheduler array; `dynview merge` joins the ranges into the package.
     #[arg(long, value_name = "A..B", value_parser = parse_range)]
     frames: Option<Range<usize>>,
-    /// Time steps per second of the package (default: the slowest camera's frame rate; image
+    /// Time steps per second of the package (default: the slowest camera's frame rate, or 30
+    /// where that is 29.97 and most cameras film at 30; image
     /// folders count as this rate, else 30).
     #[arg(long)]
     fps: Option<f64>,

@@ -80,7 +80,7 @@ pub struct TimeOptions {
     /// Given by hand: per camera, the time in its video (s from its first frame) of one moment
     /// every camera filmed (a clap); every camera must be named.
     pub offsets_s: BTreeMap<String, f64>,
-    /// Time steps per second (default: the slowest camera's rate; image folders count as
+    /// Time steps per second (default: the slowest camera's rate, `dynview_sync::timeline::default_fps`; image folders count as
     /// [`DEFAULT_FPS`] unless this is given).
     pub fps: Option<f64>,
     /// The first time step at this time (s) of this camera's video, instead of where the last
