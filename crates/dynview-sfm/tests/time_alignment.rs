@@ -20,6 +20,21 @@ fn ffmpeg_available() -> bool {
     Command::new("ffmpeg").arg("-version").output().is_ok_and(|o| o.status.success())
 }
 
+/// Returns early (the test passes as skipped) where ffmpeg is missing.
+macro_rules! skip_without_ffmpeg {
+    () => {
+        if !ffmpeg_available() {
+            eprintln!("skipped: no ffmpeg");
+            return;
+        }
+    };
+}
+
+/// Writes the synthetic event of `config` (filmed unsynchronized) into `event`; its true clocks.
+fn film(config: &dynview_synth::SynthConfig, event: &Path) -> dynview_synth::unsync::TimeAlignment {
+    dynview_synth::generate(config, event, &|_, _, _| {}).expect("synth").time_alignment.expect("unsynchronized")
+}
+
 /// A test pattern video of `seconds` at `fps`, its timestamps rewritten by `setpts` when given.
 fn video(path: &Path, fps: u32, seconds: f64, setpts: Option<&str>, extra: &[&str]) {
     let source = format!("testsrc=size=96x64:rate={fps}");
@@ -73,10 +88,7 @@ fn frames_only() -> PrepOptions {
 
 #[test]
 fn mixed_and_variable_frame_rates_are_placed_by_timestamp_and_portrait_stands_upright() {
-    if !ffmpeg_available() {
-        eprintln!("skipped: no ffmpeg");
-        return;
-    }
+    skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
     let input = dir.path().join("input");
     std::fs::create_dir_all(&input).expect("mkdir");
@@ -124,10 +136,7 @@ fn mixed_and_variable_frame_rates_are_placed_by_timestamp_and_portrait_stands_up
 
 #[test]
 fn given_offsets_move_cameras_on_the_timeline_and_bad_ones_are_named() {
-    if !ffmpeg_available() {
-        eprintln!("skipped: no ffmpeg");
-        return;
-    }
+    skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
     let input = dir.path().join("input");
     std::fs::create_dir_all(&input).expect("mkdir");
@@ -161,10 +170,7 @@ fn given_offsets_move_cameras_on_the_timeline_and_bad_ones_are_named() {
 
 #[test]
 fn the_sound_is_placed_on_the_videos_time() {
-    if !ffmpeg_available() {
-        eprintln!("skipped: no ffmpeg");
-        return;
-    }
+    skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
     // A click at 0.5 s of the sound, whose stream starts 0.25 s after the picture's.
     let click = "aevalsrc='if(between(t\\,0.5\\,0.5005)\\,0.9\\,0)':s=48000:d=2";
@@ -238,10 +244,7 @@ fn the_panoptic_arc_cut_apart_is_put_back_together_from_the_pictures() {
 /// calibration: every camera within a quarter frame of the truth.
 #[test]
 fn synthetic_phones_are_aligned_within_a_quarter_frame_from_the_pictures() {
-    if !ffmpeg_available() {
-        eprintln!("skipped: no ffmpeg");
-        return;
-    }
+    skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
     let event = dir.path().join("event");
     let mut config =
@@ -249,7 +252,7 @@ fn synthetic_phones_are_aligned_within_a_quarter_frame_from_the_pictures() {
     let mut phones = dynview_synth::unsync::UnsyncConfig::phones(config.cameras, config.fps, 7);
     phones.audio = false;
     config.unsync = Some(phones);
-    let truth = dynview_synth::generate(&config, &event, &|_, _, _| {}).expect("synth").time_alignment.expect("unsynchronized");
+    let truth = film(&config, &event);
     let options = PrepOptions { poses: Some(event.join("colmap")), sync: SyncMethod::Visual, ..frames_only() };
     let (report, frames) = prep(&event.join("videos"), &options).expect("visual alignment");
     let time = report.time_alignment.expect("reported");
@@ -268,10 +271,7 @@ fn synthetic_phones_are_aligned_within_a_quarter_frame_from_the_pictures() {
 /// whose frames our SfM misjudges a focal length on), the unsure clocks are an error, not a guess.
 #[test]
 fn synthetic_phones_are_aligned_from_the_pictures_without_a_calibration() {
-    if !ffmpeg_available() {
-        eprintln!("skipped: no ffmpeg");
-        return;
-    }
+    skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
     let config = dynview_synth::SynthConfig { cameras: 5, frames: 45, width: 640, height: 360, ..dynview_synth::SynthConfig::default() };
     let event_with = |phones_seed: u64, name: &str| {
@@ -279,7 +279,7 @@ fn synthetic_phones_are_aligned_from_the_pictures_without_a_calibration() {
         phones.audio = false;
         let event = dir.path().join(name);
         let unsync = dynview_synth::SynthConfig { unsync: Some(phones), ..config.clone() };
-        let truth = dynview_synth::generate(&unsync, &event, &|_, _, _| {}).expect("synth").time_alignment.expect("unsynchronized");
+        let truth = film(&unsync, &event);
         (event, truth)
     };
     let options = PrepOptions { sync: SyncMethod::Visual, ..frames_only() };
@@ -300,10 +300,7 @@ fn synthetic_phones_are_aligned_from_the_pictures_without_a_calibration() {
 /// signals was tried and agreed at wrong lags on this event, 0.5-6 s off).
 #[test]
 fn phones_started_seconds_apart_are_aligned_with_a_wider_search() {
-    if !ffmpeg_available() {
-        eprintln!("skipped: no ffmpeg");
-        return;
-    }
+    skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
     let event = dir.path().join("event");
     let phones = dynview_synth::unsync::UnsyncConfig {
@@ -326,7 +323,7 @@ fn phones_started_seconds_apart_are_aligned_with_a_wider_search() {
         unsync: Some(phones),
         ..dynview_synth::SynthConfig::default()
     };
-    let truth = dynview_synth::generate(&config, &event, &|_, _, _| {}).expect("synth").time_alignment.expect("unsynchronized");
+    let truth = film(&config, &event);
     let mut options = PrepOptions { poses: Some(event.join("colmap")), sync: SyncMethod::Visual, ..frames_only() };
     options.visual_sync.max_offset_s = 8.0;
     let (report, _) = prep(&event.join("videos"), &options).expect("visual alignment over 8 s");
@@ -341,15 +338,12 @@ fn phones_started_seconds_apart_are_aligned_with_a_wider_search() {
 /// calibration, every camera within an eighth of a frame of the others by its true clock.
 #[test]
 fn synthetic_phones_are_aligned_from_their_sound() {
-    if !ffmpeg_available() {
-        eprintln!("skipped: no ffmpeg");
-        return;
-    }
+    skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
     let event = dir.path().join("event");
     let mut config = dynview_synth::SynthConfig { cameras: 4, frames: 90, width: 48, height: 28, ..dynview_synth::SynthConfig::default() };
     config.unsync = Some(dynview_synth::unsync::UnsyncConfig::phones(config.cameras, config.fps, 3));
-    let truth = dynview_synth::generate(&config, &event, &|_, _, _| {}).expect("synth").time_alignment.expect("unsynchronized");
+    let truth = film(&config, &event);
     let (report, _) = prep(&event.join("videos"), &frames_only()).expect("audio alignment");
     let time = report.time_alignment.expect("reported");
     assert_eq!(time.method, "audio", "auto picks the sound when every camera has a sound track");
@@ -362,10 +356,7 @@ fn synthetic_phones_are_aligned_from_their_sound() {
 /// A "video" with no picture (a phone's sound-only recording) is an error naming the file.
 #[test]
 fn a_video_without_frames_is_named() {
-    if !ffmpeg_available() {
-        eprintln!("skipped: no ffmpeg");
-        return;
-    }
+    skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
     let input = dir.path().join("input");
     std::fs::create_dir_all(&input).expect("mkdir");
@@ -388,10 +379,7 @@ fn mse(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
 /// frame) than the frame filmed nearest to it (`--retime nearest`).
 #[test]
 fn frames_made_between_filmed_frames_show_the_steps_moment() {
-    if !ffmpeg_available() {
-        eprintln!("skipped: no ffmpeg");
-        return;
-    }
+    skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
     let config = dynview_synth::SynthConfig { cameras: 4, frames: 24, width: 320, height: 180, ..dynview_synth::SynthConfig::default() };
     let synchronized = dir.path().join("synchronized");
@@ -400,7 +388,7 @@ fn frames_made_between_filmed_frames_show_the_steps_moment() {
     phones.audio = false;
     let event = dir.path().join("phones");
     let unsync = dynview_synth::SynthConfig { unsync: Some(phones), ..config.clone() };
-    let truth = dynview_synth::generate(&unsync, &event, &|_, _, _| {}).expect("synth").time_alignment.expect("unsynchronized");
+    let truth = film(&unsync, &event);
     let offsets = truth.cameras.iter().map(|(name, c)| (name.clone(), c.start_s)).collect();
     let start_at = truth.cameras.iter().next().map(|(name, c)| (name.clone(), c.start_s));
     let given = PrepOptions { offsets_s: offsets, start_at, ..frames_only() };
@@ -428,10 +416,7 @@ fn frames_made_between_filmed_frames_show_the_steps_moment() {
 /// stages keyed by frame names see new frames, and the first run's files are gone.
 #[test]
 fn a_rerun_with_other_offsets_makes_new_frames() {
-    if !ffmpeg_available() {
-        eprintln!("skipped: no ffmpeg");
-        return;
-    }
+    skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
     let input = dir.path().join("input");
     std::fs::create_dir_all(&input).expect("mkdir");
