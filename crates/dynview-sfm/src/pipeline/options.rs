@@ -10,6 +10,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::{SfmError, SfmResult};
 use crate::features::matching::MatchOptions;
 use crate::features::sift::FeatureOptions;
+use crate::input::calibration::{KnownCameras, KnownIntrinsics};
+use crate::input::frames::EventFrames;
 use crate::input::timing::retime::Retime;
 use crate::input::timing::visual::VisualOptions;
 use crate::input::timing::{SyncMethod, TimeAlignment};
@@ -137,6 +139,18 @@ impl Default for PrepOptions {
 }
 
 impl PrepOptions {
+    /// Adds the focal lengths given with `--focal` to `known` for the cameras of `frames` it
+    /// does not know yet (a calibration's intrinsics stay).
+    pub fn add_given_focals(&self, frames: &EventFrames, known: &mut KnownCameras) {
+        for c in &frames.cameras {
+            if !known.contains_key(&c.name)
+                && let Some(f) = self.focal_px.get(&c.name).copied().or(self.focal_px_all)
+            {
+                known.insert(c.name.clone(), KnownIntrinsics::focal(f, c.width, c.height));
+            }
+        }
+    }
+
     /// Checks ranges.
     pub fn validate(&self) -> SfmResult<()> {
         self.visual_sync.validate()?;

@@ -17,7 +17,7 @@ use dynview_interchange::poses::{CameraPoses, EventPoses, FramePose, POSES_FILE}
 use crate::error::{SfmError, SfmResult};
 use crate::estimators::focal::PRIOR_FOCAL_FACTOR;
 use crate::features::sift::Features;
-use crate::input::calibration::{KnownCameras, KnownIntrinsics, calibration_for, known_intrinsics, read_poses, undistort_frames};
+use crate::input::calibration::{KnownCameras, calibration_for, known_intrinsics, read_poses, undistort_frames};
 use crate::input::frames::{DiscoveredCamera, EventFrames, decode_frames};
 use crate::input::timing::{SyncMethod, TimeOptions, align_in_time};
 use crate::mapping::keyframe_model::{
@@ -91,13 +91,7 @@ pub(crate) fn pose_stages(
         frames = undistort_frames(&frames, calibration, &work.join("undistorted"), progress, interrupt)?;
         known = known_intrinsics(calibration);
     }
-    for c in &frames.cameras {
-        if !known.contains_key(&c.name)
-            && let Some(f) = options.focal_px.get(&c.name).copied().or(options.focal_px_all)
-        {
-            known.insert(c.name.clone(), KnownIntrinsics::focal(f, c.width, c.height));
-        }
-    }
+    options.add_given_focals(&frames, &mut known);
     work.write_json("frames.json", &frames)?;
     report.cameras = frames.cameras.len();
     report.frames = frames.frame_count();

@@ -12,7 +12,7 @@ use dynview_core::scene::manifest::PoseEntry;
 use dynview_interchange::poses::{CameraPoses, FramePose};
 
 use crate::error::{SfmError, SfmResult};
-use crate::input::calibration::{KnownCameras, KnownIntrinsics};
+use crate::input::calibration::KnownCameras;
 use crate::input::frames::{CameraFrames, EventFrames};
 use crate::input::timing::TimeAlignment;
 use crate::mapping::keyframe_model::reconstruct_keyframes;
@@ -56,11 +56,7 @@ pub fn place_still_cameras(
         cameras: recorded.cameras.iter().map(|c| CameraFrames { files: c.files[..shortest].to_vec(), ..c.clone() }).collect(),
     };
     let mut known = KnownCameras::new();
-    for c in &frames.cameras {
-        if let Some(f) = options.focal_px.get(&c.name).copied().or(options.focal_px_all) {
-            known.insert(c.name.clone(), KnownIntrinsics::focal(f, c.width, c.height));
-        }
-    }
+    options.add_given_focals(&frames, &mut known);
     // At least four keyframes a camera (pooled where it stands still): short recordings too.
     let interval = options.keyframe_interval.min(shortest.div_ceil(MIN_KEYFRAMES)).max(1);
     let keys = keyframes(&frames, interval);

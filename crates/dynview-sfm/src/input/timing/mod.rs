@@ -247,12 +247,13 @@ impl StepSource {
         if retime == Retime::Flow && between { Self::Between(moment.before, moment.fraction) } else { Self::Frame(nearest) }
     }
 
-    /// The step's file name: the step, the frame and how far past it, so that a stage keyed by
-    /// file names sees a new frame whenever the alignment or the retiming changes.
+    /// The step's file name (`extension`: the filmed frame's, or the work frames' for a made
+    /// one): the step, the frame and how far past it, so that a stage keyed by file names sees
+    /// a new frame whenever the alignment or the retiming changes.
     fn file_name(&self, t: usize, extension: &str) -> String {
         match self {
             Self::Frame(j) => format!("{t:05}-{j:05}.{extension}"),
-            Self::Between(j, f) => format!("{t:05}-{j:05}+{:04}r{RETIME_REVISION}.{WORK_FRAME_EXTENSION}", (f * 1e4).round()),
+            Self::Between(j, f) => format!("{t:05}-{j:05}+{:04}r{RETIME_REVISION}.{extension}", (f * 1e4).round()),
         }
     }
 }
@@ -275,7 +276,8 @@ fn steps_files(
         .iter()
         .enumerate()
         .map(|(t, s)| match s {
-            StepSource::Frame(j) | StepSource::Between(j, _) => s.file_name(t, &extension(*j)),
+            StepSource::Frame(j) => s.file_name(t, &extension(*j)),
+            StepSource::Between(..) => s.file_name(t, WORK_FRAME_EXTENSION),
         })
         .collect();
     for entry in std::fs::read_dir(dir).map_err(SfmError::io(dir))?.flatten() {
