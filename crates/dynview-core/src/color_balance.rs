@@ -98,7 +98,7 @@ pub fn gather_samples(cloud: &PointCloud, cameras: &[CameraFrame]) -> Vec<PointS
             continue;
         }
         let mut maps = project_cloud(cloud, &view.camera);
-        maps.drop_inconsistent(CONSISTENCY_RATIO, None);
+        maps.drop_inconsistent(CONSISTENCY_RATIO, None, 0);
         for (i, p) in cloud.positions_world.iter().enumerate() {
             let Some((uv, z)) = view.camera.project_world(glam::DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))) else {
                 continue;

@@ -112,7 +112,7 @@ impl<'a> LevelViews<'a> {
 pub(super) fn sparse_maps(params: &RenderParams, cloud: &PointCloud, camera: &Camera) -> SplatMaps {
     let mut maps = project_cloud(cloud, camera);
     if params.sparse_consistency > 0.0 {
-        maps.drop_inconsistent(params.sparse_consistency, None);
+        maps.drop_inconsistent(params.sparse_consistency, None, params.sparse_surround_px);
     }
     maps
 }

@@ -31,6 +31,7 @@ pub mod pyramid;
 pub mod solve;
 pub mod sparse;
 mod streaming;
+pub mod surround;
 mod timing;
 pub mod transfer;
 pub mod warp;

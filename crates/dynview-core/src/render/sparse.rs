@@ -85,14 +85,17 @@ impl SplatMaps {
     /// Removes samples that cannot be right in this view, in two passes over a window of
     /// `radius` pixels (`None`: half the mean spacing between samples, 1 to 8 pixels):
     ///
-    /// 1. isolated front samples: no other sample in the window lies within `ratio` of its
-    ///    depth and at least two lie clearly behind it (an outlier floating in front);
+    /// 1. isolated front samples: no other sample in the window (nor, with the surround test,
+    ///    within `surround_px` pixels) lies within `ratio` of its depth and at least two in the
+    ///    window lie clearly behind it (an outlier floating in front);
     /// 2. occluded samples: a remaining sample in the window is nearer by more than the factor
     ///    `1 + ratio` (a point some input camera saw but this view cannot: a sparse cloud has
-    ///    no surfaces to hide it in a z-buffer).
+    ///    no surfaces to hide it in a z-buffer), or, within `surround_px` pixels (0: no such
+    ///    test), samples nearer by that factor lie in each of its four quadrants (it is inside
+    ///    a nearer surface sparser than the window reaches across; see [`super::surround`]).
     ///
     /// Returns the number of samples removed.
-    pub fn drop_inconsistent(&mut self, ratio: f32, radius: Option<usize>) -> usize {
+    pub fn drop_inconsistent(&mut self, ratio: f32, radius: Option<usize>, surround_px: usize) -> usize {
         let (w, h) = (self.depth.width, self.depth.height);
         let covered = self.covered();
         if covered == 0 {
@@ -101,12 +104,13 @@ impl SplatMaps {
         let spacing = ((w * h) as f32 / covered as f32).sqrt();
         let r = radius.unwrap_or_else(|| (0.5 * spacing).ceil().clamp(1.0, 8.0) as usize);
         let samples: Vec<usize> = (0..w * h).filter(|&i| self.mask.data[i] > 0.0).collect();
-        let window = |i: usize| {
+        let square = |i: usize, radius: usize| {
             let (x, y) = (i % w, i / w);
-            let (x0, x1) = (x.saturating_sub(r), (x + r).min(w - 1));
-            let (y0, y1) = (y.saturating_sub(r), (y + r).min(h - 1));
+            let (x0, x1) = (x.saturating_sub(radius), (x + radius).min(w - 1));
+            let (y0, y1) = (y.saturating_sub(radius), (y + radius).min(h - 1));
             (y0..=y1).flat_map(move |yy| (x0..=x1).map(move |xx| yy * w + xx)).filter(move |&j| j != i)
         };
+        let window = |i: usize| square(i, r);
         let mut remove = Vec::new();
         for &i in &samples {
             let d = self.depth.data[i];
@@ -121,20 +125,32 @@ impl SplatMaps {
                     }
                 }
             }
-            if support == 0 && behind >= 2 {
+            // A sample of a sparse surface in front of a dense one has no neighbour of its own
+            // within the small window: look for one as far as the surround test reaches.
+            if support == 0
+                && behind >= 2
+                && !(surround_px > r
+                    && square(i, surround_px).any(|j| self.mask.data[j] > 0.0 && (self.depth.data[j] - d).abs() <= ratio * d))
+            {
                 remove.push(i);
             }
         }
         for &i in &remove {
             self.mask.data[i] = 0.0;
         }
+        let quadrants = (surround_px > 0).then(|| {
+            let front: Vec<f32> =
+                self.depth.data.iter().zip(&self.mask.data).map(|(&d, &m)| if m > 0.0 { d } else { f32::INFINITY }).collect();
+            super::surround::quadrant_minima(&front, w, h, surround_px)
+        });
+        let surrounded = |i: usize, d: f32| quadrants.as_ref().is_some_and(|q| q.iter().all(|q| d > q[i] * (1.0 + ratio)));
         let mut occluded = Vec::new();
         for &i in &samples {
             if self.mask.data[i] <= 0.0 {
                 continue;
             }
             let d = self.depth.data[i];
-            if window(i).any(|j| self.mask.data[j] > 0.0 && d > self.depth.data[j] * (1.0 + ratio)) {
+            if surrounded(i, d) || window(i).any(|j| self.mask.data[j] > 0.0 && d > self.depth.data[j] * (1.0 + ratio)) {
                 occluded.push(i);
             }
         }
@@ -230,7 +246,7 @@ mod tests {
         for (x, y, d) in [(14, 14, 5.0), (16, 14, 5.0), (14, 16, 5.0), (16, 16, 5.0), (15, 15, 3.0)] {
             maps.splat(x as f32, y as f32, d, [0.5; 3]);
         }
-        let dropped = maps.drop_inconsistent(0.03, Some(2));
+        let dropped = maps.drop_inconsistent(0.03, Some(2), 0);
         assert_eq!(dropped, 2);
         assert_eq!(maps.mask.get(6, 6), 0.0, "occluded far sample");
         assert_eq!(maps.mask.get(15, 15), 0.0, "floating outlier");

@@ -270,7 +270,7 @@ fn evaluate_camera(
         // What the held-out camera's own frame implies: the points of the package prepared with
         // it, as it sees them (z-buffered, the renderer's consistency filter applied).
         let mut own = project_cloud(&reference.read_cloud(t + shift)?, &camera);
-        own.drop_inconsistent(defaults.sparse_consistency, None);
+        own.drop_inconsistent(defaults.sparse_consistency, None, defaults.sparse_surround_px);
         let inputs = package.time_step_inputs(t, defaults.levels)?;
         let mut shown = Vec::new();
         for (m, &method) in METHODS.iter().enumerate() {

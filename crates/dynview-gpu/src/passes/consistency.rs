@@ -15,7 +15,7 @@ struct ConsistencyParams {
     width: u32,
     height: u32,
     ratio: f32,
-    _pad: u32,
+    surround: u32,
 }
 
 /// The consistency filter's kernels, compiled once per device.
@@ -40,13 +40,14 @@ impl ConsistencyKernels {
         }
     }
 
-    /// Drops the inconsistent samples of `sparse` with `ratio`, in place (skipped when `ratio`
-    /// is 0), and returns the counters: covered pixels before (`[0]`) and after (`[1]`).
-    pub fn drop_inconsistent(&self, ctx: &GpuContext, sparse: &GpuSplat, ratio: f32) -> Result<GpuImage, GpuError> {
+    /// Drops the inconsistent samples of `sparse` with `ratio` and the surround test's radius
+    /// `surround_px`, in place (skipped when `ratio` is 0), and returns the counters: covered
+    /// pixels before (`[0]`) and after (`[1]`).
+    pub fn drop_inconsistent(&self, ctx: &GpuContext, sparse: &GpuSplat, ratio: f32, surround_px: usize) -> Result<GpuImage, GpuError> {
         let (w, h) = (sparse.mask.width, sparse.mask.height);
         let flags = GpuImage::zeroed(ctx, w, 2 * h, 1)?;
         let counters = GpuImage::zeroed(ctx, 2, 1, 1)?;
-        let params = ConsistencyParams { width: w as u32, height: h as u32, ratio, _pad: 0 };
+        let params = ConsistencyParams { width: w as u32, height: h as u32, ratio, surround: surround_px.min(u32::MAX as usize) as u32 };
         let buffers = [&sparse.depth.buffer, &sparse.mask.buffer, &flags.buffer, &counters.buffer];
         let _frame = ctx.frame();
         let uniform = bytemuck::bytes_of(&params);
@@ -64,5 +65,5 @@ impl ConsistencyKernels {
 #[cfg(test)]
 pub(crate) fn wgsl_mirrors() -> Vec<crate::device::shader_layout::Mirror> {
     use crate::device::shader_layout::mirror;
-    vec![mirror!(shaders::CONSISTENCY, "Params", ConsistencyParams { width, height, ratio, _pad })]
+    vec![mirror!(shaders::CONSISTENCY, "Params", ConsistencyParams { width, height, ratio, surround })]
 }

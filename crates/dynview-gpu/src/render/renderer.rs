@@ -170,7 +170,7 @@ impl GpuRenderer {
             let cam = camera_at(camera, w, h);
             ctx.set_stage(level, "splat");
             let points = self.splat.project_cloud(ctx, &inputs.cloud, &cam)?;
-            self.consistency.drop_inconsistent(ctx, &points, params.sparse_consistency)?;
+            self.consistency.drop_inconsistent(ctx, &points, params.sparse_consistency, params.sparse_surround_px)?;
             // Each point attached over its footprint; the counters give the coverage after.
             let (sparse, counters) = self.splat.with_footprint(ctx, &points, params.sparse_footprint_px)?;
             ctx.set_stage(level, "temporal");
