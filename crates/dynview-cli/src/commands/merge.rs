@@ -32,6 +32,11 @@ pub struct MergeArgs {
     /// a depth where they enter the space every other camera's foreground allows).
     #[arg(long)]
     no_hull: bool,
+    /// Keep the steps' own points that float in front of the static scene where two or more
+    /// still cameras see their background plate (by default they are dropped: nothing stands
+    /// where a camera looking through it sees the wall behind).
+    #[arg(long)]
+    no_free_space: bool,
     /// Store every camera's frames as they are: no color balance between the cameras (by
     /// default each camera's colors are mapped to the response the cameras share, estimated
     /// from the points they see in common).
@@ -49,6 +54,7 @@ pub fn run_merge(args: MergeArgs) -> anyhow::Result<()> {
         static_cloud: (!args.no_static).then(dynview_sfm::dense::static_cloud::StaticOptions::default),
         plates: (!args.no_plates).then(dynview_sfm::dense::plate_cloud::PlateCloudOptions::default),
         hull: (!args.no_hull).then(dynview_sfm::dense::hull::HullOptions::default),
+        free_space: (!args.no_free_space).then(dynview_sfm::dense::free_space::FreeSpaceOptions::default),
         video: args.frames_as.video(),
         format_v1: args.frames_as.format_v1(),
         color_balance: !args.no_color_balance,

@@ -118,6 +118,11 @@ pub struct Args {
     /// a depth where they enter the space every other camera's foreground allows).
     #[arg(long)]
     no_hull: bool,
+    /// Keep the steps' own points that float in front of the static scene where two or more
+    /// still cameras see their background plate (by default they are dropped: nothing stands
+    /// where a camera looking through it sees the wall behind).
+    #[arg(long)]
+    no_free_space: bool,
     /// Store every camera's frames as they are: no color balance between the cameras (by
     /// default each camera's colors are mapped to the response the cameras share, estimated
     /// from the points they see in common).
@@ -254,6 +259,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     if args.no_hull {
         options.package.hull = None;
+    }
+    if args.no_free_space {
+        options.package.free_space = None;
     }
     options.package.video = args.frames_as.video();
     options.package.format_v1 = args.frames_as.format_v1();

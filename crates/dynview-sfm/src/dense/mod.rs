@@ -2,9 +2,11 @@
 //! static points accumulated across time and lent to the steps that agree with them
 //! ([`static_cloud`]); the background plates of the cameras that stand still ([`plates`]) and the static cloud grown
 //! from them ([`plate_cloud`]); the visual hull of what moves, carved from the plates'
-//! foregrounds ([`hull`]).
+//! foregrounds ([`hull`]); the step's own points that float where the plates show free space
+//! dropped ([`free_space`]).
 
 pub mod densify;
+pub mod free_space;
 pub mod hull;
 pub mod plate_cloud;
 pub mod plates;

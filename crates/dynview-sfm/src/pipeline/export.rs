@@ -11,7 +11,8 @@ use dynview_core::scene::manifest::{FORMAT_NAME, FORMAT_VERSION};
 use dynview_core::scene::{Bounds, CameraEntry, CloudsEntry, FrameFormat, Manifest, SceneWriter, StartView};
 use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
-use crate::dense::hull::{HullOptions, HullView, foreground, hull_points, static_depths};
+use crate::dense::free_space::{FreeSpaceOptions, FreeSpaceView, drop_floaters, static_depth_map};
+use crate::dense::hull::{Foreground, HullOptions, HullView, foreground, hull_points, static_depths};
 use crate::dense::plate_cloud::{PlateCloudOptions, estimate_plates, plate_cloud};
 use crate::dense::static_cloud::{StaticCloud, StaticOptions, build_static_cloud, candidate_steps};
 use crate::error::{SfmError, SfmResult};
@@ -19,6 +20,7 @@ use crate::pipeline::timesteps::{
     SETTINGS_FILE, StepSettings, cloud_path, frame_path, is_step_done, read_cloud, resized_intrinsics, working_size,
 };
 use crate::work::WorkDir;
+use dynview_core::raster::ScalarRaster;
 
 /// Share of points cut at each end of each axis when the quantisation box is chosen, so that a
 /// few stray points do not coarsen the 16-bit grid of all the others.
@@ -50,6 +52,11 @@ pub struct PackageOptions {
     /// [`HullOptions::min_witnesses`] (`None`: the steps' own points only).
     #[serde(default = "default_hull")]
     pub hull: Option<HullOptions>,
+    /// Drop the steps' own points that float in front of the static scene where the still
+    /// cameras see their plates ([`crate::dense::free_space`]; foregrounds as `hull` defines
+    /// them, or its defaults). Needs plates of two cameras or more (`None`: own points kept).
+    #[serde(default = "default_free_space")]
+    pub free_space: Option<FreeSpaceOptions>,
     /// The frames as one VP9 video per camera (format v2), or as JPEG files when `None`.
     pub video: Option<VideoSettings>,
     /// Write format v1 (JPEG frames, every step's points in full, static points lent to each),
@@ -74,12 +81,17 @@ fn default_hull() -> Option<HullOptions> {
     Some(HullOptions::default())
 }
 
+fn default_free_space() -> Option<FreeSpaceOptions> {
+    Some(FreeSpaceOptions::default())
+}
+
 impl Default for PackageOptions {
     fn default() -> Self {
         Self {
             static_cloud: Some(StaticOptions::default()),
             plates: default_plates(),
             hull: default_hull(),
+            free_space: default_free_space(),
             video: Some(VideoSettings::default()),
             format_v1: false,
             color_balance: true,
@@ -109,6 +121,10 @@ pub struct ExportReport {
     /// Points of the moving things' visual hulls, summed over steps (`None` without hulls).
     #[serde(default)]
     pub hull_points: Option<usize>,
+    /// Own points dropped as floating in front of the static scene, summed over steps (`None`
+    /// without the test).
+    #[serde(default)]
+    pub floating_points: Option<usize>,
     /// Static points lent to the steps, summed over steps (each step's own points excluded).
     #[serde(default)]
     pub borrowed_points: usize,
@@ -288,6 +304,23 @@ pub fn export_package(
             .collect(),
         _ => Vec::new(),
     };
+    // The free-space test: each plate camera's static depth (the cameras stand still).
+    let free_space = options.free_space.as_ref().filter(|_| plates.iter().flatten().count() >= 2);
+    let static_depth_maps: Vec<Option<ScalarRaster>> = match (free_space, &static_cloud) {
+        (Some(free_space), Some(statics)) => {
+            free_space.validate()?;
+            report.floating_points = Some(0);
+            (0..plates.len())
+                .map(|c| {
+                    plates[c]
+                        .as_ref()
+                        .map(|_| static_depth_map(&writer.manifest().camera_at(c, 0), &statics.points, free_space.footprint_px))
+                })
+                .collect()
+        }
+        _ => Vec::new(),
+    };
+    let foreground_options = options.hull.clone().unwrap_or_default();
     let (lo, hi) = (bounds.min.map(|v| v as f32), bounds.max.map(|v| v as f32));
     let inside = |p: &[f32; 3]| (0..3).all(|i| p[i] >= lo[i] && p[i] <= hi[i]);
     // A format v2 package stores the static points inside the box once (`store` maps a static
@@ -318,9 +351,26 @@ pub fn export_package(
             writer.write_frame(c, t as u32, frame)?;
         }
         let mut cloud = read_cloud(&cloud_path(&s.work, t))?;
+        let foregrounds = if hull.is_some() || !static_depth_maps.is_empty() {
+            step_foregrounds(&frames, &plates, &foreground_options)?
+        } else {
+            Vec::new()
+        };
+        if let Some(free_space) = free_space.filter(|_| !static_depth_maps.is_empty()) {
+            let cameras: Vec<dynview_core::Camera> = (0..frames.len()).map(|c| writer.manifest().camera_at(c, t as u32)).collect();
+            let views: Vec<FreeSpaceView> = (0..frames.len())
+                .filter_map(|c| {
+                    let (Some(foreground), Some(Some(depth))) = (&foregrounds[c], static_depth_maps.get(c)) else { return None };
+                    Some(FreeSpaceView { camera: &cameras[c], foreground, static_depth_m: depth })
+                })
+                .collect();
+            let (kept, dropped) = drop_floaters(&cloud, &views, free_space);
+            cloud = kept;
+            report.floating_points = report.floating_points.map(|n| n + dropped);
+        }
         // Hull points are judged against the step's own points, before static points stand in.
         let moving = match hull {
-            Some(hull) => Some(step_hull(writer.manifest(), t, &frames, &plates, &static_depth_of, &cloud, hull)?),
+            Some(hull) => Some(step_hull(writer.manifest(), t, &frames, &foregrounds, &static_depth_of, &cloud, hull)?),
             None => None,
         };
         let mut borrowed_indices = Vec::new();
@@ -405,24 +455,34 @@ fn work_frames(source: &Source, manifest: &Manifest, t: usize) -> SfmResult<Vec<
         .collect()
 }
 
+/// The foreground of each camera's frame of a step against its plate (`None` without a plate).
+fn step_foregrounds(
+    frames: &[image::RgbImage],
+    plates: &[Option<crate::dense::Plate>],
+    options: &HullOptions,
+) -> SfmResult<Vec<Option<Foreground>>> {
+    frames.iter().zip(plates).map(|(frame, plate)| plate.as_ref().map(|plate| foreground(frame, plate, options)).transpose()).collect()
+}
+
 /// The visual hull's points of step `t` ([`crate::dense::hull`]) from the cameras with a plate
-/// and a static depth range (`frames`: the step's, one per camera), `own` the step's own points.
+/// and a static depth range (`frames` and `foregrounds`: the step's, one per camera), `own` the
+/// step's own points.
 fn step_hull(
     manifest: &Manifest,
     t: usize,
     frames: &[image::RgbImage],
-    plates: &[Option<crate::dense::Plate>],
+    foregrounds: &[Option<Foreground>],
     static_depth_of: &[Option<(f64, f64)>],
     own: &dynview_core::scene::PointCloud,
     options: &HullOptions,
 ) -> SfmResult<dynview_core::scene::PointCloud> {
     let mut views = Vec::new();
     for (c, frame) in frames.iter().enumerate() {
-        let (Some(plate), Some(Some((median, far)))) = (&plates[c], static_depth_of.get(c)) else { continue };
+        let (Some(foreground), Some(Some((median, far)))) = (&foregrounds[c], static_depth_of.get(c)) else { continue };
         views.push(HullView {
             camera: manifest.camera_at(c, t as u32),
             frame,
-            foreground: foreground(frame, plate, options)?,
+            foreground: foreground.clone(),
             median_static_depth_m: *median,
             far_depth_m: *far,
         });
