@@ -92,16 +92,22 @@ pub fn run(options: &Options) -> anyhow::Result<()> {
     let offsets = |truth: &TimeAlignment| -> Vec<String> {
         truth.cameras.iter().flat_map(|(name, c)| ["--offsets".to_string(), format!("{name}={}", c.start_s)]).collect()
     };
-    let start_at = |truth: &TimeAlignment| format!("{first}={}", truth.cameras[&first].start_s);
+    // A phones event prepared with its true poses, `--fps`, the first step where `truth` puts
+    // event time 0, and the clocks as `sync` finds or gives them.
+    let phones_args = |event: &std::path::Path, truth: &TimeAlignment, sync: Vec<String>| -> Vec<String> {
+        let start = format!("{first}={}", truth.cameras[&first].start_s);
+        let colmap = event.join("colmap").display().to_string();
+        let mut args: Vec<String> =
+            ["--poses", &colmap, "--fps", &config.fps.to_string(), "--start-at", &start].iter().map(|s| s.to_string()).collect();
+        args.extend(sync);
+        args
+    };
     // The control: the same phones (a portrait one sees another part of the scene), started on
     // whole frames, without variable rate or drift: what timing alone costs is the difference.
     let text = fs::read_to_string(synchronized_phones.join(SYNTH_MARKER))?;
     let in_sync: SynthReport = serde_json::from_str(&text).context("synth.json")?;
     let in_sync = in_sync.time_alignment.context("the synchronized phones have no time_alignment")?;
-    let colmap = synchronized_phones.join("colmap").display().to_string();
-    let mut args: Vec<String> =
-        ["--poses", &colmap, "--fps", &config.fps.to_string(), "--start-at", &start_at(&in_sync)].iter().map(|s| s.to_string()).collect();
-    args.extend(offsets(&in_sync));
+    let args = phones_args(&synchronized_phones, &in_sync, offsets(&in_sync));
     let run = prep_once(&dynview, &synchronized_phones.join(VIDEOS_DIR), &root.join("prep-phones-synchronized"), &args, options.fresh)?;
     let (psnr_db, steps) = score(&ScenePackage::open(run.scene_dir())?)?;
     rows.push(Row { method: "the same phones, synchronized (control)".into(), cameras: Vec::new(), psnr_db, steps });
@@ -114,11 +120,7 @@ pub fn run(options: &Options) -> anyhow::Result<()> {
         ("visual", vec!["--sync".into(), "visual".into()]),
         ("audio", vec!["--sync".into(), "audio".into()]),
     ] {
-        let start = start_at(&truth);
-        let colmap = unsync_event.join("colmap").display().to_string();
-        let mut args: Vec<String> =
-            ["--poses", &colmap, "--fps", &config.fps.to_string(), "--start-at", &start].iter().map(|s| s.to_string()).collect();
-        args.extend(sync);
+        let args = phones_args(&unsync_event, &truth, sync);
         let run = prep_once(&dynview, &unsync_event.join(VIDEOS_DIR), &root.join(format!("prep-unsync-{label}")), &args, options.fresh)?;
         let report: Report = serde_json::from_str(&fs::read_to_string(run.out.join("report.json"))?).context("report.json")?;
         let (psnr_db, steps) = score(&ScenePackage::open(run.scene_dir())?)?;

@@ -357,14 +357,7 @@ pub fn export_package(
             Vec::new()
         };
         if let Some(free_space) = free_space.filter(|_| !static_depth_maps.is_empty()) {
-            let cameras: Vec<dynview_core::Camera> = (0..frames.len()).map(|c| writer.manifest().camera_at(c, t as u32)).collect();
-            let views: Vec<FreeSpaceView> = (0..frames.len())
-                .filter_map(|c| {
-                    let (Some(foreground), Some(Some(depth))) = (&foregrounds[c], static_depth_maps.get(c)) else { return None };
-                    Some(FreeSpaceView { camera: &cameras[c], foreground, static_depth_m: depth })
-                })
-                .collect();
-            let (kept, dropped) = drop_floaters(&cloud, &views, free_space);
+            let (kept, dropped) = step_floaters_dropped(writer.manifest(), t, &foregrounds, &static_depth_maps, &cloud, free_space);
             cloud = kept;
             report.floating_points = report.floating_points.map(|n| n + dropped);
         }
@@ -462,6 +455,27 @@ fn step_foregrounds(
     options: &HullOptions,
 ) -> SfmResult<Vec<Option<Foreground>>> {
     frames.iter().zip(plates).map(|(frame, plate)| plate.as_ref().map(|plate| foreground(frame, plate, options)).transpose()).collect()
+}
+
+/// The own points of step `t` (`own`) less those that float in front of the static scene of the
+/// cameras with a foreground and a static depth map ([`crate::dense::free_space`]), and how many
+/// were dropped.
+fn step_floaters_dropped(
+    manifest: &Manifest,
+    t: usize,
+    foregrounds: &[Option<Foreground>],
+    static_depth_maps: &[Option<ScalarRaster>],
+    own: &dynview_core::scene::PointCloud,
+    options: &FreeSpaceOptions,
+) -> (dynview_core::scene::PointCloud, usize) {
+    let cameras: Vec<dynview_core::Camera> = (0..foregrounds.len()).map(|c| manifest.camera_at(c, t as u32)).collect();
+    let views: Vec<FreeSpaceView> = (0..foregrounds.len())
+        .filter_map(|c| {
+            let (Some(foreground), Some(Some(depth))) = (&foregrounds[c], static_depth_maps.get(c)) else { return None };
+            Some(FreeSpaceView { camera: &cameras[c], foreground, static_depth_m: depth })
+        })
+        .collect();
+    drop_floaters(own, &views, options)
 }
 
 /// The visual hull's points of step `t` ([`crate::dense::hull`]) from the cameras with a plate
