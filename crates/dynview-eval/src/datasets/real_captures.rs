@@ -32,7 +32,7 @@ impl RealCapture {
     pub const ALL: [RealCapture; 3] = [RealCapture::Panoptic, RealCapture::PanopticArc2, RealCapture::Pose2sim];
 
     /// The Panoptic arc the capture is, if it is one.
-    fn panoptic_arc(self) -> Option<PanopticArc> {
+    pub(crate) fn panoptic_arc(self) -> Option<PanopticArc> {
         match self {
             Self::Panoptic => Some(PanopticArc::First),
             Self::PanopticArc2 => Some(PanopticArc::Second),

@@ -10,10 +10,12 @@
 //! with all cameras: same working size, same undistortion, same (calibrated) world, so no
 //! alignment is needed. Results in `docs/results/real.md` and `real_strip_<capture>_<camera>.png`.
 
+mod own_poses;
 mod report;
 mod run;
 pub mod scores;
 pub mod unsync;
+pub use own_poses::run as run_own_poses;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -27,7 +29,7 @@ use dynview_core::scene::ScenePackage;
 use dynview_core::view_ranking::rank_views;
 use dynview_core::{RgbRaster, ScalarRaster};
 
-use crate::align::median;
+use crate::align::{Similarity3, median};
 use crate::datasets::real_captures::RealCapture;
 use crate::eval::plane_view::plane_view;
 use crate::paths::workspace_root;
@@ -148,16 +150,41 @@ impl Prepared {
         root: &Path,
         held_out: &str,
     ) -> anyhow::Result<(PrepRun, ScenePackage)> {
+        self.prepare_without(capture, options, &root.join(format!("without_{held_out}_{}", self.frames)), held_out, true)
+    }
+
+    /// The package of every camera but `held_out`, prepared from our own structure from motion
+    /// (no `--poses`) in `root/own_without_<held_out>_<frames>` (or reused).
+    pub(crate) fn without_own_poses(
+        &self,
+        capture: RealCapture,
+        options: &Options,
+        root: &Path,
+        held_out: &str,
+    ) -> anyhow::Result<(PrepRun, ScenePackage)> {
+        self.prepare_without(capture, options, &root.join(format!("own_without_{held_out}_{}", self.frames)), held_out, false)
+    }
+
+    fn prepare_without(
+        &self,
+        capture: RealCapture,
+        options: &Options,
+        dir: &Path,
+        held_out: &str,
+        calibrated: bool,
+    ) -> anyhow::Result<(PrepRun, ScenePackage)> {
         let cameras = capture.cameras()?;
         let others: Vec<&str> = cameras.iter().filter(|c| *c != held_out).map(String::as_str).collect();
-        let dir = root.join(format!("without_{held_out}_{}", self.frames));
         let input = dir.join("input");
         for camera in &others {
             copy_folder_once(&self.frames_dir.join(camera), &input.join(camera))?;
         }
-        let poses = dir.join("poses.json");
-        capture.write_poses(&poses, Some(&others))?;
-        let mut args = vec!["--poses".to_string(), poses.display().to_string()];
+        let mut args = Vec::new();
+        if calibrated {
+            let poses = dir.join("poses.json");
+            capture.write_poses(&poses, Some(&others))?;
+            args.extend(["--poses".to_string(), poses.display().to_string()]);
+        }
         args.extend(self.prep_args.iter().cloned());
         let run = prep_once(&self.dynview, &input, &dir.join("out"), &args, options.fresh)?;
         let package = open(&run)?;
@@ -174,7 +201,7 @@ fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path, held_o
         let (run, package) = prepared.without(capture, options, root, held_out)?;
         let steps = Steps::all(&prepared.reference, &package);
         let params = options.params.clone().unwrap_or_default();
-        let (result, strip) = evaluate_camera(held_out, &prepared.reference, &package, &run, &params, steps)?;
+        let (result, strip) = evaluate_camera(held_out, &prepared.reference, &package, &run, &params, steps, &Similarity3::IDENTITY)?;
         write_strip(&options.out.join(strip_name(capture, held_out)), &strip)?;
         results.push(result);
     }
@@ -226,7 +253,8 @@ impl Steps {
 /// Renders camera `held_out` of `reference` from `package` at the time steps of `steps` with
 /// each of [`METHODS`] and shows the nearest input as is; returns the scores and the middle
 /// frame's strip. The moving pixels of each frame are those that differ from the camera's
-/// temporal median over the steps scored ([`scores::moving_mask`]).
+/// temporal median over the steps scored ([`scores::moving_mask`]). `package_from_reference`
+/// maps the reference's world into the package's (the identity where both are calibrated).
 fn evaluate_camera(
     held_out: &str,
     reference: &ScenePackage,
@@ -234,6 +262,7 @@ fn evaluate_camera(
     run: &PrepRun,
     defaults: &RenderParams,
     steps: Steps,
+    package_from_reference: &Similarity3,
 ) -> anyhow::Result<(CameraResult, Strip)> {
     let k = reference
         .manifest()
@@ -263,13 +292,15 @@ fn evaluate_camera(
     let blend_index = METHODS.iter().position(|&m| m == Method::Blend).unwrap_or(0);
     let middle = scored.start + scored.len() as u32 / 2;
     for t in scored.clone() {
-        let camera = reference.camera(k, t + shift)?;
+        let reference_camera = reference.camera(k, t + shift)?;
+        let mut camera = reference_camera;
+        camera.camera_from_world = package_from_reference.transform_camera_from_world(&reference_camera.camera_from_world);
         let truth = RgbRaster::from_rgb8(&truths[(t - scored.start) as usize]);
         let moving = moving_mask(&truth, &median_frame, MOVING_THRESHOLD, MOVING_DILATION_PX);
         moving_share += moving.data.iter().filter(|&&m| m > 0.0).count() as f64 / moving.data.len().max(1) as f64;
         // What the held-out camera's own frame implies: the points of the package prepared with
         // it, as it sees them (z-buffered, the renderer's consistency filter applied).
-        let mut own = project_cloud(&reference.read_cloud(t + shift)?, &camera);
+        let mut own = project_cloud(&reference.read_cloud(t + shift)?, &reference_camera);
         own.drop_inconsistent(defaults.sparse_consistency, None, defaults.sparse_surround_px);
         let inputs = package.time_step_inputs(t, defaults.levels)?;
         let mut shown = Vec::new();
@@ -283,7 +314,7 @@ fn evaluate_camera(
             shown.push((out.color, out.depth));
         }
         for (errors, m) in depth_errors.iter_mut().zip([0, blend_index]) {
-            errors.extend(relative_depth_errors(&shown[m].1, &own));
+            errors.extend(relative_depth_errors(&shown[m].1, &own, package_from_reference.scale));
         }
         // The inputs already hold every input camera, frame and the cloud of this step.
         let input_poses: Vec<_> = inputs.views.iter().map(|v| v.camera.camera_from_world).collect();
@@ -353,15 +384,16 @@ fn evaluate_camera(
     Ok((result, strip.context("no time step rendered")?))
 }
 
-/// `|rendered - own| / own` at every pixel where `own` has a point (sizes must match).
-fn relative_depth_errors<'a>(rendered: &'a ScalarRaster, own: &'a SplatMaps) -> impl Iterator<Item = f64> + 'a {
+/// `|rendered / scale - own| / own` at every pixel where `own` has a point (sizes must match;
+/// `scale`: the rendered world's units per the reference's).
+fn relative_depth_errors<'a>(rendered: &'a ScalarRaster, own: &'a SplatMaps, scale: f64) -> impl Iterator<Item = f64> + 'a {
     own.mask
         .data
         .iter()
         .zip(&own.depth.data)
         .zip(&rendered.data)
         .filter(|((m, d), _)| **m > 0.0 && d.is_finite() && **d > 0.0)
-        .map(|((_, d), r)| f64::from((r - d).abs() / d))
+        .map(move |((_, d), r)| (f64::from(*r) / scale - f64::from(*d)).abs() / f64::from(*d))
 }
 
 /// `image` at `width x height` (bilinear), or as it is when it has that size.
@@ -419,5 +451,23 @@ mod tests {
         assert_eq!(parse_params(file.to_str().unwrap()).unwrap().sparse_footprint_px, 1);
         assert!(parse_params(r#"{"relaxation": 3}"#).unwrap_err().contains("relaxation"));
         assert!(parse_params("{not json").unwrap_err().contains("renderer parameters"));
+    }
+
+    #[test]
+    fn depth_errors_are_taken_in_the_reference_world() {
+        let mut own = SplatMaps {
+            depth: ScalarRaster::filled(2, 1, f32::INFINITY),
+            color: RgbRaster::filled(2, 1, [0.0; 3]),
+            mask: ScalarRaster::filled(2, 1, 0.0),
+        };
+        own.depth.data[0] = 2.0;
+        own.mask.data[0] = 1.0;
+        // A world three times larger renders three times the depth: no error in the reference's.
+        let rendered = ScalarRaster { width: 2, height: 1, data: vec![6.0, 9.0] };
+        let errors: Vec<f64> = relative_depth_errors(&rendered, &own, 3.0).collect();
+        assert_eq!(errors.len(), 1, "only where the reference has a point");
+        assert!(errors[0].abs() < 1e-12);
+        let errors: Vec<f64> = relative_depth_errors(&rendered, &own, 1.0).collect();
+        assert!((errors[0] - 2.0).abs() < 1e-12);
     }
 }

@@ -47,6 +47,11 @@ pub struct Options {
     /// run (`unsync.md`) instead of the leave-one-out tables.
     #[arg(long)]
     pub unsync: bool,
+    /// Prepare the Panoptic arcs' cameras also without their calibration, from our own
+    /// structure from motion, and compare the held-out camera rendered from each package
+    /// (`own_poses.md`) instead of the leave-one-out tables.
+    #[arg(long, conflicts_with = "unsync")]
+    pub own_poses: bool,
 }
 
 /// Renderer parameters from JSON, or from a JSON file when `json` names one (as `eval --params`).
