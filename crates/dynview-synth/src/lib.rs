@@ -56,7 +56,7 @@ use serde::{Deserialize, Serialize};
 
 pub use error::SynthError;
 pub use video::ffmpeg_available;
-pub use write::generate;
+pub use write::{OBJECT_DIR, OBJECTS_FILE, ObjectEntry, generate};
 
 /// Marker file of a synth output folder.
 pub const SYNTH_MARKER: &str = "synth.json";

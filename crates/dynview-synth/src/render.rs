@@ -3,7 +3,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use dynview_core::{Camera, RgbRaster, ScalarRaster};
+use dynview_core::{Camera, Raster, RgbRaster, ScalarRaster};
 
 use crate::scene::Frame;
 
@@ -23,6 +23,9 @@ pub struct View {
     pub color: RgbRaster,
     /// z-depth at pixel centres.
     pub depth_m: ScalarRaster,
+    /// What the ray through each pixel centre hits: 1 + the object's index in the frame's
+    /// objects, 0 where it hits nothing.
+    pub object: Raster<u8>,
 }
 
 fn sky(direction: DVec3) -> [f32; 3] {
@@ -42,6 +45,9 @@ fn shade(frame: &Frame, origin: DVec3, direction: DVec3) -> ([f32; 3], Option<f6
     let light = AMBIENT + DIRECT * lit;
     (albedo.map(|a| (a * light).min(1.0)), Some(hit.t))
 }
+
+/// One row of a view: colors, depths and object ids.
+type RowSamples = (Vec<[f32; 3]>, Vec<f32>, Vec<u8>);
 
 /// Renders `camera` on `frame`. Color is the trapezoid-weighted mean of a grid of
 /// `(supersample + 1)^2` samples spanning each pixel's footprint; samples on pixel borders are
@@ -71,14 +77,16 @@ pub fn render_view(frame: &Frame, camera: &Camera, supersample: u32) -> View {
     // Trapezoid weights along one axis: half weight on the pixel's border samples.
     let weights: Vec<f32> = (0..=s).map(|i| if i == 0 || i == s { 0.5 } else { 1.0 }).collect();
     let norm = 1.0 / (s as f32 * s as f32);
-    let rows: Vec<(Vec<[f32; 3]>, Vec<f32>)> = (0..h)
+    let rows: Vec<RowSamples> = (0..h)
         .into_par_iter()
         .map(|y| {
             let mut colors = Vec::with_capacity(w);
             let mut depths = Vec::with_capacity(w);
+            let mut objects = Vec::with_capacity(w);
             for x in 0..w {
                 let hit = frame.trace(origin, ray(x as f64, y as f64));
                 depths.push(hit.map_or(f32::NAN, |hit| hit.t as f32));
+                objects.push(hit.map_or(0, |hit| u8::try_from(hit.object + 1).unwrap_or(u8::MAX)));
                 let mut sum = [0.0f32; 3];
                 for (j, wy) in weights.iter().enumerate() {
                     let row = &grid[y * s + j];
@@ -92,16 +100,22 @@ pub fn render_view(frame: &Frame, camera: &Camera, supersample: u32) -> View {
                 }
                 colors.push(sum.map(|v| v * norm));
             }
-            (colors, depths)
+            (colors, depths, objects)
         })
         .collect();
     let mut color = Vec::with_capacity(w * h);
     let mut depth = Vec::with_capacity(w * h);
-    for (c, d) in rows {
+    let mut object = Vec::with_capacity(w * h);
+    for (c, d, o) in rows {
         color.extend(c);
         depth.extend(d);
+        object.extend(o);
     }
-    View { color: RgbRaster { width: w, height: h, data: color }, depth_m: ScalarRaster { width: w, height: h, data: depth } }
+    View {
+        color: RgbRaster { width: w, height: h, data: color },
+        depth_m: ScalarRaster { width: w, height: h, data: depth },
+        object: Raster { width: w, height: h, data: object },
+    }
 }
 
 #[cfg(test)]
@@ -143,5 +157,27 @@ mod tests {
         }
         assert!(checked > 200);
         assert!(agree as f64 > 0.7 * checked as f64, "{agree}/{checked}");
+    }
+
+    #[test]
+    fn object_ids_say_what_each_pixel_centre_hits() {
+        let objects = default_objects(3);
+        let frame = Frame::at(&objects, 0.2);
+        let camera = Rig::new(3, 80, 45, false, 3, 1.0).input(1, 0.2);
+        let view = render_view(&frame, &camera, 1);
+        let world_from_camera = camera.camera_from_world.inverse();
+        let k = camera.intrinsics;
+        let mut seen = std::collections::BTreeSet::new();
+        for y in 0..45 {
+            for x in 0..80 {
+                let id = view.object.get(x, y);
+                assert_eq!(id == 0, view.depth_m.get(x, y).is_nan(), "({x}, {y})");
+                let direction = world_from_camera.transform_vector(DVec3::new((x as f64 - k.cx) / k.fx, (y as f64 - k.cy) / k.fy, 1.0));
+                let hit = frame.trace(world_from_camera.translation, direction).map_or(0, |h| h.object + 1);
+                assert_eq!(usize::from(id), hit, "({x}, {y})");
+                seen.insert(id);
+            }
+        }
+        assert!(seen.len() >= 4, "the view shows several objects: {seen:?}");
     }
 }

@@ -115,6 +115,29 @@ pub struct Object {
     pub motion: Motion,
 }
 
+impl Object {
+    /// Whether it moves.
+    pub fn moves(&self) -> bool {
+        !matches!(self.motion, Motion::Static { .. })
+    }
+
+    /// A short name from its motion and shape, e.g. `bouncing sphere`.
+    pub fn label(&self) -> String {
+        let motion = match self.motion {
+            Motion::Static { .. } => "static",
+            Motion::Bouncing { .. } => "bouncing",
+            Motion::Spinning { .. } => "spinning",
+        };
+        let shape = match self.shape {
+            Shape::Rect { .. } => "plane",
+            Shape::Cuboid { .. } => "box",
+            Shape::Sphere { .. } => "sphere",
+            Shape::Cylinder { .. } => "cylinder",
+        };
+        format!("{motion} {shape}")
+    }
+}
+
 /// A ray hit: distance along the ray, world normal, point in the object's frame.
 #[derive(Clone, Copy, Debug)]
 pub struct Hit {

@@ -84,6 +84,31 @@ fn save_png(color: &RgbRaster, path: &Path) -> Result<(), SynthError> {
     fs::write(path, bytes).map_err(SynthError::io(path))
 }
 
+/// Folder of a held-out camera's object ids: `00000.png` ... (8-bit grey, 1 + the object's
+/// index in [`OBJECTS_FILE`], 0 where the pixel centre sees nothing) beside `color/` and `depth/`.
+pub const OBJECT_DIR: &str = "object";
+/// The list of the event's objects in [`OBJECT_DIR`]: [`ObjectEntry`] per id.
+pub const OBJECTS_FILE: &str = "objects.json";
+
+/// One object of [`OBJECTS_FILE`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ObjectEntry {
+    /// Its id in the object images (1 + its index).
+    pub id: u8,
+    /// What it is ([`crate::scene::Object::label`]).
+    pub label: String,
+    /// Whether it moves.
+    pub moving: bool,
+}
+
+fn object_list(objects: &[crate::scene::Object]) -> Vec<ObjectEntry> {
+    objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| ObjectEntry { id: u8::try_from(i + 1).unwrap_or(u8::MAX), label: o.label(), moving: o.moves() })
+        .collect()
+}
+
 /// What one render task draws.
 #[derive(Clone, Copy, Debug)]
 enum Task {
@@ -125,11 +150,12 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: StageProgress) -
     }
     let depth_scale = DepthScale::MILLIMETERS;
     for heldout in Heldout::ALL {
-        for sub in ["color", "depth"] {
+        for sub in ["color", "depth", OBJECT_DIR] {
             let dir = root.join(heldout.name()).join(sub);
             fs::create_dir_all(&dir).map_err(SynthError::io(&dir))?;
         }
         write_json(&root.join(heldout.name()).join("depth").join(SCALE_FILE), &depth_scale)?;
+        write_json(&root.join(heldout.name()).join(OBJECT_DIR).join(OBJECTS_FILE), &object_list(&objects))?;
     }
 
     // Every (camera, time step) of the inputs and the held-out cameras, then the unsynchronized
@@ -159,6 +185,12 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: StageProgress) -
                     let bytes =
                         depth_png_bytes(&view.depth_m, depth_scale).map_err(|source| SynthError::Image { path: path.clone(), source })?;
                     fs::write(&path, bytes).map_err(SynthError::io(&path))?;
+                    let path = root.join(h.name()).join(OBJECT_DIR).join(&file);
+                    let ids =
+                        image::GrayImage::from_raw(view.object.width as u32, view.object.height as u32, view.object.data).ok_or_else(
+                            || SynthError::Io { path: path.clone(), source: std::io::Error::other("object ids of the wrong size") },
+                        )?;
+                    ids.save(&path).map_err(|source| SynthError::Image { path: path.clone(), source })?;
                     TaskOutput::Nothing
                 }
                 Task::Step { camera: camera_index, t } => {

@@ -64,6 +64,26 @@ fn the_default_event_has_no_unsync_outputs() {
 }
 
 #[test]
+fn held_out_cameras_get_object_ids_and_the_list_of_what_moves() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("event");
+    let config = SynthConfig { frames: 2, videos: false, ..tiny() };
+    generate(&config, &out, &|_, _, _| {}).unwrap();
+    for heldout in ["heldout", "heldout_static"] {
+        let folder = out.join(heldout).join(crate::OBJECT_DIR);
+        assert_eq!(pngs(&folder), 2, "{heldout}");
+        let list: Vec<crate::ObjectEntry> = serde_json::from_slice(&std::fs::read(folder.join(crate::OBJECTS_FILE)).unwrap()).unwrap();
+        let moving: Vec<&str> = list.iter().filter(|o| o.moving).map(|o| o.label.as_str()).collect();
+        assert_eq!(moving, ["bouncing sphere", "spinning box"]);
+        assert!(list.iter().enumerate().all(|(i, o)| usize::from(o.id) == i + 1));
+        // Every id in the images names an object of the list (or nothing).
+        let ids = image::open(folder.join("00001.png")).unwrap().to_luma8();
+        assert!(ids.pixels().all(|p| usize::from(p.0[0]) <= list.len()));
+        assert!(ids.pixels().any(|p| p.0[0] > 0));
+    }
+}
+
+#[test]
 fn unsync_options_are_checked_with_the_event() {
     let config = SynthConfig { unsync: Some(UnsyncConfig::phones(3, 30.0, 1)), ..tiny() };
     match config.validate() {

@@ -20,7 +20,9 @@ use dynview_core::render::{Method, TimeStepInputs};
 use dynview_core::scene::ScenePackage;
 use dynview_interchange::camera_path::PathFrame;
 
+use crate::eval::objects::ObjectTruth;
 use crate::eval::scoring::{Options, Row, Sequence, VIDEOS_DIR, evaluate_method};
+use crate::eval::synthetic::depth_errors_cell;
 use crate::paths::workspace_root;
 use crate::runs::prep::{PrepRun, cloud_point_counts, package_poses, prep_args_suffix, prep_once, stage_seconds};
 use crate::runs::programs::dynview_binary;
@@ -58,6 +60,7 @@ pub fn run(
     options: &Options,
     moving: &Sequence,
     still: &Sequence,
+    objects: &ObjectTruth,
     frames: usize,
 ) -> anyhow::Result<Vec<Variant>> {
     let dynview = dynview_binary()?;
@@ -68,13 +71,13 @@ pub fn run(
     let plain_out = root.join(format!("prep-no-densify{suffix}"));
     let mut variants = Vec::new();
     let densified = prep_once(&dynview, &videos, &densified_out, &options.prep_args, options.fresh)?;
-    variants.push(evaluate_variant("densified", options.prep_args.join(" "), &densified, truth, options, moving, still, frames)?);
+    variants.push(evaluate_variant("densified", options.prep_args.join(" "), &densified, truth, options, moving, still, objects, frames)?);
     // Same poses as the densified run (its poses.json), so the rows differ by the clouds alone.
     let poses = densified_out.join("poses.json");
     let plain_args = vec!["--no-densify".to_string(), "--poses".into(), poses.display().to_string()];
     let plain = prep_once(&dynview, &videos, &plain_out, &plain_args, options.fresh)?;
     let shown = format!("--no-densify --poses {}", poses.strip_prefix(workspace_root()).unwrap_or(&poses).display());
-    variants.push(evaluate_variant("sparse (--no-densify)", shown, &plain, truth, options, moving, still, frames)?);
+    variants.push(evaluate_variant("sparse (--no-densify)", shown, &plain, truth, options, moving, still, objects, frames)?);
     // The same prep on the event's true poses and intrinsics (its COLMAP model): what our own
     // poses cost end to end.
     let true_poses = event.join("colmap");
@@ -83,7 +86,7 @@ pub fn run(
         let args = vec!["--poses".to_string(), true_poses.display().to_string()];
         let run = prep_once(&dynview, &videos, &true_out, &args, options.fresh)?;
         let shown = format!("--poses {}", true_poses.strip_prefix(workspace_root()).unwrap_or(&true_poses).display());
-        variants.push(evaluate_variant(TRUE_POSES, shown, &run, truth, options, moving, still, frames)?);
+        variants.push(evaluate_variant(TRUE_POSES, shown, &run, truth, options, moving, still, objects, frames)?);
     }
     Ok(variants)
 }
@@ -116,6 +119,7 @@ fn evaluate_variant(
     options: &Options,
     moving: &Sequence,
     still: &Sequence,
+    objects: &ObjectTruth,
     frames: usize,
 ) -> anyhow::Result<Variant> {
     let package = ScenePackage::open(run.scene_dir()).with_context(|| format!("opening {}", run.scene_dir().display()))?;
@@ -137,7 +141,7 @@ fn evaluate_variant(
     let mut rows = Vec::new();
     for &method in &options.methods {
         print!("{label}: ");
-        rows.push(evaluate_method(method, options, &moving, &still, &inputs)?.0);
+        rows.push(evaluate_method(method, options, &moving, &still, &inputs, objects, accuracy.true_from_estimated.scale)?.0);
     }
     Ok(Variant {
         label,
@@ -162,15 +166,18 @@ pub fn markdown_section(variants: &[Variant], truth_rows: &[Row], frames: usize)
          step; the held-out cameras are mapped into it (intrinsics unchanged). The sparse rows use `--no-densify` on the densified run's poses, so \
          the two differ by their clouds alone. Δ: PSNR minus the ground-truth package's row of the same method.\n"
     );
-    let _ = writeln!(s, "| input | method | PSNR (dB) | Δ (dB) | SSIM | static PSNR (dB) | flicker (x1000) | ms/frame |");
-    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |");
+    let _ = writeln!(
+        s,
+        "| input | method | PSNR (dB) | Δ (dB) | SSIM | static PSNR (dB) | flicker (x1000) | depth error on moving objects (%) | ms/frame |"
+    );
+    let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
     let letter = |m: Method| ["a", "b", "c", "d", "e"][Method::ALL.iter().position(|x| *x == m).unwrap_or(0)];
     for v in variants {
         for r in &v.rows {
             let delta = truth_rows.iter().find(|t| t.method == r.method).map_or(f64::NAN, |t| r.psnr_moving - t.psnr_moving);
             let _ = writeln!(
                 s,
-                "| {} | ({}) {} | {:.2} | {:+.2} | {:.4} | {:.2} | {:.3} | {:.0} |",
+                "| {} | ({}) {} | {:.2} | {:+.2} | {:.4} | {:.2} | {:.3} | {} | {:.0} |",
                 v.label,
                 letter(r.method),
                 r.method.label(),
@@ -179,6 +186,7 @@ pub fn markdown_section(variants: &[Variant], truth_rows: &[Row], frames: usize)
                 r.ssim_moving,
                 r.psnr_static,
                 r.flicker_static * 1000.0,
+                depth_errors_cell(&r.moving_object_depth_pct),
                 r.ms_per_frame
             );
         }

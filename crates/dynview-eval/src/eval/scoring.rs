@@ -12,6 +12,7 @@ use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer,
 use dynview_core::{RgbRaster, ScalarRaster};
 use dynview_interchange::camera_path::{PathFrame, parse_path};
 
+use crate::eval::objects::ObjectTruth;
 use crate::paths::{results_dir, workspace_root};
 
 /// Options of `dynview-eval eval` (`cargo xtask eval`): the synthetic event.
@@ -88,6 +89,9 @@ pub struct Row {
     pub flicker_static: f64,
     /// Milliseconds per frame of the moving sequence.
     pub ms_per_frame: f64,
+    /// Per moving object of the event ([`ObjectTruth::moving`]), the median relative error of
+    /// the depth rendered on its pixels of the moving held-out camera, %.
+    pub moving_object_depth_pct: Vec<f64>,
 }
 
 /// A held-out camera path and its ground-truth images.
@@ -97,13 +101,17 @@ pub type Sequence = (Vec<PathFrame>, Vec<RgbRaster>);
 pub const VIDEOS_DIR: &str = "videos";
 
 /// Renders both held-out sequences with `method` and scores them; returns the row and the
-/// moving sequence's outputs (color, depth).
+/// moving sequence's outputs (color, depth). The depth on the moving objects is scored against
+/// `objects` (the moving held-out camera's), times `truth_per_rendered` (1 where the package is
+/// in the true world).
 pub fn evaluate_method(
     method: Method,
     options: &Options,
     moving: &Sequence,
     still: &Sequence,
     inputs: &[TimeStepInputs],
+    objects: &ObjectTruth,
+    truth_per_rendered: f64,
 ) -> anyhow::Result<(Row, Vec<(RgbRaster, ScalarRaster)>)> {
     let params = RenderParams { method, ..options.params.clone() };
     let (moving_out, ms) = render_sequence(&params, &moving.0, inputs)?;
@@ -124,6 +132,7 @@ pub fn evaluate_method(
         psnr_static: mean(static_out.iter().zip(&still.1).map(|((c, _), gt)| psnr(c, gt)).collect()),
         flicker_static: flicker(&colors, &still.1).unwrap_or(f64::NAN),
         ms_per_frame: ms,
+        moving_object_depth_pct: objects.depth_errors_pct(&moving_out.iter().map(|(_, d)| d).collect::<Vec<_>>(), truth_per_rendered),
     };
     println!(
         "{:<12} PSNR {:.2} dB  SSIM {:.4}  static PSNR {:.2} dB  flicker {:.5}  {:.0} ms/frame",

@@ -12,6 +12,7 @@ use dynview_core::{RgbRaster, ScalarRaster};
 use dynview_synth::SynthConfig;
 
 use crate::datasets::sfm::layout_config;
+use crate::eval::objects::ObjectTruth;
 use crate::eval::pipeline::{TRUE_POSES, markdown_section, run as run_pipeline};
 use crate::eval::scoring::{Options, Row, VIDEOS_DIR, evaluate_method, load_sequence};
 
@@ -39,7 +40,11 @@ pub fn run(mut options: Options) -> anyhow::Result<()> {
     };
     // The full pipeline starts from the videos: an event made without them is made again
     // (same seed, same ground truth).
-    if !event.join(dynview_synth::SYNTH_MARKER).is_file() || (options.pipeline && !event.join(VIDEOS_DIR).is_dir()) {
+    // So is one made before the held-out cameras' object ids were written.
+    let stale = !event.join(dynview_synth::SYNTH_MARKER).is_file()
+        || (options.pipeline && !event.join(VIDEOS_DIR).is_dir())
+        || !event.join("heldout").join(dynview_synth::OBJECT_DIR).is_dir();
+    if stale {
         if event.exists() {
             fs::remove_dir_all(&event).with_context(|| format!("cannot remove {}", event.display()))?;
         }
@@ -53,6 +58,7 @@ pub fn run(mut options: Options) -> anyhow::Result<()> {
     let frames = options.frames.unwrap_or(package.time_step_count() as usize).min(package.time_step_count() as usize);
     let moving = load_sequence(&event, "camera_path.json", "heldout", frames)?;
     let still = load_sequence(&event, "camera_path_static.json", "heldout_static", frames)?;
+    let objects = ObjectTruth::load(&event, "heldout", frames)?;
     let inputs: Vec<TimeStepInputs> =
         (0..frames as u32).map(|t| package.time_step_inputs(t, options.params.levels)).collect::<Result<_, _>>()?;
 
@@ -60,13 +66,13 @@ pub fn run(mut options: Options) -> anyhow::Result<()> {
     let mut strips: Vec<(Method, RgbRaster, ScalarRaster)> = Vec::new();
     let strip_frame = frames / 2;
     for &method in &options.methods {
-        let (row, moving_out) = evaluate_method(method, &options, &moving, &still, &inputs)?;
+        let (row, moving_out) = evaluate_method(method, &options, &moving, &still, &inputs, &objects, 1.0)?;
         rows.push(row);
         let (c, d) = &moving_out[strip_frame];
         strips.push((method, c.clone(), d.clone()));
     }
     drop(inputs);
-    let pipeline = if options.pipeline { Some(run_pipeline(&event, &package, &options, &moving, &still, frames)?) } else { None };
+    let pipeline = if options.pipeline { Some(run_pipeline(&event, &package, &options, &moving, &still, &objects, frames)?) } else { None };
     if let Some(variants) = &pipeline {
         let full = |label: &str| {
             variants.iter().find(|v| v.label == label).and_then(|v| v.rows.iter().find(|r| r.method == Method::Full)).map(|r| r.psnr_moving)
@@ -82,7 +88,8 @@ pub fn run(mut options: Options) -> anyhow::Result<()> {
     if options.methods.len() != Method::ALL.len() {
         return Ok(());
     }
-    let mut table = markdown_table(&rows, frames, &config);
+    let labels: Vec<&str> = objects.moving.iter().map(|o| o.label.as_str()).collect();
+    let mut table = markdown_table(&rows, frames, &config, &labels);
     if let Some(variants) = &pipeline {
         table.push_str(&markdown_section(variants, &rows, frames));
     }
@@ -94,14 +101,15 @@ pub fn run(mut options: Options) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn markdown_table(rows: &[Row], frames: usize, config: &SynthConfig) -> String {
+fn markdown_table(rows: &[Row], frames: usize, config: &SynthConfig, moving_objects: &[&str]) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# Renderer evaluation on the synthetic event\n");
     let _ = writeln!(
         s,
         "`dynview synth` defaults ({} cameras, {} frames used of {}, {}x{}, seed {}): ground-truth scene package (clouds: {:.1}% of pixels per camera, {} mm noise, {:.0}% outliers). \
          PSNR and SSIM on the moving held-out camera, averaged over frames; flicker on the static held-out camera: mean absolute frame-to-frame change of the output on pixels whose \
-         ground truth changes by less than 2/255, minus the same for the ground truth (lower is better). Time: this machine, all cores, per frame including sparse projection.\n",
+         ground truth changes by less than 2/255, minus the same for the ground truth (lower is better). Depth error: on the pixels of each moving object ({}) as the moving \
+         held-out camera sees them, the median of |rendered - true| / true over every frame (a pixel without depth counts 100%). Time: this machine, all cores, per frame including sparse projection.\n",
         config.cameras,
         frames,
         config.frames,
@@ -110,19 +118,22 @@ fn markdown_table(rows: &[Row], frames: usize, config: &SynthConfig) -> String {
         config.seed,
         config.point_fraction * 100.0,
         config.point_noise_m * 1000.0,
-        config.outlier_fraction * 100.0
+        config.outlier_fraction * 100.0,
+        moving_objects.join(", ")
     );
-    let _ = writeln!(s, "| method | PSNR (dB) | SSIM | static PSNR (dB) | flicker (x1000) | ms/frame |");
-    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: |");
+    let _ =
+        writeln!(s, "| method | PSNR (dB) | SSIM | static PSNR (dB) | flicker (x1000) | depth error on moving objects (%) | ms/frame |");
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | ---: |");
     for (r, letter) in rows.iter().zip(["a", "b", "c", "d", "e"]) {
         let _ = writeln!(
             s,
-            "| ({letter}) {} | {:.2} | {:.4} | {:.2} | {:.3} | {:.0} |",
+            "| ({letter}) {} | {:.2} | {:.4} | {:.2} | {:.3} | {} | {:.0} |",
             r.method.label(),
             r.psnr_moving,
             r.ssim_moving,
             r.psnr_static,
             r.flicker_static * 1000.0,
+            depth_errors_cell(&r.moving_object_depth_pct),
             r.ms_per_frame
         );
     }
@@ -131,6 +142,11 @@ fn markdown_table(rows: &[Row], frames: usize, config: &SynthConfig) -> String {
         "\nReproduce: `cargo xtask eval` (strip: `docs/results/eval_strip.png`: ground truth, (c) blend, (e) full, depth of (e))."
     );
     s
+}
+
+/// Per-object depth errors as a table cell: `1.2 / 3.4` (`-` for an object never seen).
+pub(crate) fn depth_errors_cell(errors_pct: &[f64]) -> String {
+    errors_pct.iter().map(|e| if e.is_finite() { format!("{e:.1}") } else { "-".into() }).collect::<Vec<_>>().join(" / ")
 }
 
 fn write_strip(path: &Path, truth: &RgbRaster, renders: &[(Method, RgbRaster, ScalarRaster)]) -> anyhow::Result<()> {
