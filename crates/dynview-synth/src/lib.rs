@@ -94,6 +94,10 @@ pub struct SynthConfig {
     /// every camera films every time step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unsync: Option<unsync::UnsyncConfig>,
+    /// Adds a small, fast, untextured ball and a plain-coloured box to the moving things
+    /// ([`scene::plain_movers`]): what stereo cannot match.
+    #[serde(default)]
+    pub plain_movers: bool,
 }
 
 impl Default for SynthConfig {
@@ -113,6 +117,7 @@ impl Default for SynthConfig {
             videos: true,
             layout: rig::Layout::default(),
             unsync: None,
+            plain_movers: false,
         }
     }
 }

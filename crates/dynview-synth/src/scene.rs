@@ -121,7 +121,8 @@ impl Object {
         !matches!(self.motion, Motion::Static { .. })
     }
 
-    /// A short name from its motion and shape, e.g. `bouncing sphere`.
+    /// A short name from its texture, motion and shape, e.g. `bouncing sphere`, `plain
+    /// spinning box`.
     pub fn label(&self) -> String {
         let motion = match self.motion {
             Motion::Static { .. } => "static",
@@ -134,7 +135,8 @@ impl Object {
             Shape::Sphere { .. } => "sphere",
             Shape::Cylinder { .. } => "cylinder",
         };
-        format!("{motion} {shape}")
+        let plain = if self.texture.is_plain() { "plain " } else { "" };
+        format!("{plain}{motion} {shape}")
     }
 }
 
@@ -357,6 +359,24 @@ pub fn default_objects(seed: u64) -> Vec<Object> {
             shape: Shape::Cuboid { half: DVec3::new(0.4, 0.4, 0.4) },
             texture: tex(7, 3.5, 5.5, palette([0.60, 0.25, 0.70], [0.95, 0.75, 0.35])),
             motion: Motion::Spinning { centre: DVec3::new(0.4, 0.4, -1.3), rate_rad_s: 1.6, drift_z: 0.4, period_s: 2.5 },
+        },
+    ]
+}
+
+/// The hard moving things of issue 35, added by [`crate::SynthConfig::plain_movers`]: a small,
+/// fast, untextured ball (15 cm, two passes a second, bouncing) and a plain-coloured box drifting
+/// across the front, neither with any pattern for stereo to match.
+pub fn plain_movers() -> Vec<Object> {
+    vec![
+        Object {
+            shape: Shape::Sphere { radius: 0.15 },
+            texture: Texture::plain([0.95, 0.55, 0.10]),
+            motion: Motion::Bouncing { centre: DVec3::new(0.6, 0.15, 1.2), amplitude_x: 1.8, bounce_m: 0.5, period_s: 1.0 },
+        },
+        Object {
+            shape: Shape::Cuboid { half: DVec3::new(0.3, 0.5, 0.3) },
+            texture: Texture::plain([0.30, 0.45, 0.70]),
+            motion: Motion::Spinning { centre: DVec3::new(-1.3, 0.5, 0.9), rate_rad_s: 0.8, drift_z: 0.6, period_s: 3.0 },
         },
     ]
 }

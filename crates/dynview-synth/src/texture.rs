@@ -7,7 +7,8 @@
 
 use glam::DVec3;
 
-/// Parameters of one object's texture.
+/// Parameters of one object's texture. With both frequencies 0 it is plain: the palette's
+/// first color everywhere ([`Texture::plain`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Texture {
     /// Seed of the hash; differs per object.
@@ -122,6 +123,9 @@ impl Texture {
 
     /// Albedo at a point in the object's frame (metres).
     pub fn albedo(&self, p_local: DVec3) -> [f32; 3] {
+        if self.is_plain() {
+            return self.palette[0];
+        }
         let n = fbm3(p_local * self.base_frequency, self.seed);
         // Stretch the noise (fbm concentrates around 0.5) into strong blobs.
         let m = smoothstep(0.42, 0.58, n[0]);
@@ -143,9 +147,29 @@ impl Texture {
     }
 }
 
+impl Texture {
+    /// A plain color, no pattern: nothing for stereo to match on its surface.
+    pub fn plain(color: [f32; 3]) -> Self {
+        Self { seed: 0, base_frequency: 0.0, spot_frequency: 0.0, palette: [color, color] }
+    }
+
+    /// Whether it is plain ([`Texture::plain`]).
+    pub fn is_plain(&self) -> bool {
+        self.base_frequency == 0.0 && self.spot_frequency == 0.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_plain_texture_has_one_color_everywhere() {
+        let texture = Texture::plain([0.2, 0.4, 0.6]);
+        for p in [DVec3::ZERO, DVec3::new(0.37, -1.2, 4.0), DVec3::splat(13.1)] {
+            assert_eq!(texture.albedo(p), [0.2, 0.4, 0.6]);
+        }
+    }
 
     fn texture() -> Texture {
         Texture { seed: 7, base_frequency: 3.0, spot_frequency: 4.0, palette: [[0.8, 0.3, 0.2], [0.2, 0.5, 0.8]] }

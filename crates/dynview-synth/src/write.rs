@@ -23,7 +23,7 @@ use crate::files::write_json;
 use crate::record::write_recordings;
 use crate::render::{View, render_view};
 use crate::rig::{Heldout, Rig};
-use crate::scene::{Frame, default_objects};
+use crate::scene::{Frame, default_objects, plain_movers};
 use crate::unsync::{Recording, recordings};
 use crate::video::{encode_video, ffmpeg_available};
 use crate::{SYNTH_MARKER, SynthConfig, SynthError, SynthReport};
@@ -134,7 +134,10 @@ pub fn generate(config: &SynthConfig, out_dir: &Path, progress: StageProgress) -
     config.validate()?;
     let staged = StagedDir::new(out_dir, SYNTH_MARKER, "a dynview synth output")?;
     let root = staged.path().to_path_buf();
-    let objects = default_objects(config.seed);
+    let mut objects = default_objects(config.seed);
+    if config.plain_movers {
+        objects.extend(plain_movers());
+    }
     let rig =
         Rig::with_layout(config.cameras, config.width, config.height, config.handheld, config.seed, config.duration_s(), &config.layout);
     let names: Vec<String> = (0..config.cameras).map(SynthConfig::camera_name).collect();

@@ -84,6 +84,41 @@ fn held_out_cameras_get_object_ids_and_the_list_of_what_moves() {
 }
 
 #[test]
+fn plain_movers_join_the_moving_things_untextured() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("event");
+    let config = SynthConfig { frames: 2, videos: false, width: 160, height: 90, plain_movers: true, ..tiny() };
+    generate(&config, &out, &|_, _, _| {}).unwrap();
+    let folder = out.join("heldout").join(crate::OBJECT_DIR);
+    let list: Vec<crate::ObjectEntry> = serde_json::from_slice(&std::fs::read(folder.join(crate::OBJECTS_FILE)).unwrap()).unwrap();
+    let moving: Vec<&str> = list.iter().filter(|o| o.moving).map(|o| o.label.as_str()).collect();
+    assert_eq!(moving, ["bouncing sphere", "spinning box", "plain bouncing sphere", "plain spinning box"]);
+    // The held-out camera sees both, each in one colour inside its outline (shading aside: one
+    // hue; outline pixels mix with what is behind).
+    let ids = image::open(folder.join("00000.png")).unwrap().to_luma8();
+    let color = image::open(out.join("heldout/color/00000.png")).unwrap().to_rgb8();
+    let (w, h) = ids.dimensions();
+    let inside = |x: u32, y: u32, id: u8| {
+        x > 0
+            && y > 0
+            && x + 1 < w
+            && y + 1 < h
+            && [(x, y), (x - 1, y), (x + 1, y), (x, y - 1), (x, y + 1)].iter().all(|&(u, v)| ids.get_pixel(u, v).0[0] == id)
+    };
+    for entry in list.iter().filter(|o| o.label.starts_with("plain")) {
+        let pixels: Vec<[u8; 3]> = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .filter(|&(x, y)| inside(x, y, entry.id))
+            .map(|(x, y)| color.get_pixel(x, y).0)
+            .collect();
+        assert!(pixels.len() > 10, "{} seen on {} pixels", entry.label, pixels.len());
+        let hue = |c: &[u8; 3]| f64::from(c[0]) / (f64::from(c[0]) + f64::from(c[1]) + f64::from(c[2]) + 1.0);
+        let (lo, hi) = pixels.iter().map(hue).fold((1.0f64, 0.0f64), |(lo, hi), h| (lo.min(h), hi.max(h)));
+        assert!(hi - lo < 0.05, "{}: red share {lo:.3}..{hi:.3}", entry.label);
+    }
+}
+
+#[test]
 fn unsync_options_are_checked_with_the_event() {
     let config = SynthConfig { unsync: Some(UnsyncConfig::phones(3, 30.0, 1)), ..tiny() };
     match config.validate() {

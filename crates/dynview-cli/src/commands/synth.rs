@@ -34,6 +34,10 @@ pub struct Args {
     /// Hand-held input cameras (smooth wobble).
     #[arg(long)]
     handheld: bool,
+    /// Add a small, fast, untextured ball and a plain-coloured box to the moving things
+    /// (nothing on them for stereo to match; the held-out cameras' object ids name them).
+    #[arg(long)]
+    plain_movers: bool,
     /// Frames per second.
     #[arg(long, default_value_t = SynthConfig::default().fps)]
     fps: f64,
@@ -131,6 +135,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             principal_offset_px: pair("--principal-offset", Some(&args.principal_offset))?.unwrap_or_default(),
         },
         unsync,
+        plain_movers: args.plain_movers,
     };
     let start = Instant::now();
     let bars = StageBars::new();

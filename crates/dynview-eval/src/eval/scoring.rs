@@ -47,6 +47,11 @@ pub struct Options {
     /// prep runs and tables go to `target/eval/<layout>/`.
     #[arg(long)]
     pub layout: Option<String>,
+    /// Evaluate the default event with a small, fast, untextured ball and a plain-coloured box
+    /// added (`dynview synth --plain-movers`) instead; its event, prep runs and tables go to
+    /// `target/eval/plain-movers/`.
+    #[arg(long, conflicts_with = "layout")]
+    pub plain_movers: bool,
     /// An extra argument for the pipeline's `dynview prep` runs on our own poses (repeatable;
     /// e.g. `--prep-arg=--centred-principal-point`). Those runs then work in folders of their
     /// own, named after the arguments.
@@ -65,6 +70,7 @@ impl Options {
         let root = workspace_root().join("target/eval");
         match &self.layout {
             Some(layout) => root.join(layout),
+            None if self.plain_movers => root.join(PLAIN_MOVERS_DIR),
             None => root,
         }
     }
@@ -96,6 +102,9 @@ pub struct Row {
 
 /// A held-out camera path and its ground-truth images.
 pub type Sequence = (Vec<PathFrame>, Vec<RgbRaster>);
+
+/// Work folder (under `target/eval`) of the event with plain movers.
+pub const PLAIN_MOVERS_DIR: &str = "plain-movers";
 
 /// Subfolder of a synthetic event with its videos.
 pub const VIDEOS_DIR: &str = "videos";

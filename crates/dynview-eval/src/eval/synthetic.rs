@@ -30,6 +30,10 @@ pub fn run(mut options: Options) -> anyhow::Result<()> {
         options.params = serde_json::from_str(&text).with_context(|| format!("{}: not render parameters", file.display()))?;
     }
     let (event, config) = match &options.layout {
+        None if options.plain_movers => {
+            options.out = options.work_dir();
+            (options.work_dir().join("event"), SynthConfig { plain_movers: true, ..SynthConfig::default() })
+        }
         None => (options.work_dir().join("event"), SynthConfig::default()),
         Some(name) => {
             let (_, config) =
@@ -106,10 +110,15 @@ fn markdown_table(rows: &[Row], frames: usize, config: &SynthConfig, moving_obje
     let _ = writeln!(s, "# Renderer evaluation on the synthetic event\n");
     let _ = writeln!(
         s,
-        "`dynview synth` defaults ({} cameras, {} frames used of {}, {}x{}, seed {}): ground-truth scene package (clouds: {:.1}% of pixels per camera, {} mm noise, {:.0}% outliers). \
+        "`dynview synth` defaults{} ({} cameras, {} frames used of {}, {}x{}, seed {}): ground-truth scene package (clouds: {:.1}% of pixels per camera, {} mm noise, {:.0}% outliers). \
          PSNR and SSIM on the moving held-out camera, averaged over frames; flicker on the static held-out camera: mean absolute frame-to-frame change of the output on pixels whose \
          ground truth changes by less than 2/255, minus the same for the ground truth (lower is better). Depth error: on the pixels of each moving object ({}) as the moving \
          held-out camera sees them, the median of |rendered - true| / true over every frame (a pixel without depth counts 100%). Time: this machine, all cores, per frame including sparse projection.\n",
+        if config.plain_movers {
+            " with `--plain-movers` (a small, fast, untextured ball and a plain-coloured box among the moving things)"
+        } else {
+            ""
+        },
         config.cameras,
         frames,
         config.frames,
