@@ -141,38 +141,17 @@ impl Prepared {
         Ok(Self { frames, frames_dir, dynview, prep_args, reference_run, reference })
     }
 
-    /// The package of every camera but `held_out`, prepared with their calibration in
-    /// `root/without_<held_out>_<frames>` (or reused).
+    /// The package of every camera but `held_out`, with the poses `poses` says, in
+    /// `root/<poses' prefix>without_<held_out>_<frames>` (or reused).
     pub(crate) fn without(
         &self,
         capture: RealCapture,
         options: &Options,
         root: &Path,
         held_out: &str,
+        poses: PosesFrom,
     ) -> anyhow::Result<(PrepRun, ScenePackage)> {
-        self.prepare_without(capture, options, &root.join(format!("without_{held_out}_{}", self.frames)), held_out, true)
-    }
-
-    /// The package of every camera but `held_out`, prepared from our own structure from motion
-    /// (no `--poses`) in `root/own_without_<held_out>_<frames>` (or reused).
-    pub(crate) fn without_own_poses(
-        &self,
-        capture: RealCapture,
-        options: &Options,
-        root: &Path,
-        held_out: &str,
-    ) -> anyhow::Result<(PrepRun, ScenePackage)> {
-        self.prepare_without(capture, options, &root.join(format!("own_without_{held_out}_{}", self.frames)), held_out, false)
-    }
-
-    fn prepare_without(
-        &self,
-        capture: RealCapture,
-        options: &Options,
-        dir: &Path,
-        held_out: &str,
-        calibrated: bool,
-    ) -> anyhow::Result<(PrepRun, ScenePackage)> {
+        let dir = root.join(format!("{}without_{held_out}_{}", poses.folder_prefix(), self.frames));
         let cameras = capture.cameras()?;
         let others: Vec<&str> = cameras.iter().filter(|c| *c != held_out).map(String::as_str).collect();
         let input = dir.join("input");
@@ -180,10 +159,10 @@ impl Prepared {
             copy_folder_once(&self.frames_dir.join(camera), &input.join(camera))?;
         }
         let mut args = Vec::new();
-        if calibrated {
-            let poses = dir.join("poses.json");
-            capture.write_poses(&poses, Some(&others))?;
-            args.extend(["--poses".to_string(), poses.display().to_string()]);
+        if poses == PosesFrom::Calibration {
+            let path = dir.join("poses.json");
+            capture.write_poses(&path, Some(&others))?;
+            args.extend(["--poses".to_string(), path.display().to_string()]);
         }
         args.extend(self.prep_args.iter().cloned());
         let run = prep_once(&self.dynview, &input, &dir.join("out"), &args, options.fresh)?;
@@ -192,13 +171,30 @@ impl Prepared {
     }
 }
 
+/// Where the poses of a package without a held-out camera come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum PosesFrom {
+    /// The capture's calibration (`--poses`).
+    Calibration,
+    /// Our own structure from motion (no `--poses`).
+    OwnSfm,
+}
+
+impl PosesFrom {
+    fn folder_prefix(self) -> &'static str {
+        match self {
+            Self::Calibration => "",
+            Self::OwnSfm => "own_",
+        }
+    }
+}
 /// Prepares the packages of `capture` in `root` and scores every held-out camera; returns the
 /// report's section and writes the strips.
 fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path, held_out_cameras: &[String]) -> anyhow::Result<String> {
     let prepared = Prepared::new(capture, options, root)?;
     let mut results = Vec::new();
     for held_out in held_out_cameras {
-        let (run, package) = prepared.without(capture, options, root, held_out)?;
+        let (run, package) = prepared.without(capture, options, root, held_out, PosesFrom::Calibration)?;
         let steps = Steps::all(&prepared.reference, &package);
         let params = options.params.clone().unwrap_or_default();
         let (result, strip) = evaluate_camera(held_out, &prepared.reference, &package, &run, &params, steps, &Similarity3::IDENTITY)?;

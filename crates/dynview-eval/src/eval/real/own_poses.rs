@@ -18,7 +18,7 @@ use anyhow::Context;
 use dynview_core::scene::ScenePackage;
 
 use super::run::{CameraResult, Options};
-use super::{Prepared, Steps, captures_and_work, evaluate_camera, held_out_cameras};
+use super::{PosesFrom, Prepared, Steps, captures_and_work, evaluate_camera, held_out_cameras};
 use crate::align::{PoseEvalOptions, Similarity3, evaluate_poses};
 use crate::datasets::real_captures::RealCapture;
 use crate::runs::prep::package_poses;
@@ -74,7 +74,7 @@ pub fn run(options: Options) -> anyhow::Result<()> {
         let params = options.params.clone().unwrap_or_default();
         let mut rows = Vec::new();
         for camera in &held_out {
-            let (run, package) = prepared.without(capture, &options, &root, camera)?;
+            let (run, package) = prepared.without(capture, &options, &root, camera, PosesFrom::Calibration)?;
             let steps = Steps::all(&prepared.reference, &package);
             let (calibrated, _) = evaluate_camera(camera, &prepared.reference, &package, &run, &params, steps, &Similarity3::IDENTITY)?;
             let own = own_result(&prepared, capture, &options, &root, camera, &params).map_err(|e| format!("{e:#}"));
@@ -101,7 +101,7 @@ fn own_result(
     held_out: &str,
     params: &dynview_core::render::RenderParams,
 ) -> anyhow::Result<(Placement, CameraResult)> {
-    let (run, package) = prepared.without_own_poses(capture, options, root, held_out)?;
+    let (run, package) = prepared.without(capture, options, root, held_out, PosesFrom::OwnSfm)?;
     let cameras = capture.cameras()?.len() - 1;
     let placement = placement(&package, &prepared.reference, cameras)?;
     let steps = Steps::all(&prepared.reference, &package);
