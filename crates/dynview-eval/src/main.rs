@@ -36,7 +36,7 @@ fn main() -> std::process::ExitCode {
     let result = match Cli::parse().command {
         Command::Eval(options) => eval::synthetic::run(options),
         Command::EvalReal(options) if options.unsync => eval::real::unsync::run(options),
-        Command::EvalReal(options) if options.own_poses => eval::real::run_own_poses(options),
+        Command::EvalReal(options) if options.own_poses => eval::real::own_poses::run(options),
         Command::EvalReal(options) => eval::real::run(options),
         Command::Bench(options) => bench::render::run(options),
         Command::BenchPrep(options) => bench::prep::run(options),

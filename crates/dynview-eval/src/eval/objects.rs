@@ -72,6 +72,11 @@ impl ObjectTruth {
     }
 }
 
+/// Per-object depth errors as a table cell: `1.2 / 3.4` (`-` for an object never seen).
+pub(crate) fn depth_errors_cell(errors_pct: &[f64]) -> String {
+    errors_pct.iter().map(|e| if e.is_finite() { format!("{e:.1}") } else { "-".into() }).collect::<Vec<_>>().join(" / ")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

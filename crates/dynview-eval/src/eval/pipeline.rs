@@ -23,9 +23,8 @@ use dynview_core::render::{Method, TimeStepInputs};
 use dynview_core::scene::ScenePackage;
 use dynview_interchange::camera_path::PathFrame;
 
-use crate::eval::objects::ObjectTruth;
+use crate::eval::objects::{ObjectTruth, depth_errors_cell};
 use crate::eval::scoring::{Options, Row, Sequence, VIDEOS_DIR, evaluate_method};
-use crate::eval::synthetic::depth_errors_cell;
 use crate::paths::workspace_root;
 use crate::runs::prep::{PrepRun, cloud_point_counts, package_poses, prep_args_suffix, prep_once, stage_seconds};
 use crate::runs::programs::dynview_binary;

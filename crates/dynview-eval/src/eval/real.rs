@@ -10,12 +10,11 @@
 //! with all cameras: same working size, same undistortion, same (calibrated) world, so no
 //! alignment is needed. Results in `docs/results/real.md` and `real_strip_<capture>_<camera>.png`.
 
-mod own_poses;
+pub mod own_poses;
 mod report;
 mod run;
 pub mod scores;
 pub mod unsync;
-pub use own_poses::run as run_own_poses;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

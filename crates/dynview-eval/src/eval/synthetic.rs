@@ -12,7 +12,7 @@ use dynview_core::{RgbRaster, ScalarRaster};
 use dynview_synth::SynthConfig;
 
 use crate::datasets::sfm::layout_config;
-use crate::eval::objects::ObjectTruth;
+use crate::eval::objects::{ObjectTruth, depth_errors_cell};
 use crate::eval::pipeline::{TRUE_POSES, markdown_section, run as run_pipeline};
 use crate::eval::scoring::{Options, Row, VIDEOS_DIR, evaluate_method, load_sequence};
 
@@ -151,11 +151,6 @@ fn markdown_table(rows: &[Row], frames: usize, config: &SynthConfig, moving_obje
         "\nReproduce: `cargo xtask eval` (strip: `docs/results/eval_strip.png`: ground truth, (c) blend, (e) full, depth of (e))."
     );
     s
-}
-
-/// Per-object depth errors as a table cell: `1.2 / 3.4` (`-` for an object never seen).
-pub(crate) fn depth_errors_cell(errors_pct: &[f64]) -> String {
-    errors_pct.iter().map(|e| if e.is_finite() { format!("{e:.1}") } else { "-".into() }).collect::<Vec<_>>().join(" / ")
 }
 
 fn write_strip(path: &Path, truth: &RgbRaster, renders: &[(Method, RgbRaster, ScalarRaster)]) -> anyhow::Result<()> {
