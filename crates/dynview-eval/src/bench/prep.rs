@@ -7,13 +7,12 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use crate::align::{PoseEvalOptions, evaluate_poses};
 use anyhow::{Context, bail};
 use dynview_core::scene::ScenePackage;
 use dynview_synth::SynthConfig;
 
 use crate::paths::{results_dir, workspace_root};
-use crate::runs::prep::{cloud_point_counts, package_poses, run_prep, stage_seconds, stage_table};
+use crate::runs::prep::{align_packages, cloud_point_counts, run_prep, stage_seconds, stage_table};
 use crate::runs::programs::dynview_binary;
 
 /// The event of the benchmark.
@@ -70,7 +69,7 @@ pub fn run(options: Options) -> anyhow::Result<()> {
     let stages = stage_seconds(&run.out)?;
     let package = ScenePackage::open(run.scene_dir()).with_context(|| format!("opening {}", run.scene_dir().display()))?;
     let truth = ScenePackage::open(event.join("scene"))?;
-    let accuracy = evaluate_poses(&package_poses(&package)?, &package_poses(&truth)?, PoseEvalOptions::default())?;
+    let accuracy = align_packages(&package, &truth)?;
     let (points, fewest, most) = cloud_point_counts(&package);
     let steps = package.time_step_count();
 

@@ -54,21 +54,24 @@ impl ObjectTruth {
     /// `truth_per_rendered` (the true world's units per the rendered world's); `NaN` for an
     /// object never seen. `rendered[t]` must have the held-out camera's size.
     pub fn depth_errors_pct(&self, rendered: &[&ScalarRaster], truth_per_rendered: f64) -> Vec<f64> {
-        self.moving
-            .iter()
-            .map(|object| {
-                let mut errors = Vec::new();
-                for ((ids, truth), depth) in self.ids.iter().zip(&self.depth_m).zip(rendered) {
-                    for ((&id, &true_m), &d) in ids.data.iter().zip(&truth.data).zip(&depth.data) {
-                        if id == object.id && true_m.is_finite() && true_m > 0.0 {
-                            let d = if d.is_finite() { f64::from(d) * truth_per_rendered } else { 0.0 };
-                            errors.push((d - f64::from(true_m)).abs() / f64::from(true_m));
-                        }
-                    }
+        // One pass over the pixels: each moving object's id to its slot.
+        let mut slot_of_id = [None; 256];
+        for (slot, object) in self.moving.iter().enumerate() {
+            slot_of_id[usize::from(object.id)] = Some(slot);
+        }
+        let mut errors: Vec<Vec<f64>> = vec![Vec::new(); self.moving.len()];
+        for ((ids, truth), depth) in self.ids.iter().zip(&self.depth_m).zip(rendered) {
+            for ((&id, &true_m), &d) in ids.data.iter().zip(&truth.data).zip(&depth.data) {
+                if let Some(slot) = slot_of_id[usize::from(id)]
+                    && true_m.is_finite()
+                    && true_m > 0.0
+                {
+                    let d = if d.is_finite() { f64::from(d) * truth_per_rendered } else { 0.0 };
+                    errors[slot].push((d - f64::from(true_m)).abs() / f64::from(true_m));
                 }
-                if errors.is_empty() { f64::NAN } else { median(&errors) * 100.0 }
-            })
-            .collect()
+            }
+        }
+        errors.iter().map(|e| if e.is_empty() { f64::NAN } else { median(e) * 100.0 }).collect()
     }
 }
 

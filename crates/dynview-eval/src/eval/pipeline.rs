@@ -4,7 +4,7 @@
 //!
 //! The estimated world differs from the true one by a similarity (SfM fixes neither origin,
 //! orientation nor scale). It is fitted on every camera at every time step of the estimated
-//! `scene.json` against the ground-truth package's (`evaluate_poses`): the rotation from the
+//! `scene.json` against the ground-truth package's (`align_packages`): the rotation from the
 //! cameras' orientations, scale and translation from their centres. (Until 2026-11-27 the
 //! rotation came from the centres too, which an arc of cameras fixes poorly about its own line:
 //! that alignment alone was 0.07 degrees off on the default event and 0.2 with plain movers,
@@ -17,7 +17,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::align::{PoseAccuracy, PoseEvalOptions, Similarity3, evaluate_poses};
+use crate::align::{PoseAccuracy, Similarity3};
 use anyhow::Context;
 use dynview_core::render::{Method, TimeStepInputs};
 use dynview_core::scene::ScenePackage;
@@ -26,7 +26,7 @@ use dynview_interchange::camera_path::PathFrame;
 use crate::eval::objects::{ObjectTruth, depth_errors_cell};
 use crate::eval::scoring::{Options, Row, Sequence, VIDEOS_DIR, evaluate_method};
 use crate::paths::workspace_root;
-use crate::runs::prep::{PrepRun, cloud_point_counts, package_poses, prep_args_suffix, prep_once, stage_seconds};
+use crate::runs::prep::{PrepRun, align_packages, cloud_point_counts, prep_args_suffix, prep_once, stage_seconds};
 use crate::runs::programs::dynview_binary;
 
 /// Largest PSNR drop of the full pipeline's (e) row below the ground-truth package's that
@@ -93,12 +93,6 @@ pub fn run(
     Ok(variants)
 }
 
-/// The estimated package's poses against the truth's, matched by camera name and time step.
-fn align(estimated: &ScenePackage, truth: &ScenePackage) -> anyhow::Result<PoseAccuracy> {
-    evaluate_poses(&package_poses(estimated)?, &package_poses(truth)?, PoseEvalOptions::default())
-        .context("aligning the estimated cameras to the ground truth")
-}
-
 /// `frames` with every camera mapped by `estimated_from_true`.
 fn map_path(frames: &[PathFrame], estimated_from_true: &Similarity3) -> Vec<PathFrame> {
     frames
@@ -124,7 +118,7 @@ fn evaluate_variant(
     frames: usize,
 ) -> anyhow::Result<Variant> {
     let package = ScenePackage::open(run.scene_dir()).with_context(|| format!("opening {}", run.scene_dir().display()))?;
-    let accuracy = align(&package, truth)?;
+    let accuracy = align_packages(&package, truth)?;
     let estimated_from_true = accuracy.true_from_estimated.inverse();
     println!(
         "{label}: {} of {} camera poses; aligned with scale {:.4}; centre error median {:.3}% of the scene, rotation error median {:.3} deg",

@@ -187,6 +187,7 @@ impl PosesFrom {
         }
     }
 }
+
 /// Prepares the packages of `capture` in `root` and scores every held-out camera; returns the
 /// report's section and writes the strips.
 fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path, held_out_cameras: &[String]) -> anyhow::Result<String> {

@@ -1,5 +1,5 @@
 //! Running `dynview prep` from xtask and reading what it wrote: `report.json`'s stage times,
-//! the scene package's poses and cloud sizes.
+//! the scene package's poses and cloud sizes, and one package's cameras aligned to another's.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -9,6 +9,7 @@ use anyhow::Context;
 use dynview_core::Rigid3;
 use dynview_core::scene::ScenePackage;
 
+use crate::align::{PoseAccuracy, PoseEvalOptions, evaluate_poses};
 use crate::runs::programs::run_logged;
 
 /// The package folder `dynview prep` writes inside `--out`.
@@ -99,6 +100,14 @@ pub fn package_poses(package: &ScenePackage) -> anyhow::Result<BTreeMap<String, 
         }
     }
     Ok(poses)
+}
+
+/// `estimated`'s cameras against the same cameras of `truth` (by name and time step), after
+/// the similarity that aligns them (rotation from the orientations, scale and translation from
+/// the centres: [`evaluate_poses`]'s default).
+pub fn align_packages(estimated: &ScenePackage, truth: &ScenePackage) -> anyhow::Result<PoseAccuracy> {
+    evaluate_poses(&package_poses(estimated)?, &package_poses(truth)?, PoseEvalOptions::default())
+        .with_context(|| format!("aligning the cameras of {} to {}", estimated.root().display(), truth.root().display()))
 }
 
 /// Points per time step of a package's clouds: (total, smallest, largest).

@@ -14,14 +14,13 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::Context;
 use dynview_core::scene::ScenePackage;
 
 use super::run::{CameraResult, Options};
 use super::{PosesFrom, Prepared, Steps, captures_and_work, evaluate_camera, held_out_cameras};
-use crate::align::{PoseEvalOptions, Similarity3, evaluate_poses};
+use crate::align::Similarity3;
 use crate::datasets::real_captures::RealCapture;
-use crate::runs::prep::package_poses;
+use crate::runs::prep::align_packages;
 
 /// How our SfM placed the input cameras, against the calibration.
 pub(super) struct Placement {
@@ -40,9 +39,7 @@ pub(super) struct Placement {
 /// Aligns `package`'s cameras to the same cameras of `reference` (by name and time step) and
 /// says how many were placed and how well.
 pub(super) fn placement(package: &ScenePackage, reference: &ScenePackage, cameras: usize) -> anyhow::Result<Placement> {
-    let ours = package_poses(package)?;
-    let truth = package_poses(reference)?;
-    let accuracy = evaluate_poses(&ours, &truth, PoseEvalOptions::default()).context("aligning our cameras to the calibration's")?;
+    let accuracy = align_packages(package, reference)?;
     Ok(Placement {
         placed: package.manifest().cameras.len(),
         cameras,
