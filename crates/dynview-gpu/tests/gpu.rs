@@ -383,10 +383,13 @@ fn weights_and_system_assembly_on_the_gpu_match_the_cpu() {
         .collect();
     let rows = assemble.support_rows(&ctx, &up(&sparse.mask.data, h, 1), 1).unwrap();
     let prior = assemble.plane_prior(&ctx, &params, &rows, &up(&temporal_depth, h, 2), &plane, 1).unwrap();
-    // Window sums of a 0/1 mask are integers: the plane's weights are the CPU's exactly.
+    // Window sums of a 0/1 mask are integers, so the plane's weights differ from the CPU's by
+    // no more than the rounding of the fade's multiply and add, which a GPU may fuse (lavapipe
+    // gives the CPU's bits; an NVIDIA H200 differs in the last bit of 88 weights of 4500).
     let prior_weights: Vec<f32> = prior.download(&ctx).unwrap().chunks(2).map(|c| c[0]).collect();
     let cpu_weights: Vec<f32> = (0..n).map(|i| temporal[i] + plane_weight[i]).collect();
-    assert_eq!(prior_weights, cpu_weights, "temporal and plane weights");
+    let diff = max_difference(&prior_weights, &cpu_weights);
+    assert!(diff <= 1e-6, "temporal and plane weights: max difference {diff}");
     let cpu_w_p: Vec<f32> =
         warps.iter().zip(&w_p).flat_map(|(warp, wp)| (0..n).map(|i| if warp.valid(i) { wp[i] } else { -1.0 })).collect();
     let cpu_view_weight: Vec<f32> = (0..n).map(|i| w_p.iter().map(|wp| wp[i]).sum()).collect();

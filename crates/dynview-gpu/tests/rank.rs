@@ -49,7 +49,11 @@ fn rank_preference_on_the_gpu_matches_the_cpu() {
     let gpu_mask = GpuImage::upload(&ctx, &mask.data, w, h, 1).unwrap();
     let rows = AssembleKernels::new(&ctx).support_rows(&ctx, &gpu_mask, level).unwrap();
     let gpu_unsupported = kernels.unsupported(&ctx, &rows, level, support).unwrap();
-    assert_eq!(gpu_unsupported.download(&ctx).unwrap(), cpu_unsupported, "the support map");
+    // The same sums and fade; a GPU may fuse the fade's multiply and add, which moves the last
+    // bit (an NVIDIA H200 does, in 66 of 3150; lavapipe gives the CPU's bits).
+    let gpu_support = gpu_unsupported.download(&ctx).unwrap();
+    let support_diff = gpu_support.iter().zip(&cpu_unsupported).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+    assert!(gpu_support.len() == cpu_unsupported.len() && support_diff <= 1e-6, "the support map: max difference {support_diff}");
 
     // w_P of three views, some invalid (-1 on the GPU, 0 on the CPU); the views rank 1, 0.3
     // and 1e-5 of the best.
