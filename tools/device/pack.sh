@@ -5,6 +5,8 @@
 #   tools/device/pack.sh
 # then on the device, in one call (carry [".device", ".gl"], timeout_s 540):
 #   bash tools/device/gpu-bench.sh
+# With `--tests` it also packs `dynview` and the GPU tests' binaries (`.device/tests/`) for
+#   bash tools/device/gpu-check.sh
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 cd "$root"
@@ -19,6 +21,24 @@ cargo build --release -p dynview-eval
 mkdir -p .device
 strip -o .device/dynview-eval target/release/dynview-eval
 echo "packed .device/dynview-eval ($(du -h .device/dynview-eval | cut -f1))"
+
+if [ "${1:-}" = --tests ]; then
+    echo "building dynview and the GPU tests (release)"
+    # Without `prep`: the device has no OpenCV, and the GPU checks need synth and render only.
+    cargo build --release -p dynview-cli --no-default-features
+    strip -o .device/dynview target/release/dynview
+    cargo build --release -p dynview-cli
+    rm -rf .device/tests
+    mkdir -p .device/tests
+    { cargo test --release -p dynview-gpu --no-run --message-format=json
+      cargo test --release -p dynview-cli --test render --no-run --message-format=json; } |
+        grep -o '"executable":"[^"]*/deps/[^"]*"' | cut -d'"' -f4 |
+        while read -r exe; do
+            name="$(basename "$exe")"
+            strip -o ".device/tests/${name%-*}" "$exe"
+        done
+    echo "packed .device/tests/ ($(ls .device/tests | tr '\n' ' '))"
+fi
 
 if ! ls .gl/libvulkan1_*.deb >/dev/null 2>&1; then
     echo "downloading the Vulkan loader (amd64) into .gl/"
