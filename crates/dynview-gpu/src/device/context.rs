@@ -25,6 +25,8 @@ pub struct GpuContext {
     /// The adapter.
     pub adapter: wgpu::Adapter,
     pub(crate) pool: BufferPool,
+    /// Idle read-back staging buffers (`device::readback`).
+    pub(crate) staging: crate::device::readback::StagingPool,
     /// The open encoder and pass, shared uniforms, cached bind groups, counters and profiler.
     recorder: Mutex<Recorder>,
     /// Zeros over a reused image's buffer (`shaders/zero.wgsl`), compiled on first use.
@@ -97,6 +99,7 @@ impl GpuContext {
             instance,
             adapter,
             pool: BufferPool::default(),
+            staging: Default::default(),
             recorder,
             zero: Default::default(),
             placeholder: Default::default(),

@@ -7,9 +7,9 @@ use wgpu::util::DeviceExt;
 use crate::device::context::GpuContext;
 use crate::device::error::GpuError;
 use crate::device::pool::{BufferPool, POOL_BUFFERS_PER_SIZE};
-use crate::device::readback::read_floats;
 #[cfg(not(target_family = "wasm"))]
-use crate::device::readback::read_floats_blocking;
+use crate::device::readback::read_blocking;
+use crate::device::readback::read_floats;
 #[cfg(test)]
 use crate::device::shaders;
 
@@ -148,19 +148,16 @@ impl GpuImage {
         if self.channels != 3 {
             return Err(GpuError::Size(format!("an RGB read-back of an image with {} channels", self.channels)));
         }
-        let data = self.download(ctx)?;
-        Ok(dynview_core::raster::Raster {
-            width: self.width,
-            height: self.height,
-            data: data.chunks(3).map(|c| [c[0], c[1], c[2]]).collect(),
-        })
+        let mut data = vec![[0.0f32; 3]; self.width * self.height];
+        read_blocking(ctx, &self.buffer, &mut data)?;
+        Ok(dynview_core::raster::Raster { width: self.width, height: self.height, data })
     }
 
     /// Reads the pixels back, blocking until the GPU is done (native only).
     #[cfg(not(target_family = "wasm"))]
     pub fn download(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
         let mut out = vec![0.0f32; self.width * self.height * self.channels];
-        read_floats_blocking(ctx, &self.buffer, &mut out)?;
+        read_blocking(ctx, &self.buffer, &mut out)?;
         Ok(out)
     }
 }

@@ -16,7 +16,7 @@ use crate::device::error::GpuError;
 use crate::device::image::GpuImage;
 use crate::device::kernel::Kernel;
 #[cfg(not(target_family = "wasm"))]
-use crate::device::readback::read_floats_blocking;
+use crate::device::readback::read_blocking;
 use crate::device::shaders;
 use crate::passes::assemble::GpuSystem;
 
@@ -230,7 +230,7 @@ impl GridSolver {
         let scratch = (self.kind == SweepKernel::Tiled).then(|| storage("u scratch", u, read));
         let buffers = [&right, &down, &inv_diag, &rhs, &unknowns, scratch.as_ref().unwrap_or(&unknowns)];
         self.record(ctx, buffers, sys.width, sys.height, channels, sweeps, omega);
-        read_floats_blocking(ctx, &unknowns, u)
+        read_blocking(ctx, &unknowns, u)
     }
 }
 
