@@ -174,3 +174,34 @@ fn frames_render_the_same_where_each_view_needs_a_buffer_of_its_own() {
         assert!(cpu_db >= 45.0 && weight_cpu_db >= 45.0, "{name}: {cpu_db:.1} / {weight_cpu_db:.1} dB against the CPU");
     }
 }
+
+#[test]
+fn a_frame_uploads_only_the_views_it_renders_from_and_renders_as_with_all_uploaded() {
+    let (w, h) = (96u32, 64u32);
+    let inputs = inputs(w, h);
+    let novel = camera(DVec3::new(0.3, 0.5, 4.3), w, h);
+    let params = RenderParams { method: Method::NoTemporal, views: 2, ..RenderParams::default() };
+    let ctx = GpuContext::new_blocking().unwrap_or_else(|e| panic!("{e}"));
+    let renderer = GpuRenderer::new(&ctx);
+
+    // The cloud alone: the frame says which view is missing instead of rendering without it.
+    let mut lazy = GpuInputs::upload_cloud(&ctx, &inputs).unwrap();
+    assert!(lazy.uploaded_views().is_empty());
+    let err = renderer.render(&ctx, &params, &novel, &lazy, None).unwrap_err();
+    assert!(err.to_string().contains("not uploaded"), "{err}");
+
+    // The two views the frame ranks first, their coarser levels made on the GPU.
+    renderer.upload_views_for(&ctx, &params, &novel, &mut lazy, &inputs).unwrap();
+    assert_eq!(lazy.uploaded_views().len(), 2);
+    let all = GpuInputs::upload(&ctx, &inputs).unwrap();
+    assert_eq!(all.uploaded_views(), vec![0, 1, 2]);
+    let from_lazy = renderer.render(&ctx, &params, &novel, &lazy, None).unwrap().color().download(&ctx).unwrap();
+    let from_all = renderer.render(&ctx, &params, &novel, &all, None).unwrap().color().download(&ctx).unwrap();
+    let diff = from_lazy.iter().zip(&from_all).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    assert!(diff <= 1e-4, "GPU-made pyramids against the host's: max color difference {diff}");
+
+    // Inputs of another time step with another number of views are refused, not mixed in.
+    let fewer = TimeStepInputs { views: inputs.views[..1].to_vec(), ..inputs.clone() };
+    let far = camera(DVec3::new(-3.0, 0.5, 3.0), w, h);
+    assert!(renderer.upload_views_for(&ctx, &params, &far, &mut lazy, &fewer).is_err());
+}

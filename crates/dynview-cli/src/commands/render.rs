@@ -155,7 +155,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let mut cached: Option<(u32, TimeStepInputs)> = None;
     let mut last_step: Option<u32> = None;
-    let mut total_ms = 0.0;
+    let mut frame_ms = Vec::with_capacity(frames.len());
     let steps = package.time_step_count();
     for (i, frame) in frames.iter().enumerate() {
         let t = frame.time.time_step(steps);
@@ -170,7 +170,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let inputs = &cached.as_ref().map(|(_, inputs)| inputs).context("time step not loaded")?;
         let (color, depth, ms) =
             renderer.render(&params, &frame.camera, t, inputs, &clock).with_context(|| format!("rendering frame {i}"))?;
-        total_ms += ms;
+        frame_ms.push(ms);
         let color_path = args.out.join(format!("{i:05}.png"));
         let mut png = Vec::new();
         color.to_rgb8().write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
@@ -181,12 +181,38 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     bars.finish();
     println!(
-        "rendered {} frames with {} on the {} into {} ({:.0} ms per frame in the renderer)",
+        "rendered {} frames with {} on the {} into {} ({})",
         frames.len(),
         params.method.label(),
         if args.gpu { "GPU" } else { "CPU" },
         args.out.display(),
-        total_ms / frames.len().max(1) as f64
+        frame_times(&frame_ms)
     );
     Ok(())
+}
+
+/// The renderer's time per frame in words: the first frame apart (on the GPU it builds the
+/// pipelines and buffers), then the median of the rest.
+fn frame_times(frame_ms: &[f64]) -> String {
+    match frame_ms {
+        [] => "no frames".to_owned(),
+        [only] => format!("{only:.0} ms in the renderer"),
+        [first, rest @ ..] => {
+            let mut rest = rest.to_vec();
+            rest.sort_by(f64::total_cmp);
+            format!("renderer: first frame {first:.0} ms, then {:.1} ms a frame (median)", rest[rest.len() / 2])
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::frame_times;
+
+    #[test]
+    fn frame_times_keep_the_first_frame_apart_from_the_median_of_the_rest() {
+        assert_eq!(frame_times(&[]), "no frames");
+        assert_eq!(frame_times(&[12.4]), "12 ms in the renderer");
+        assert_eq!(frame_times(&[900.0, 20.0, 18.0, 50.0]), "renderer: first frame 900 ms, then 20.0 ms a frame (median)");
+    }
 }

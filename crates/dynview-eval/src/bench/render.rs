@@ -114,6 +114,7 @@ pub fn run(options: Options) -> anyhow::Result<()> {
     let _ = writeln!(report, "| --- | ---: | ---: | ---: | ---: | ---: |");
     let mut details = String::new();
     let mut gpu_rows = String::new();
+    let mut playback_rows = String::new();
     for (w, h) in sizes {
         let (inputs, camera) = bench_event(w, h)?;
         let origin = Instant::now();
@@ -142,6 +143,19 @@ pub fn run(options: Options) -> anyhow::Result<()> {
             Some((ctx, renderer)) => gpu_stage_table(ctx, renderer, &params, &camera, &inputs)?,
             None => None,
         };
+        if let Some((ctx, renderer)) = &gpu {
+            let p = gpu_playback_figures(ctx, renderer, &params, &camera, &inputs, runs)?;
+            let _ = writeln!(
+                playback_rows,
+                "| {w}x{h} | {:.1} | {:.0} | {:.1} | {:.1} | {:.1} | {:.1} |",
+                p.total_ms,
+                p.up_mb,
+                p.upload_ms,
+                p.frame_ms,
+                p.download_ms,
+                1000.0 / p.total_ms
+            );
+        }
         if let Some(f) = &gpu_figures {
             let c = &f.counters;
             let gpu_ms_sum = gpu_stages.as_ref().map_or("-".to_string(), |(sum, _)| format!("{sum:.2}"));
@@ -196,6 +210,17 @@ pub fn run(options: Options) -> anyhow::Result<()> {
              binding cannot hold them all)\n\n\
              | output | wall ms | host ms | GPU ms | dispatches | passes | bind groups created | submits | uniform bytes | MB bound | view buffers |\n\
              | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n{gpu_rows}"
+        );
+    }
+    if !playback_rows.is_empty() {
+        let _ = writeln!(
+            report,
+            "\nGPU, a playback frame (every frame a new time step, as `dynview render --gpu` plays: the time step's \
+             cloud and the views the frame renders from uploaded, the frame rendered, its color and depth read back; \
+             the viewer does the same but draws the color instead of reading it back; medians of {runs}): MB up (the \
+             cloud and the finest level of each view used, with its plate), then the milliseconds of each part\n\n\
+             | output | wall ms | MB up | upload ms | frame ms | read-back ms | frames/s |\n\
+             | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n{playback_rows}"
         );
     }
     println!("\n{report}{details}");
@@ -254,6 +279,72 @@ fn gpu_frame_figures(
     let views = params.views.min(inputs.views.len());
     let view_buffers = dynview_gpu::ViewChunks::for_device(ctx, camera.width_px as usize, camera.height_px as usize, views)?.len();
     Ok(GpuFrameFigures { wall_ms: times[times.len() / 2], host_ms: host_times[host_times.len() / 2], counters, view_buffers })
+}
+
+/// A playback frame's parts (medians, milliseconds): the time step's upload, the frame
+/// (recorded, submitted and finished), the read-back of its color and depth, and the whole.
+struct PlaybackFigures {
+    /// Megabytes uploaded a frame.
+    up_mb: f64,
+    upload_ms: f64,
+    frame_ms: f64,
+    download_ms: f64,
+    total_ms: f64,
+}
+
+/// Frames as playback renders them (`dynview_gpu::GpuStreamingRenderer`): every frame uploads
+/// its time step's cloud and the finest level of the views it renders from (here the same
+/// inputs, uploaded afresh each time), renders with the previous frame's temporal terms, and
+/// reads its color and depth back.
+fn gpu_playback_figures(
+    ctx: &dynview_gpu::GpuContext,
+    renderer: &dynview_gpu::GpuRenderer,
+    params: &RenderParams,
+    camera: &Camera,
+    inputs: &TimeStepInputs,
+    runs: usize,
+) -> anyhow::Result<PlaybackFigures> {
+    let mut parts: [Vec<f64>; 4] = Default::default();
+    let mut previous = None;
+    let mut up_mb = 0.0;
+    for run in 0..GPU_SETTLING_FRAMES + runs {
+        let start = Instant::now();
+        let mut uploaded = dynview_gpu::GpuInputs::upload_cloud(ctx, inputs)?;
+        renderer.upload_views_for(ctx, params, camera, &mut uploaded, inputs)?;
+        ctx.wait()?;
+        let uploaded_at = start.elapsed();
+        up_mb = uploaded_bytes(inputs, &uploaded) as f64 / 1e6;
+        let frame = renderer.render(ctx, params, camera, &uploaded, previous.as_ref())?;
+        ctx.wait()?;
+        let rendered_at = start.elapsed();
+        let color = frame.color().download_rgb(ctx)?;
+        let depth = frame.depth().download(ctx)?;
+        let done_at = start.elapsed();
+        anyhow::ensure!(color.data.len() == depth.len(), "read-back sizes disagree");
+        if run >= GPU_SETTLING_FRAMES {
+            let ms = |d: std::time::Duration| d.as_secs_f64() * 1000.0;
+            parts[0].push(ms(uploaded_at));
+            parts[1].push(ms(rendered_at - uploaded_at));
+            parts[2].push(ms(done_at - rendered_at));
+            parts[3].push(ms(done_at));
+        }
+        previous = Some(frame);
+    }
+    let [upload_ms, frame_ms, download_ms, total_ms] = parts.map(|mut v| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    });
+    Ok(PlaybackFigures { up_mb, upload_ms, frame_ms, download_ms, total_ms })
+}
+
+/// Bytes a playback frame uploads: the cloud (a f32 position and an 8-bit color a point) and
+/// the finest level of each view uploaded, its plate too (f32 RGB).
+fn uploaded_bytes(inputs: &TimeStepInputs, uploaded: &dynview_gpu::GpuInputs) -> usize {
+    let finest = |v: &dynview_core::render::InputView| {
+        v.levels.first().map_or(0, |l| l.data.len()) + v.plate.as_ref().and_then(|p| p.first()).map_or(0, |l| l.data.len())
+    };
+    let pixels: usize = uploaded.uploaded_views().into_iter().map(|i| finest(&inputs.views[i])).sum();
+    pixels * std::mem::size_of::<[f32; 3]>() + inputs.cloud.len() * 15
 }
 
 /// Stages of the GPU renderer, in the order of the table.

@@ -22,15 +22,19 @@ use crate::passes::splat::{GpuCloud, GpuSplat, SplatKernels};
 use crate::passes::temporal::TemporalKernels;
 use crate::passes::warp::WarpKernels;
 
-/// A time step's inputs on the GPU: the cloud and every view's pyramid.
+/// A time step's inputs on the GPU: the cloud, and the pyramids of the views uploaded so far
+/// (all of them with [`GpuInputs::upload`]; with [`GpuInputs::upload_cloud`] only those a frame
+/// chose, by [`GpuRenderer::upload_views_for`]).
 #[derive(Debug)]
 pub struct GpuInputs {
     cloud: GpuCloud,
     /// The cloud's world positions, kept on the host for the plane fit (`render::plane`).
     positions_world: Vec<[f32; 3]>,
-    /// Per view: its full-resolution camera and its frame per level (finest first).
-    views: Vec<(Camera, Vec<GpuImage>)>,
-    /// Per view: its background plate per level (finest first), if it has one.
+    /// Per view: its full-resolution camera and, once uploaded, its frame per level (finest
+    /// first).
+    views: Vec<(Camera, Option<Vec<GpuImage>>)>,
+    /// Per view: its background plate per level (finest first), once the view is uploaded and
+    /// if it has one.
     plates: Vec<Option<Vec<GpuImage>>>,
     /// The cloud and how many of its points (at its end) are static, kept on the host for the
     /// static mask of the plates (`render::plates::static_mask`); `None` when no view has a
@@ -39,22 +43,85 @@ pub struct GpuInputs {
 }
 
 impl GpuInputs {
-    /// Uploads `inputs` (pyramids as built by dynview-core).
+    /// Uploads `inputs`: the cloud and every view's pyramid (as built by dynview-core).
     pub fn upload(ctx: &GpuContext, inputs: &TimeStepInputs) -> Result<Self, GpuError> {
-        let upload_levels = |levels: &[dynview_core::RgbRaster]| {
-            levels.iter().map(|l| GpuImage::upload(ctx, l.data.as_flattened(), l.width, l.height, 3)).collect::<Result<Vec<_>, _>>()
-        };
-        let views = inputs.views.iter().map(|v| Ok((v.camera, upload_levels(&v.levels)?))).collect::<Result<Vec<_>, GpuError>>()?;
-        let plates = inputs.views.iter().map(|v| v.plate.as_deref().map(upload_levels).transpose()).collect::<Result<Vec<_>, _>>()?;
-        let plate_cloud = plates.iter().any(Option::is_some).then(|| (inputs.cloud.clone(), inputs.static_points));
+        let mut uploaded = Self::upload_cloud(ctx, inputs)?;
+        for view in 0..inputs.views.len() {
+            uploaded.upload_view(ctx, inputs, view, None)?;
+        }
+        Ok(uploaded)
+    }
+
+    /// Uploads the cloud of `inputs` and notes its views' cameras; their frames follow when a
+    /// frame needs them ([`GpuRenderer::upload_views_for`]): a playback frame uploads the
+    /// views it renders from, not every camera of the capture.
+    pub fn upload_cloud(ctx: &GpuContext, inputs: &TimeStepInputs) -> Result<Self, GpuError> {
+        let has_plates = inputs.views.iter().any(|v| v.plate.is_some());
         Ok(Self {
             cloud: GpuCloud::upload(ctx, &inputs.cloud)?,
             positions_world: inputs.cloud.positions_world.clone(),
-            views,
-            plates,
-            plate_cloud,
+            views: inputs.views.iter().map(|v| (v.camera, None)).collect(),
+            plates: inputs.views.iter().map(|_| None).collect(),
+            plate_cloud: has_plates.then(|| (inputs.cloud.clone(), inputs.static_points)),
         })
     }
+
+    /// The views whose frames are on the GPU, by index in the time step's inputs.
+    pub fn uploaded_views(&self) -> Vec<usize> {
+        self.views.iter().enumerate().filter(|(_, (_, levels))| levels.is_some()).map(|(i, _)| i).collect()
+    }
+
+    /// Uploads view `view` of `inputs` unless it is: every level, or (with `images`) the
+    /// finest, its coarser levels downsampled on the GPU as dynview-core's pyramid makes them.
+    fn upload_view(
+        &mut self,
+        ctx: &GpuContext,
+        inputs: &TimeStepInputs,
+        view: usize,
+        images: Option<&ImageKernels>,
+    ) -> Result<(), GpuError> {
+        if self.views.len() != inputs.views.len() {
+            return Err(GpuError::InvalidParams {
+                field: "inputs",
+                reason: format!("{} views, the uploaded time step has {}", inputs.views.len(), self.views.len()),
+            });
+        }
+        let Some((_, levels)) = self.views.get_mut(view) else {
+            return Err(GpuError::InvalidParams { field: "inputs", reason: format!("no view {view}") });
+        };
+        if levels.is_some() {
+            return Ok(());
+        }
+        let source = &inputs.views[view];
+        *levels = Some(upload_pyramid(ctx, &source.levels, images)?);
+        self.plates[view] = source.plate.as_deref().map(|p| upload_pyramid(ctx, p, images)).transpose()?;
+        Ok(())
+    }
+}
+
+/// `levels` (finest first) on the GPU: each uploaded, or (with `images`) the finest uploaded
+/// and each coarser one downsampled from the one before on the GPU (the box filter of
+/// dynview-core's `pyramid::build`, whose sizes it checks).
+fn upload_pyramid(ctx: &GpuContext, levels: &[dynview_core::RgbRaster], images: Option<&ImageKernels>) -> Result<Vec<GpuImage>, GpuError> {
+    let upload = |l: &dynview_core::RgbRaster| GpuImage::upload(ctx, l.data.as_flattened(), l.width, l.height, 3);
+    let Some(images) = images else {
+        return levels.iter().map(upload).collect();
+    };
+    let Some(finest) = levels.first() else {
+        return Ok(Vec::new());
+    };
+    let mut out = vec![upload(finest)?];
+    for level in &levels[1..] {
+        let next = images.downsample(ctx, &out[out.len() - 1])?;
+        if (next.width, next.height) != (level.width, level.height) {
+            return Err(GpuError::Size(format!(
+                "a pyramid level of {}x{} where the inputs have {}x{}",
+                next.width, next.height, level.width, level.height
+            )));
+        }
+        out.push(next);
+    }
+    Ok(out)
 }
 
 /// A rendered frame on the GPU, kept for the next frame's temporal terms.
@@ -126,6 +193,29 @@ impl GpuRenderer {
         self.solver.kernel()
     }
 
+    /// The views a frame of `camera` renders from, ranked as dynview-core ranks them.
+    fn views_for(params: &RenderParams, camera: &Camera, inputs: &GpuInputs) -> ChosenViews {
+        let poses: Vec<_> = inputs.views.iter().map(|(c, _)| c.camera_from_world).collect();
+        choose_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views)
+    }
+
+    /// Uploads into `uploaded` the views of `inputs` (the same time step) that a frame of
+    /// `camera` renders from and that are not on the GPU yet: each view's finest level, its
+    /// coarser levels made on the GPU.
+    pub fn upload_views_for(
+        &self,
+        ctx: &GpuContext,
+        params: &RenderParams,
+        camera: &Camera,
+        uploaded: &mut GpuInputs,
+        inputs: &TimeStepInputs,
+    ) -> Result<(), GpuError> {
+        for view in Self::views_for(params, camera, uploaded).indices {
+            uploaded.upload_view(ctx, inputs, view, Some(&self.images))?;
+        }
+        Ok(())
+    }
+
     /// Renders `camera` at the time step of `inputs` with the full method (temporal terms from
     /// `previous` when given) or the no-temporal ablation (`params.method`). The baselines
     /// stay on the CPU.
@@ -147,9 +237,13 @@ impl GpuRenderer {
         let previous = if params.method == Method::Full { previous } else { None };
         // The whole frame in one command buffer and one submit.
         let _frame = ctx.frame();
-        let poses: Vec<_> = inputs.views.iter().map(|(c, _)| c.camera_from_world).collect();
-        let ChosenViews { indices: chosen, blend_weights } =
-            choose_views(&camera.camera_from_world, &poses, f64::from(params.sigma), params.views);
+        let ChosenViews { indices: chosen, blend_weights } = Self::views_for(params, camera, inputs);
+        if let Some(&missing) = chosen.iter().find(|&&s| inputs.views[s].1.is_none()) {
+            return Err(GpuError::InvalidParams {
+                field: "inputs",
+                reason: format!("view {missing} is not uploaded (GpuRenderer::upload_views_for)"),
+            });
+        }
         let rank_preferences = weights::rank_preferences(&blend_weights, params.view_rank_exponent);
         let sizes = level_sizes(camera.width_px as usize, camera.height_px as usize, params.levels);
         let previous_plane = previous.and_then(|p| p.plane);
@@ -185,6 +279,7 @@ impl GpuRenderer {
                 .iter()
                 .map(|&s| {
                     let (view_camera, levels) = &inputs.views[s];
+                    let levels = levels.as_deref().unwrap_or_default();
                     let image = &levels[level.min(levels.len() - 1)];
                     let plate = inputs.plates[s].as_ref().map(|p| &p[level.min(p.len() - 1)]);
                     (camera_at(view_camera, image.width, image.height), image, plate)

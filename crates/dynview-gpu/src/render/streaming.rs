@@ -34,8 +34,8 @@ pub struct GpuStreamingRenderer {
     renderer: GpuRenderer,
     /// Time steps whose inputs stay uploaded.
     keep_steps: usize,
-    /// Uploaded inputs by time step, most recently used last.
-    uploaded: Vec<(u32, Rc<GpuInputs>)>,
+    /// Uploaded inputs by time step (the views frames have needed), most recently used last.
+    uploaded: Vec<(u32, GpuInputs)>,
     previous: Option<Rc<GpuFrame>>,
 }
 
@@ -67,20 +67,20 @@ impl GpuStreamingRenderer {
         self.uploaded.iter().map(|(t, _)| *t).collect()
     }
 
-    /// The inputs of `time_step`, uploaded unless they already are.
-    fn inputs(&mut self, ctx: &GpuContext, time_step: u32, inputs: &TimeStepInputs) -> Result<Rc<GpuInputs>, GpuError> {
+    /// The index in `uploaded` of `time_step`'s inputs (most recently used now), its cloud
+    /// uploaded unless it already is.
+    fn inputs(&mut self, ctx: &GpuContext, time_step: u32, inputs: &TimeStepInputs) -> Result<usize, GpuError> {
         if let Some(i) = self.uploaded.iter().position(|(t, _)| *t == time_step) {
             let entry = self.uploaded.remove(i);
-            let found = entry.1.clone();
             self.uploaded.push(entry);
-            return Ok(found);
+        } else {
+            let fresh = GpuInputs::upload_cloud(ctx, inputs)?;
+            if self.uploaded.len() >= self.keep_steps {
+                self.uploaded.remove(0);
+            }
+            self.uploaded.push((time_step, fresh));
         }
-        let fresh = Rc::new(GpuInputs::upload(ctx, inputs)?);
-        if self.uploaded.len() >= self.keep_steps {
-            self.uploaded.remove(0);
-        }
-        self.uploaded.push((time_step, fresh.clone()));
-        Ok(fresh)
+        Ok(self.uploaded.len() - 1)
     }
 
     /// Renders `request` (recorded and submitted; the GPU works on) and returns the frame;
@@ -91,9 +91,11 @@ impl GpuStreamingRenderer {
         params: &RenderParams,
         request: &StreamRequest<'_>,
     ) -> Result<(Rc<GpuFrame>, bool), GpuError> {
-        let inputs = self.inputs(ctx, request.time_step, request.inputs)?;
+        let slot = self.inputs(ctx, request.time_step, request.inputs)?;
+        let uploaded = &mut self.uploaded[slot].1;
+        self.renderer.upload_views_for(ctx, params, &request.camera, uploaded, request.inputs)?;
         let previous = if request.streaming { self.previous.clone() } else { None };
-        let frame = Rc::new(self.renderer.render(ctx, params, &request.camera, &inputs, previous.as_deref())?);
+        let frame = Rc::new(self.renderer.render(ctx, params, &request.camera, uploaded, previous.as_deref())?);
         let temporal_used = previous.is_some() && params.method == Method::Full && params.temporal_levels > 0;
         if request.keep {
             self.previous = Some(frame.clone());
