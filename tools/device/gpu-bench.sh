@@ -13,7 +13,9 @@ sizes="${SIZES:-1920x1080,3840x2160}"
 runs="${RUNS:-5}"
 largest="${sizes##*,}"
 
-if ! ldconfig -p | grep -q libvulkan.so.1; then
+# The loaders in .gl/, on the device only (it may have libvulkan but not the GL dispatch
+# libraries NVIDIA's Vulkan driver needs); a machine with its own loader keeps it.
+if command -v nvidia-smi >/dev/null || ! ldconfig -p | grep -q libvulkan.so.1; then
     for deb in .gl/*.deb; do dpkg -x "$deb" /; done
     ldconfig
 fi

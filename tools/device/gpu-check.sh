@@ -9,8 +9,12 @@ set -uo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 cd "$root"
 : "${OUT:?set OUT to the folder for the logs}"
-for deb in .gl/*.deb; do dpkg -x "$deb" / 2>/dev/null || true; done
-command -v ldconfig >/dev/null && ldconfig 2>/dev/null
+# The loaders in .gl/, on the device only (it may have libvulkan but not the GL dispatch
+# libraries NVIDIA's Vulkan driver needs); a machine with its own loader keeps it.
+if command -v nvidia-smi >/dev/null || ! ldconfig -p | grep -q libvulkan.so.1; then
+    for deb in .gl/*.deb; do dpkg -x "$deb" /; done
+    ldconfig
+fi
 nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 [ -f "$nvidia_icd" ] && export VK_DRIVER_FILES="$nvidia_icd"
 [ -d .device/tests ] || { echo "no .device/tests: run tools/device/pack.sh --tests first" >&2; exit 2; }

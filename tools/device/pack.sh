@@ -40,11 +40,13 @@ if [ "${1:-}" = --tests ]; then
     echo "packed .device/tests/ ($(ls .device/tests | tr '\n' ' '))"
 fi
 
-if ! ls .gl/libvulkan1_*.deb >/dev/null 2>&1; then
-    echo "downloading the Vulkan loader (amd64) into .gl/"
+# The Vulkan loader and the GL dispatch libraries: NVIDIA's Vulkan driver (libGLX_nvidia.so.0)
+# does not load without libglvnd's.
+if ! ls .gl/libvulkan1_*.deb .gl/libglvnd0_*.deb >/dev/null 2>&1; then
+    echo "downloading the Vulkan and GL loaders (amd64) into .gl/"
     mkdir -p .gl /tmp/dynview-amd64/partial
     apt_options=(-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/dynview-amd64)
     apt-get "${apt_options[@]}" update -qq
-    (cd .gl && apt-get "${apt_options[@]}" download libvulkan1)
+    (cd .gl && apt-get "${apt_options[@]}" download libvulkan1 libegl1 libglvnd0 libopengl0 libgl1 libglx0 libgles2)
 fi
 echo "packed .gl/ ($(du -sh .gl | cut -f1)): carry [\".device\", \".gl\"] and run: bash tools/device/gpu-bench.sh"
