@@ -26,7 +26,7 @@ pub struct GpuContext {
     pub adapter: wgpu::Adapter,
     pub(crate) pool: BufferPool,
     /// Idle read-back staging buffers (`device::readback`).
-    pub(crate) staging: crate::device::readback::StagingPool,
+    pub(crate) staging: crate::device::pool::StagingPool,
     /// The open encoder and pass, shared uniforms, cached bind groups, counters and profiler.
     recorder: Mutex<Recorder>,
     /// Zeros over a reused image's buffer (`shaders/zero.wgsl`), compiled on first use.

@@ -10,3 +10,7 @@ pub(crate) type BufferPool = std::sync::Arc<std::sync::Mutex<std::collections::H
 
 /// Most idle buffers kept per size.
 pub(crate) const POOL_BUFFERS_PER_SIZE: usize = 64;
+
+/// Idle read-back staging buffers (`MAP_READ | COPY_DST`), reused by `device::readback` for
+/// reads of the same size.
+pub(crate) type StagingPool = std::sync::Mutex<Vec<wgpu::Buffer>>;

@@ -10,9 +10,6 @@ use crate::device::{context::GpuContext, error::GpuError, signal::Signal};
 /// Idle staging buffers kept for reuse; more sizes than this in turn are allocated afresh.
 const STAGING_BUFFERS_KEPT: usize = 4;
 
-/// Idle read-back staging buffers (`MAP_READ | COPY_DST`), each of its own size in bytes.
-pub(crate) type StagingPool = std::sync::Mutex<Vec<wgpu::Buffer>>;
-
 /// An idle staging buffer of exactly `size` bytes, or a new one.
 fn take_staging(ctx: &GpuContext, size: u64) -> wgpu::Buffer {
     let mut idle = ctx.staging.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
