@@ -364,7 +364,7 @@ pub fn default_objects(seed: u64) -> Vec<Object> {
 }
 
 /// The hard moving things of issue 35, added by [`crate::SynthConfig::plain_movers`]: a small,
-/// fast, untextured ball (15 cm, two passes a second, bouncing) and a plain-coloured box drifting
+/// fast, untextured ball (15 cm in radius, two passes of 3.6 m a second, bouncing) and a plain-coloured box drifting
 /// across the front, neither with any pattern for stereo to match.
 pub fn plain_movers() -> Vec<Object> {
     vec![

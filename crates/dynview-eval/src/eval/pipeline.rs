@@ -76,9 +76,16 @@ pub fn run(
     variants.push(evaluate_variant("densified", options.prep_args.join(" "), &densified, truth, options, moving, still, objects, frames)?);
     // Same poses as the densified run (its poses.json), so the rows differ by the clouds alone.
     let poses = densified_out.join("poses.json");
-    let plain_args = vec!["--no-densify".to_string(), "--poses".into(), poses.display().to_string()];
+    // The `--prep-arg`s too: the sparse run is on our poses, in a folder named after them.
+    let mut plain_args = vec!["--no-densify".to_string(), "--poses".into(), poses.display().to_string()];
+    plain_args.extend(options.prep_args.iter().cloned());
     let plain = prep_once(&dynview, &videos, &plain_out, &plain_args, options.fresh)?;
-    let shown = format!("--no-densify --poses {}", poses.strip_prefix(workspace_root()).unwrap_or(&poses).display());
+    let shown = format!(
+        "--no-densify --poses {} {}",
+        poses.strip_prefix(workspace_root()).unwrap_or(&poses).display(),
+        options.prep_args.join(" ")
+    );
+    let shown = shown.trim_end().to_string();
     variants.push(evaluate_variant("sparse (--no-densify)", shown, &plain, truth, options, moving, still, objects, frames)?);
     // The same prep on the event's true poses and intrinsics (its COLMAP model): what our own
     // poses cost end to end.

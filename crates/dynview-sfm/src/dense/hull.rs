@@ -7,7 +7,10 @@
 //!    [`HullOptions::open_px`] (compression noise and single pixels of flicker go) and closed by
 //!    [`HullOptions::close_px`] (small holes where it looks like the wall are filled); where the
 //!    plate is unsure ([`HullOptions::min_plate_confidence`]) nothing is known.
-//! 2. A ray through a foreground pixel of a camera is sampled from near to far, evenly in
+//! 2. Rays leave each camera on a grid of foreground pixels ([`HullOptions::rays_across`]), finer
+//!    in a small connected region of the foreground so that it gets at least
+//!    [`HullOptions::min_region_rays`] (a ball far from the cameras). A ray through a
+//!    foreground pixel of a camera is sampled from near to far, evenly in
 //!    inverse depth; a sample is *inside* the hull when no other camera that sees it calls its
 //!    pixel background (the foreground grown by [`HullOptions::carve_dilation_px`], for
 //!    calibration error; up to [`HullOptions::max_background_votes`] may) and at least [`HullOptions::min_witnesses`] of them call it
@@ -52,6 +55,10 @@ pub struct HullOptions {
     pub carve_dilation_px: usize,
     /// Rays per image width (one every `width / rays_across` pixels, both axes).
     pub rays_across: u32,
+    /// Fewest rays a connected region of a camera's foreground gets: a small one (a ball, a
+    /// hand) is sampled more finely than `rays_across` gives, down to every pixel. 0 (the
+    /// default): every region on the `rays_across` grid (`dynview prep --hull-region-rays`).
+    pub min_region_rays: usize,
     /// Depth samples along a ray, evenly in inverse depth.
     pub depth_samples: usize,
     /// Bisection steps refining where a ray enters the hull.
@@ -79,6 +86,7 @@ impl Default for HullOptions {
             close_px: 3,
             carve_dilation_px: 1,
             rays_across: 160,
+            min_region_rays: 0,
             depth_samples: 96,
             refine_steps: 6,
             min_witnesses: 3,
@@ -104,6 +112,9 @@ impl HullOptions {
         }
         if !(8..=4096).contains(&self.rays_across) || !(4..=1024).contains(&self.depth_samples) || self.refine_steps > 32 {
             return bad("rays_across / depth_samples / refine_steps", "must lie in 8..=4096 / 4..=1024 / 0..=32");
+        }
+        if self.min_region_rays > 100_000 {
+            return bad("min_region_rays", "must be at most 100000");
         }
         if self.min_witnesses == 0 {
             return bad("min_witnesses", "must be at least 1");
@@ -230,10 +241,13 @@ fn view_points(views: &[HullView], c: usize, own: &PointCloud, options: &HullOpt
     let far = view.far_depth_m.max(near * 1.01);
     let own_cells = own_depths_by_cell(camera, own, stride);
     let cells_x = w.div_ceil(stride);
+    let strides = region_strides(&view.foreground.mask, stride, options.min_region_rays);
     let mut out = PointCloud::default();
-    for y in (stride / 2..h).step_by(stride) {
-        for x in (stride / 2..w).step_by(stride) {
-            if view.foreground.mask.get(x, y) < 0.5 {
+    for y in 0..h {
+        for x in 0..w {
+            // A ray on the grid of its region's stride (0 off the foreground).
+            let s = usize::from(strides[y * w + x]);
+            if s == 0 || x % s != s / 2 || y % s != s / 2 {
                 continue;
             }
             let pixel = DVec2::new(x as f64, y as f64);
@@ -248,6 +262,46 @@ fn view_points(views: &[HullView], c: usize, own: &PointCloud, options: &HullOpt
         }
     }
     out
+}
+
+/// Per pixel of `mask` (0/1, row-major), the stride of the ray grid its connected
+/// (4-neighbour) foreground region is sampled on: `base`, or finer where that gives the region
+/// fewer than `min_rays` rays (down to 1, every pixel); 0 off the foreground.
+fn region_strides(mask: &ScalarRaster, base: usize, min_rays: usize) -> Vec<u16> {
+    let (w, h) = (mask.width, mask.height);
+    let base = base.clamp(1, usize::from(u16::MAX));
+    if min_rays == 0 {
+        return mask.data.iter().map(|&m| if m >= 0.5 { base as u16 } else { 0 }).collect();
+    }
+    let mut strides = vec![0u16; w * h];
+    let mut region = Vec::new();
+    for start in 0..w * h {
+        if mask.data[start] < 0.5 || strides[start] != 0 {
+            continue;
+        }
+        // Flood the region, marking its pixels as seen, then give them its stride.
+        region.clear();
+        region.push(start);
+        strides[start] = 1;
+        let mut next = 0;
+        while next < region.len() {
+            let i = region[next];
+            next += 1;
+            let (x, y) = (i % w, i / w);
+            let neighbours = [(x > 0).then(|| i - 1), (x + 1 < w).then(|| i + 1), (y > 0).then(|| i - w), (y + 1 < h).then(|| i + w)];
+            for j in neighbours.into_iter().flatten() {
+                if mask.data[j] >= 0.5 && strides[j] == 0 {
+                    strides[j] = 1;
+                    region.push(j);
+                }
+            }
+        }
+        let area = region.len();
+        let stride = if area >= min_rays * base * base { base } else { ((area / min_rays) as f64).sqrt().floor().max(1.0) as usize };
+        let stride = stride.min(base) as u16;
+        region.iter().for_each(|&i| strides[i] = stride);
+    }
+    strides
 }
 
 /// Per cell of `stride` px of `camera`'s image, the depths (m) of the `own` points in it.

@@ -174,10 +174,36 @@ fn options_out_of_range_are_named() {
     for bad in [
         HullOptions { foreground_tolerance: 0.0, ..HullOptions::default() },
         HullOptions { min_witnesses: 0, ..HullOptions::default() },
+        HullOptions { min_region_rays: 1_000_000, ..HullOptions::default() },
         HullOptions { depth_samples: 1, ..HullOptions::default() },
         HullOptions { near_fraction: f64::NAN, ..HullOptions::default() },
     ] {
         assert!(bad.validate().is_err(), "{bad:?}");
     }
     HullOptions::default().validate().expect("defaults are valid");
+}
+
+#[test]
+fn a_small_foreground_region_is_sampled_more_finely_than_a_large_one() {
+    // A 40x40 region and a 6x6 one, apart, on a 64x64 mask.
+    let mut mask = ScalarRaster::filled(64, 64, 0.0);
+    for y in 0..64 {
+        for x in 0..64 {
+            if (x < 40 && y < 40) || ((50..56).contains(&x) && (50..56).contains(&y)) {
+                mask.data[y * 64 + x] = 1.0;
+            }
+        }
+    }
+    let strides = region_strides(&mask, 4, 16);
+    // The large region has 100 rays on the grid of 4 px: enough. The small one would have 2 or
+    // 3 there; on the grid of 1 px it has 36, at least the 16 asked.
+    assert_eq!(strides[10 * 64 + 10], 4);
+    assert_eq!(strides[52 * 64 + 52], 1);
+    assert_eq!(strides[45 * 64 + 45], 0, "off the foreground");
+    // A region of 200 px (10x20) wants 16 rays: every 3rd pixel (200 / 16 = 12.5 px a ray).
+    let mut medium = ScalarRaster::filled(64, 64, 0.0);
+    (0..20).for_each(|y| (0..10).for_each(|x| medium.data[y * 64 + x] = 1.0));
+    assert_eq!(region_strides(&medium, 4, 16)[0], 3);
+    // Without a minimum every region is on the base grid.
+    assert!(region_strides(&mask, 4, 0).iter().all(|&s| s == 0 || s == 4));
 }
