@@ -7,7 +7,7 @@ use std::rc::Rc;
 
 use dynview_core::points::PointCloud;
 use dynview_core::raster::RgbRaster;
-use dynview_core::render::{InputView, TimeStepInputs};
+use dynview_core::render::{InputView, PlatePyramids, TimeStepInputs};
 use dynview_core::scene::cloud::{self, CloudIndex};
 use dynview_core::scene::limits::{MAX_FRAME_FILE_BYTES, MAX_MANIFEST_BYTES};
 use dynview_core::scene::manifest::{FrameFormat, MANIFEST_FILE};
@@ -78,6 +78,8 @@ pub struct RemoteScene {
     statics: Rc<PointCloud>,
     /// Per camera, its background plate (color-balanced) when the package has one.
     plates: Vec<Option<RgbRaster>>,
+    /// The plates as pyramids, built once and shared by every step's inputs.
+    plate_pyramids: PlatePyramids,
 }
 
 /// The compressed frames a decoder needs to show one frame of one camera's video.
@@ -169,7 +171,7 @@ impl RemoteScene {
             plates.push(Some(manifest.balanced_plate(c, plate)));
         }
         let cache = RefCell::new(StepCache { steps: Vec::new(), budget_bytes: DEFAULT_CACHE_BUDGET_BYTES });
-        Ok(Self { source, manifest, cloud_index, cache, stats, video, statics, plates })
+        Ok(Self { source, manifest, cloud_index, cache, stats, video, statics, plates, plate_pyramids: PlatePyramids::default() })
     }
 
     /// The validated manifest.
@@ -220,8 +222,9 @@ impl RemoteScene {
     /// Camera `c`'s input view at step `t`, with its plate when it has one.
     fn input_view(&self, c: usize, t: u32, image: RgbRaster, levels: usize) -> InputView {
         let view = self.manifest.input_view(c, t, image, levels);
-        match &self.plates[c] {
-            Some(plate) => view.with_plate(plate.clone()),
+        let Ok(pyramid) = self.plate_pyramids.get_or_build(c, levels, || Ok::<_, std::convert::Infallible>(self.plates[c].clone()));
+        match pyramid {
+            Some(plate) => view.with_plate_pyramid(plate),
             None => view,
         }
     }

@@ -2,6 +2,8 @@
 //! pyramid, and the time step's sparse cloud. Prepared once per time step, shared by every
 //! virtual camera at that time.
 
+use std::sync::{Arc, Mutex, PoisonError};
+
 use super::error::RenderError;
 use super::params::RenderParams;
 use super::pyramid::{self, camera_at};
@@ -18,8 +20,9 @@ pub struct InputView {
     /// The frame at each level, finest first.
     pub levels: Vec<RgbRaster>,
     /// The camera's background plate (the static scene, nothing in front; issue 33) at each
-    /// level, finest first, when the camera stands still and the package has one.
-    pub plate: Option<Vec<RgbRaster>>,
+    /// level, finest first, when the camera stands still and the package has one: one pyramid
+    /// shared by every time step's inputs ([`PlatePyramids`]).
+    pub plate: Option<Arc<Vec<RgbRaster>>>,
 }
 
 impl InputView {
@@ -31,7 +34,14 @@ impl InputView {
     /// The view with its background plate (the size of its frame), as a pyramid of as many
     /// levels as the frame's.
     pub fn with_plate(mut self, plate: RgbRaster) -> Self {
-        self.plate = Some(pyramid::build(plate, self.levels.len()));
+        self.plate = Some(Arc::new(pyramid::build(plate, self.levels.len())));
+        self
+    }
+
+    /// The view with its background plate's pyramid, built once and shared (the size of its
+    /// frame at the finest level; [`TimeStepInputs`]'s check says so where it is not).
+    pub fn with_plate_pyramid(mut self, plate: Arc<Vec<RgbRaster>>) -> Self {
+        self.plate = Some(plate);
         self
     }
 
@@ -63,7 +73,8 @@ impl TimeStepInputs {
     /// Bytes the decoded inputs hold: the pyramids' f32 RGB pixels and the cloud's points (a
     /// f32 position and an 8-bit color each, 15 bytes). What a cache of time steps counts.
     pub fn decoded_bytes(&self) -> usize {
-        let pixels: usize = self.views.iter().flat_map(|v| v.levels.iter().chain(v.plate.iter().flatten())).map(|l| l.data.len()).sum();
+        let pixels: usize =
+            self.views.iter().flat_map(|v| v.levels.iter().chain(v.plate.iter().flat_map(|p| p.iter()))).map(|l| l.data.len()).sum();
         pixels * std::mem::size_of::<[f32; 3]>() + self.cloud.len() * 15
     }
 }
@@ -106,4 +117,46 @@ pub(super) fn check_inputs(params: &RenderParams, camera: &Camera, inputs: &Time
         return Err(RenderError::OutputSize { width: w, height: h });
     }
     Ok(())
+}
+
+/// Each camera's background plate as a pyramid, built once for a pyramid depth and shared by the
+/// inputs of every time step (a plate does not change with time): loading a time step then
+/// neither copies the plates nor builds their pyramids again, and the GPU can keep them uploaded.
+#[derive(Debug, Default)]
+pub struct PlatePyramids {
+    built: Mutex<Vec<Option<BuiltPlate>>>,
+}
+
+/// A camera's plate pyramid and the depth it was built for.
+type BuiltPlate = (usize, Arc<Vec<RgbRaster>>);
+
+impl PlatePyramids {
+    /// Camera `camera`'s plate as a pyramid of `levels` levels: built from `plate()` the first
+    /// time (or when the depth changed), the same one after; `None` where `plate()` gives none.
+    pub fn get_or_build<E>(
+        &self,
+        camera: usize,
+        levels: usize,
+        plate: impl FnOnce() -> Result<Option<RgbRaster>, E>,
+    ) -> Result<Option<Arc<Vec<RgbRaster>>>, E> {
+        let levels = levels.max(1);
+        if let Some(Some((built_levels, pyramid))) = self.lock().get(camera)
+            && *built_levels == levels
+        {
+            return Ok(Some(pyramid.clone()));
+        }
+        let Some(plate) = plate()? else { return Ok(None) };
+        let pyramid = Arc::new(pyramid::build(plate, levels));
+        let mut built = self.lock();
+        if built.len() <= camera {
+            built.resize(camera + 1, None);
+        }
+        built[camera] = Some((levels, pyramid.clone()));
+        Ok(Some(pyramid))
+    }
+
+    /// Per camera: its pyramid, when built.
+    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<Option<BuiltPlate>>> {
+        self.built.lock().unwrap_or_else(PoisonError::into_inner)
+    }
 }

@@ -40,7 +40,7 @@ pub mod weights;
 pub use error::RenderError;
 pub use frame::render_frame;
 pub use hooks::{RenderHooks, SolveKind, SolveTrace};
-pub use inputs::{InputView, TimeStepInputs};
+pub use inputs::{InputView, PlatePyramids, TimeStepInputs};
 pub use job::{FrameJob, JobStep};
 pub use levels::{FALLBACK_COLOR, FALLBACK_DEPTH};
 pub use outputs::{LevelPreview, LevelSolution, PreviousFrame, RenderOutput};

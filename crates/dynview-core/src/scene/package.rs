@@ -31,6 +31,8 @@ pub struct ScenePackage {
     statics: Mutex<Option<Arc<PointCloud>>>,
     /// The cameras' background plates, color-balanced, read at the first step that needs them.
     plates: Mutex<Vec<Option<Arc<RgbRaster>>>>,
+    /// The plates as pyramids, shared by every time step's inputs.
+    plate_pyramids: crate::render::PlatePyramids,
 }
 
 fn read_limited(path: &Path, limit: u64) -> SceneResult<Vec<u8>> {
@@ -85,7 +87,15 @@ impl ScenePackage {
         file.read_exact(&mut index_bytes[cloud::HEADER_BYTES..]).map_err(|e| SceneError::io(&clouds_path, e))?;
         let cloud_index = CloudIndex::parse(&index_bytes, file_length, &clouds_name)?;
         let video = if manifest.frame_format.is_video() { Some(VideoFrames::open(&root, &manifest)?) } else { None };
-        Ok(Self { root, manifest, cloud_index, video, statics: Mutex::new(None), plates: Mutex::new(Vec::new()) })
+        Ok(Self {
+            root,
+            manifest,
+            cloud_index,
+            video,
+            statics: Mutex::new(None),
+            plates: Mutex::new(Vec::new()),
+            plate_pyramids: Default::default(),
+        })
     }
 
     /// The package folder.
@@ -290,10 +300,12 @@ impl ScenePackage {
         let mut views = Vec::with_capacity(frames.len());
         for (c, frame) in frames.into_iter().enumerate() {
             let view = self.manifest.input_view(c, t, frame?, levels);
-            views.push(match self.plate(c)? {
-                Some(plate) => view.with_plate(plate.as_ref().clone()),
-                None => view,
-            });
+            views.push(
+                match self.plate_pyramids.get_or_build(c, levels, || Ok::<_, SceneError>(self.plate(c)?.map(|p| p.as_ref().clone())))? {
+                    Some(plate) => view.with_plate_pyramid(plate),
+                    None => view,
+                },
+            );
         }
         Ok(crate::render::TimeStepInputs { cloud, views, static_points })
     }

@@ -126,6 +126,12 @@ fn plates_reach_the_renderer_balanced_with_the_steps_static_points() {
     let expected = balance.apply([200.0 / 255.0, 100.0 / 255.0, 40.0 / 255.0]).map(|v| v.clamp(0.0, 1.0));
     assert!(seen.data.iter().all(|p| (0..3).all(|k| (p[k] - expected[k]).abs() < 2.0 / 255.0)), "{:?}", seen.data[0]);
     assert!(inputs.views[1].plate.is_none());
+    // One pyramid of the plate, shared by every step (the GPU keeps it uploaded); another depth
+    // builds its own.
+    let first = package.time_step_inputs(0, 2).unwrap();
+    assert!(std::sync::Arc::ptr_eq(first.views[0].plate.as_ref().unwrap(), inputs.views[0].plate.as_ref().unwrap()));
+    let deeper = package.time_step_inputs(0, 3).unwrap();
+    assert_eq!(deeper.views[0].plate.as_ref().unwrap().len(), 3);
     package.verify(|_, _| {}).unwrap();
     // A repacked package keeps its plates (and claims no other).
     let repacked = tmp.path().join("repacked");

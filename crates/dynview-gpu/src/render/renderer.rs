@@ -1,6 +1,10 @@
 //! The frame loop on the GPU: METHOD.md Part 2 level by level, as dynview-core's `FrameJob`
 //! for the full method and its no-temporal ablation, every stage a compute pass.
 
+use std::cell::RefCell;
+use std::rc::Rc;
+use std::sync::Arc;
+
 use dynview_core::camera::Camera;
 use dynview_core::render::plane::{InverseDepthPlane, WorldPlane};
 use dynview_core::render::pyramid::{camera_at, level_sizes};
@@ -34,8 +38,8 @@ pub struct GpuInputs {
     /// first).
     views: Vec<(Camera, Option<Vec<GpuImage>>)>,
     /// Per view: its background plate per level (finest first), once the view is uploaded and
-    /// if it has one.
-    plates: Vec<Option<Vec<GpuImage>>>,
+    /// if it has one (shared with other time steps' inputs where the host shares the plate).
+    plates: Vec<Option<Rc<Vec<GpuImage>>>>,
     /// The cloud and how many of its points (at its end) are static, kept on the host for the
     /// static mask of the plates (`render::plates::static_mask`); `None` when no view has a
     /// plate.
@@ -47,7 +51,7 @@ impl GpuInputs {
     pub fn upload(ctx: &GpuContext, inputs: &TimeStepInputs) -> Result<Self, GpuError> {
         let mut uploaded = Self::upload_cloud(ctx, inputs)?;
         for view in 0..inputs.views.len() {
-            uploaded.upload_view(ctx, inputs, view, None)?;
+            uploaded.upload_view(ctx, inputs, view, None, None)?;
         }
         Ok(uploaded)
     }
@@ -73,12 +77,15 @@ impl GpuInputs {
 
     /// Uploads view `view` of `inputs` unless it is: every level, or (with `images`) the
     /// finest, its coarser levels downsampled on the GPU as dynview-core's pyramid makes them.
+    /// A plate already on the GPU (`plates`, by the host pyramid it came from) is not uploaded
+    /// again.
     fn upload_view(
         &mut self,
         ctx: &GpuContext,
         inputs: &TimeStepInputs,
         view: usize,
         images: Option<&ImageKernels>,
+        plates: Option<&mut UploadedPlates>,
     ) -> Result<(), GpuError> {
         if self.views.len() != inputs.views.len() {
             return Err(GpuError::InvalidParams {
@@ -94,8 +101,43 @@ impl GpuInputs {
         }
         let source = &inputs.views[view];
         *levels = Some(upload_pyramid(ctx, &source.levels, images)?);
-        self.plates[view] = source.plate.as_deref().map(|p| upload_pyramid(ctx, p, images)).transpose()?;
+        self.plates[view] = match (&source.plate, plates) {
+            (None, _) => None,
+            (Some(host), Some(plates)) => Some(plates.get_or_upload(host, || upload_pyramid(ctx, host, images))?),
+            (Some(host), None) => Some(Rc::new(upload_pyramid(ctx, host, images)?)),
+        };
         Ok(())
+    }
+}
+
+/// Most plates [`UploadedPlates`] keeps (cameras of an event, with room to spare).
+const PLATES_KEPT: usize = 32;
+
+/// Background plates on the GPU, by the host pyramid each came from: the inputs of every time
+/// step share one pyramid per camera (`dynview_core::render::PlatePyramids`), so a plate is
+/// uploaded once, not with every time step.
+#[derive(Debug, Default)]
+struct UploadedPlates(Vec<(HostPlate, Rc<Vec<GpuImage>>)>);
+
+/// A plate's pyramid on the host, shared by the time steps' inputs.
+type HostPlate = Arc<Vec<dynview_core::RgbRaster>>;
+
+impl UploadedPlates {
+    /// The plate uploaded from `host`, uploaded by `upload` unless it already is.
+    fn get_or_upload(
+        &mut self,
+        host: &HostPlate,
+        upload: impl FnOnce() -> Result<Vec<GpuImage>, GpuError>,
+    ) -> Result<Rc<Vec<GpuImage>>, GpuError> {
+        if let Some((_, plate)) = self.0.iter().find(|(h, _)| Arc::ptr_eq(h, host)) {
+            return Ok(plate.clone());
+        }
+        let plate = Rc::new(upload()?);
+        if self.0.len() >= PLATES_KEPT {
+            self.0.remove(0);
+        }
+        self.0.push((host.clone(), plate.clone()));
+        Ok(plate)
     }
 }
 
@@ -164,6 +206,8 @@ pub struct GpuRenderer {
     blend: BlendKernel,
     temporal: TemporalKernels,
     rank: RankKernels,
+    /// Plates uploaded for earlier time steps, reused by later ones.
+    plates: RefCell<UploadedPlates>,
 }
 
 impl GpuRenderer {
@@ -185,6 +229,7 @@ impl GpuRenderer {
             blend: BlendKernel::new(ctx),
             temporal: TemporalKernels::new(ctx),
             rank: RankKernels::new(ctx),
+            plates: Default::default(),
         }
     }
 
@@ -201,7 +246,8 @@ impl GpuRenderer {
 
     /// Uploads into `uploaded` the views of `inputs` (the same time step) that a frame of
     /// `camera` renders from and that are not on the GPU yet: each view's finest level, its
-    /// coarser levels made on the GPU.
+    /// coarser levels made on the GPU; a plate uploaded for an earlier time step (the same
+    /// host pyramid: `dynview_core::render::PlatePyramids`) is reused, not uploaded again.
     pub fn upload_views_for(
         &self,
         ctx: &GpuContext,
@@ -210,8 +256,9 @@ impl GpuRenderer {
         uploaded: &mut GpuInputs,
         inputs: &TimeStepInputs,
     ) -> Result<(), GpuError> {
+        let mut plates = self.plates.borrow_mut();
         for view in Self::views_for(params, camera, uploaded).indices {
-            uploaded.upload_view(ctx, inputs, view, Some(&self.images))?;
+            uploaded.upload_view(ctx, inputs, view, Some(&self.images), Some(&mut plates))?;
         }
         Ok(())
     }
@@ -376,5 +423,68 @@ impl GpuRenderer {
         let bytes = (image.width * image.height * image.channels * 4) as u64;
         ctx.encode(|encoder| encoder.copy_buffer_to_buffer(&image.buffer, 0, &out.buffer, 0, bytes));
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use dynview_core::camera::{Camera, Intrinsics, Rigid3};
+    use dynview_core::raster::Raster;
+    use dynview_core::render::{InputView, RenderParams, TimeStepInputs};
+    use glam::DVec3;
+
+    use super::{GpuInputs, GpuRenderer};
+    use crate::GpuContext;
+
+    fn camera(x: f64) -> Camera {
+        Camera {
+            intrinsics: Intrinsics::from_vertical_fov(0.9, 32, 24),
+            camera_from_world: Rigid3::camera_from_world_looking_at(DVec3::new(x, 0.0, 4.0), DVec3::ZERO, DVec3::Y),
+            width_px: 32,
+            height_px: 24,
+        }
+    }
+
+    /// Three views of one time step, each with the plate pyramid given.
+    fn step(plates: &[Arc<Vec<dynview_core::RgbRaster>>], shade: f32) -> TimeStepInputs {
+        let views = plates
+            .iter()
+            .enumerate()
+            .map(|(i, plate)| {
+                InputView::new(camera(i as f64 - 1.0), Raster::filled(32, 24, [shade; 3]), 2).with_plate_pyramid(plate.clone())
+            })
+            .collect();
+        TimeStepInputs { cloud: Default::default(), views, static_points: 0 }
+    }
+
+    #[test]
+    fn a_plate_shared_by_the_time_steps_is_uploaded_once() {
+        let ctx = GpuContext::new_blocking().unwrap_or_else(|e| panic!("{e}"));
+        let renderer = GpuRenderer::new(&ctx);
+        let params = RenderParams { views: 2, ..RenderParams::default() };
+        let plate = |v: f32| Arc::new(dynview_core::render::pyramid::build(Raster::filled(32, 24, [v; 3]), 2));
+        let plates = [plate(0.1), plate(0.2), plate(0.3)];
+        let (first, second) = (step(&plates, 0.5), step(&plates, 0.6));
+        let novel = camera(-0.2);
+        let upload = |inputs: &TimeStepInputs| {
+            let mut gpu = GpuInputs::upload_cloud(&ctx, inputs).unwrap();
+            renderer.upload_views_for(&ctx, &params, &novel, &mut gpu, inputs).unwrap();
+            gpu
+        };
+        let (a, b) = (upload(&first), upload(&second));
+        let used = a.uploaded_views();
+        assert_eq!(used.len(), 2);
+        for &v in &used {
+            let (pa, pb) = (a.plates[v].as_ref().unwrap(), b.plates[v].as_ref().unwrap());
+            assert!(std::rc::Rc::ptr_eq(pa, pb), "view {v}: the second step uploaded its plate again");
+        }
+        // A plate of its own (another pyramid, as after a change of depth) is uploaded anew.
+        let mut other = plates.clone();
+        other[used[0]] = plate(0.1);
+        let c = upload(&step(&other, 0.7));
+        assert!(!std::rc::Rc::ptr_eq(a.plates[used[0]].as_ref().unwrap(), c.plates[used[0]].as_ref().unwrap()));
+        assert!(std::rc::Rc::ptr_eq(a.plates[used[1]].as_ref().unwrap(), c.plates[used[1]].as_ref().unwrap()));
     }
 }
