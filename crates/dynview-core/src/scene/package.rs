@@ -301,7 +301,10 @@ impl ScenePackage {
         for (c, frame) in frames.into_iter().enumerate() {
             let view = self.manifest.input_view(c, t, frame?, levels);
             views.push(
-                match self.plate_pyramids.get_or_build(c, levels, || Ok::<_, SceneError>(self.plate(c)?.map(|p| p.as_ref().clone())))? {
+                match self
+                    .plate_pyramids
+                    .get_or_build(c, levels, || Ok::<_, SceneError>(self.stored_plate(c)?.map(|p| self.manifest.balanced_plate(c, p))))?
+                {
                     Some(plate) => view.with_plate_pyramid(plate),
                     None => view,
                 },

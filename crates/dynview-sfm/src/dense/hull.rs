@@ -28,6 +28,9 @@ use dynview_core::Camera;
 use dynview_core::raster::{ScalarRaster, dilated};
 use dynview_core::scene::PointCloud;
 use glam::DVec2;
+use opencv::core::{CV_32S, Mat};
+use opencv::imgproc;
+use opencv::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -220,19 +223,20 @@ pub fn static_depths(camera: &Camera, static_points: &PointCloud) -> Option<(f64
 }
 
 /// The hull's front points seen from every view of `views` (see the module's comment), less
-/// those the step's `own` points stand for.
-pub fn hull_points(views: &[HullView], own: &PointCloud, options: &HullOptions) -> PointCloud {
-    let per_view: Vec<PointCloud> = (0..views.len()).into_par_iter().map(|c| view_points(views, c, own, options)).collect();
+/// those the step's `own` points stand for; an error only where OpenCV fails on a foreground.
+pub fn hull_points(views: &[HullView], own: &PointCloud, options: &HullOptions) -> SfmResult<PointCloud> {
+    let per_view: Vec<PointCloud> =
+        (0..views.len()).into_par_iter().map(|c| view_points(views, c, own, options)).collect::<SfmResult<_>>()?;
     let mut out = PointCloud::default();
     for cloud in per_view {
         out.positions_world.extend(cloud.positions_world);
         out.colors.extend(cloud.colors);
     }
-    out
+    Ok(out)
 }
 
 /// The hull's front points on the rays of view `c`.
-fn view_points(views: &[HullView], c: usize, own: &PointCloud, options: &HullOptions) -> PointCloud {
+fn view_points(views: &[HullView], c: usize, own: &PointCloud, options: &HullOptions) -> SfmResult<PointCloud> {
     let view = &views[c];
     let camera = &view.camera;
     let (w, h) = (camera.width_px as usize, camera.height_px as usize);
@@ -241,7 +245,7 @@ fn view_points(views: &[HullView], c: usize, own: &PointCloud, options: &HullOpt
     let far = view.far_depth_m.max(near * 1.01);
     let own_cells = own_depths_by_cell(camera, own, stride);
     let cells_x = w.div_ceil(stride);
-    let strides = region_strides(&view.foreground.mask, stride, options.min_region_rays);
+    let strides = region_strides(&view.foreground.mask, stride, options.min_region_rays)?;
     let mut out = PointCloud::default();
     for y in 0..h {
         for x in 0..w {
@@ -261,47 +265,42 @@ fn view_points(views: &[HullView], c: usize, own: &PointCloud, options: &HullOpt
             out.colors.push(view.frame.get_pixel(x as u32, y as u32).0);
         }
     }
-    out
+    Ok(out)
 }
 
 /// Per pixel of `mask` (0/1, row-major), the stride of the ray grid its connected
 /// (4-neighbour) foreground region is sampled on: `base`, or finer where that gives the region
 /// fewer than `min_rays` rays (down to 1, every pixel); 0 off the foreground.
-fn region_strides(mask: &ScalarRaster, base: usize, min_rays: usize) -> Vec<u16> {
-    let (w, h) = (mask.width, mask.height);
+fn region_strides(mask: &ScalarRaster, base: usize, min_rays: usize) -> SfmResult<Vec<u16>> {
     let base = base.clamp(1, usize::from(u16::MAX));
+    let on = |m: f32| m >= 0.5;
     if min_rays == 0 {
-        return mask.data.iter().map(|&m| if m >= 0.5 { base as u16 } else { 0 }).collect();
+        return Ok(mask.data.iter().map(|&m| if on(m) { base as u16 } else { 0 }).collect());
     }
-    let mut strides = vec![0u16; w * h];
-    let mut region = Vec::new();
-    for start in 0..w * h {
-        if mask.data[start] < 0.5 || strides[start] != 0 {
-            continue;
-        }
-        // Flood the region, marking its pixels as seen, then give them its stride.
-        region.clear();
-        region.push(start);
-        strides[start] = 1;
-        let mut next = 0;
-        while next < region.len() {
-            let i = region[next];
-            next += 1;
-            let (x, y) = (i % w, i / w);
-            let neighbours = [(x > 0).then(|| i - 1), (x + 1 < w).then(|| i + 1), (y > 0).then(|| i - w), (y + 1 < h).then(|| i + w)];
-            for j in neighbours.into_iter().flatten() {
-                if mask.data[j] >= 0.5 && strides[j] == 0 {
-                    strides[j] = 1;
-                    region.push(j);
-                }
-            }
-        }
-        let area = region.len();
-        let stride = if area >= min_rays * base * base { base } else { ((area / min_rays) as f64).sqrt().floor().max(1.0) as usize };
-        let stride = stride.min(base) as u16;
-        region.iter().for_each(|&i| strides[i] = stride);
-    }
-    strides
+    let bytes: Vec<u8> = mask.data.iter().map(|&m| u8::from(on(m))).collect();
+    let image = Mat::new_rows_cols_with_data(mask.height as i32, mask.width as i32, &bytes)
+        .and_then(|m| m.try_clone())
+        .map_err(SfmError::cv("foreground mask"))?;
+    let (mut labels, mut stats, mut centroids) = (Mat::default(), Mat::default(), Mat::default());
+    imgproc::connected_components_with_stats(&image, &mut labels, &mut stats, &mut centroids, 4, CV_32S)
+        .map_err(SfmError::cv("foreground regions"))?;
+    // Label 0 is the background.
+    let stride_of = (0..stats.rows())
+        .map(|label| {
+            let area = *stats.at_2d::<i32>(label, imgproc::CC_STAT_AREA)? as usize;
+            let stride = if label == 0 {
+                0
+            } else if area >= min_rays * base * base {
+                base
+            } else {
+                ((area / min_rays) as f64).sqrt().floor().max(1.0) as usize
+            };
+            Ok(stride.min(base) as u16)
+        })
+        .collect::<Result<Vec<u16>, opencv::Error>>()
+        .map_err(SfmError::cv("foreground region areas"))?;
+    let labels = labels.data_typed::<i32>().map_err(SfmError::cv("foreground labels"))?;
+    Ok(labels.iter().map(|&l| stride_of[l as usize]).collect())
 }
 
 /// Per cell of `stride` px of `camera`'s image, the depths (m) of the `own` points in it.

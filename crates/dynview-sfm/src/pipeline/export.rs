@@ -504,7 +504,7 @@ fn step_hull(
     if views.len() <= options.min_witnesses {
         return Ok(dynview_core::scene::PointCloud::default());
     }
-    Ok(hull_points(&views, own, options))
+    hull_points(&views, own, options)
 }
 
 /// The static cloud of the prepared steps, judged on the package's frames and cameras (read

@@ -94,7 +94,7 @@ fn hull_of(own: &PointCloud, options: &HullOptions) -> (Vec<Camera>, PointCloud)
             }
         })
         .collect();
-    let points = hull_points(&views, own, options);
+    let points = hull_points(&views, own, options).expect("OpenCV labels the foregrounds");
     (cameras, points)
 }
 
@@ -194,7 +194,7 @@ fn a_small_foreground_region_is_sampled_more_finely_than_a_large_one() {
             }
         }
     }
-    let strides = region_strides(&mask, 4, 16);
+    let strides = region_strides(&mask, 4, 16).unwrap();
     // The large region has 100 rays on the grid of 4 px: enough. The small one would have 2 or
     // 3 there; on the grid of 1 px it has 36, at least the 16 asked.
     assert_eq!(strides[10 * 64 + 10], 4);
@@ -203,7 +203,7 @@ fn a_small_foreground_region_is_sampled_more_finely_than_a_large_one() {
     // A region of 200 px (10x20) wants 16 rays: every 3rd pixel (200 / 16 = 12.5 px a ray).
     let mut medium = ScalarRaster::filled(64, 64, 0.0);
     (0..20).for_each(|y| (0..10).for_each(|x| medium.data[y * 64 + x] = 1.0));
-    assert_eq!(region_strides(&medium, 4, 16)[0], 3);
+    assert_eq!(region_strides(&medium, 4, 16).unwrap()[0], 3);
     // Without a minimum every region is on the base grid.
-    assert!(region_strides(&mask, 4, 0).iter().all(|&s| s == 0 || s == 4));
+    assert!(region_strides(&mask, 4, 0).unwrap().iter().all(|&s| s == 0 || s == 4));
 }
