@@ -10,8 +10,10 @@
 //! with all cameras: same working size, same undistortion, same (calibrated) world, so no
 //! alignment is needed. Results in `docs/results/real.md` and `real_strip_<capture>_<camera>.png`.
 
+mod orbit;
 pub mod own_poses;
 mod report;
+pub mod rig;
 mod run;
 pub mod scores;
 pub mod unsync;
@@ -36,7 +38,8 @@ use crate::runs::prep::{PrepRun, cloud_point_counts, prep_once, stage_seconds};
 use crate::runs::programs::dynview_binary;
 use report::{header, markdown};
 pub use run::Options;
-use run::{CameraResult, METHODS, strip_name, work_folder};
+use rig::Rig;
+use run::{CameraResult, METHODS, orbit_strip_name, strip_name, work_folder};
 use scores::{MOVING_DILATION_PX, MOVING_THRESHOLD, Score, Sums, moving_mask, temporal_median};
 
 /// The floor's label: the nearest input camera's frame shown as is.
@@ -53,7 +56,7 @@ const STRIP_PANEL_WIDTH_PX: u32 = 320;
 pub fn run(options: Options) -> anyhow::Result<()> {
     let (captures, work) = captures_and_work(&options)?;
     for capture in captures {
-        let held_out = held_out_cameras(capture, &options.held_out)?;
+        let held_out = leave_one_out_cameras(capture, &options.held_out)?;
         if held_out.is_empty() {
             println!("==> {}: none of the cameras given with --held-out, skipped", capture.label());
             continue;
@@ -104,6 +107,41 @@ pub(crate) fn held_out_cameras(capture: RealCapture, requested: &[String]) -> an
     }
     let cameras = capture.cameras()?;
     Ok(requested.iter().filter(|c| cameras.contains(c)).cloned().collect())
+}
+
+/// The cameras the leave-one-out tables leave out: [`held_out_cameras`], and when none was
+/// requested, the arc's highest and lowest camera too ([`off_arc_cameras`]).
+fn leave_one_out_cameras(capture: RealCapture, requested: &[String]) -> anyhow::Result<Vec<String>> {
+    let mut cameras = held_out_cameras(capture, requested)?;
+    if requested.is_empty() {
+        for camera in off_arc_cameras(capture)? {
+            if !cameras.contains(&camera) {
+                cameras.push(camera);
+            }
+        }
+    }
+    Ok(cameras)
+}
+
+/// The highest and the lowest camera of an arc, seen from the point its cameras look at: left
+/// out, each is a view off the others' arc (none for a capture that is no arc).
+pub(crate) fn off_arc_cameras(capture: RealCapture) -> anyhow::Result<Vec<String>> {
+    let Some(rig) = capture_rig(capture)? else { return Ok(Vec::new()) };
+    let (highest, lowest) = rig.highest_and_lowest();
+    Ok(vec![highest.name.clone(), lowest.name.clone()])
+}
+
+/// The rig of an arc's calibrated cameras; `None` for a capture that is no arc.
+fn capture_rig(capture: RealCapture) -> anyhow::Result<Option<Rig>> {
+    let Some(arc) = capture.panoptic_arc() else { return Ok(None) };
+    let poses = crate::datasets::panoptic::calibration(arc, None)?;
+    let cameras: Vec<(String, dynview_core::Rigid3)> = poses
+        .cameras
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| poses.camera_from_world(i, 0).map(|pose| (c.name.clone(), pose)))
+        .collect();
+    Ok(Some(Rig::new(&cameras)?))
 }
 
 fn section_path(work: &Path, capture: RealCapture) -> PathBuf {
@@ -198,12 +236,19 @@ fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path, held_o
         let steps = Steps::all(&prepared.reference, &package);
         let params = options.params.clone().unwrap_or_default();
         let (result, strip) = evaluate_camera(held_out, &prepared.reference, &package, &run, &params, steps, &Similarity3::IDENTITY)?;
-        write_strip(&options.out.join(strip_name(capture, held_out)), &strip)?;
+        write_strip(&options.out.join(strip_name(capture, held_out)), &[&strip[..]])?;
         results.push(result);
     }
+    if let Some(rig) = capture_rig(capture)? {
+        let step = prepared.reference.time_step_count() / 2;
+        let rows = orbit::orbit_rows(&prepared.reference, &rig, step, &options.params.clone().unwrap_or_default())?;
+        let rows: Vec<&[RgbRaster]> = rows.iter().map(Vec::as_slice).collect();
+        write_strip(&options.out.join(orbit_strip_name(capture)), &rows)?;
+    }
+    let interior = capture.held_out()?;
     let reference_secs: f64 = stage_seconds(&prepared.reference_run.out)?.iter().map(|(_, s)| s).sum();
     let size = prepared.reference.manifest().cameras.first().map_or((0, 0), |c| (c.width, c.height));
-    Ok(markdown(capture, &results, options, prepared.frames, size, reference_secs))
+    Ok(markdown(capture, &results, &interior, options, prepared.frames, size, reference_secs))
 }
 
 fn open(run: &PrepRun) -> anyhow::Result<ScenePackage> {
@@ -401,16 +446,20 @@ fn resized(image: RgbRaster, width: usize, height: usize) -> RgbRaster {
     RgbRaster::from_rgb8(&small)
 }
 
-/// Writes the panels side by side, each downscaled until the PNG stays under
-/// [`STRIP_MAX_BYTES`].
-fn write_strip(path: &Path, panels: &Strip) -> anyhow::Result<()> {
+/// Writes the rows of panels one above the other, each panel downscaled until the PNG stays
+/// under [`STRIP_MAX_BYTES`] (every panel the size of the first).
+fn write_strip(path: &Path, rows: &[&[RgbRaster]]) -> anyhow::Result<()> {
+    let Some(first) = rows.first().and_then(|r| r.first()) else { bail!("{}: a strip without panels", path.display()) };
+    let columns = rows.iter().map(|r| r.len()).max().unwrap_or(0) as u32;
     let mut panel_width = STRIP_PANEL_WIDTH_PX;
     loop {
-        let (w, h) = (panel_width, (panels[0].height as f64 * f64::from(panel_width) / panels[0].width as f64).round() as u32);
-        let mut strip = image::RgbImage::new(w * panels.len() as u32, h);
-        for (k, panel) in panels.iter().enumerate() {
-            let small = image::imageops::resize(&panel.to_rgb8(), w, h, image::imageops::FilterType::Triangle);
-            image::imageops::replace(&mut strip, &small, i64::from(k as u32 * w), 0);
+        let (w, h) = (panel_width, (first.height as f64 * f64::from(panel_width) / first.width as f64).round() as u32);
+        let mut strip = image::RgbImage::new(w * columns, h * rows.len() as u32);
+        for (r, row) in rows.iter().enumerate() {
+            for (k, panel) in row.iter().enumerate() {
+                let small = image::imageops::resize(&panel.to_rgb8(), w, h, image::imageops::FilterType::Triangle);
+                image::imageops::replace(&mut strip, &small, i64::from(k as u32 * w), i64::from(r as u32 * h));
+            }
         }
         let mut bytes = Vec::new();
         strip.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;

@@ -6,7 +6,8 @@ use std::fmt::Write as _;
 
 use dynview_core::render::RenderParams;
 
-use super::run::{CameraResult, Options, strip_name, work_folder};
+use super::orbit::{OFF_ARC_DEG, VIEWS as ORBIT_VIEWS};
+use super::run::{CameraResult, Options, orbit_strip_name, strip_name, work_folder};
 use super::scores::{MOVING_DILATION_PX, MOVING_THRESHOLD, RawAndCorrected, Score};
 use crate::datasets::real_captures::RealCapture;
 
@@ -38,9 +39,11 @@ const SCORE_COLUMNS: &str = "PSNR (dB) | SSIM | cc PSNR (dB) | cc SSIM | static 
 
 /// The section of `capture`: `results` of its held-out cameras on the first `frames` frames,
 /// prepared at `size_px` (width, height); the reference package took `reference_secs` of prep.
+/// The means are taken over the `interior` cameras and over the others (off the arc) apart.
 pub(super) fn markdown(
     capture: RealCapture,
     results: &[CameraResult],
+    interior: &[String],
     options: &Options,
     frames: u32,
     size_px: (u32, u32),
@@ -58,14 +61,18 @@ pub(super) fn markdown(
         size_px.1,
         capture.working_width_px()
     );
-    let methods = results.first().map_or(0, |r| r.scores.len());
-    let _ = writeln!(s, "Mean over the held-out cameras ({}):\n", results.iter().map(|r| r.name.as_str()).collect::<Vec<_>>().join(", "));
-    let _ = writeln!(s, "| method | {SCORE_COLUMNS} |\n| --- |{}", " ---: |".repeat(7));
-    for i in 0..methods {
-        let scores: Vec<&Score> = results.iter().map(|r| &r.scores[i]).collect();
-        let _ = writeln!(s, "| {} | {} |", scores[0].label, cells(&mean_score(&scores)));
+    let (inside, outside): (Vec<&CameraResult>, Vec<&CameraResult>) = results.iter().partition(|r| interior.contains(&r.name));
+    let groups: Vec<(&str, Vec<&CameraResult>)> = if inside.is_empty() || outside.is_empty() {
+        vec![("held-out cameras", results.iter().collect())]
+    } else {
+        vec![("interior cameras", inside), ("cameras off the arc (its highest and lowest, seen from the point the cameras look at)", outside)]
+    };
+    for (what, group) in groups {
+        let _ = writeln!(s, "Mean over the {what} ({}):\n", group.iter().map(|r| r.name.as_str()).collect::<Vec<_>>().join(", "));
+        mean_table(&mut s, &group);
+        s.push('\n');
     }
-    let _ = writeln!(s, "\nPer held-out camera:\n\n| held-out camera | method | {SCORE_COLUMNS} |\n| --- | --- |{}", " ---: |".repeat(7));
+    let _ = writeln!(s, "Per held-out camera:\n\n| held-out camera | method | {SCORE_COLUMNS} |\n| --- | --- |{}", " ---: |".repeat(7));
     for r in results {
         for score in &r.scores {
             let _ = writeln!(s, "| {} | {} | {} |", r.name, score.label, cells(score));
@@ -94,6 +101,16 @@ pub(super) fn markdown(
     for r in results {
         let _ = writeln!(s, "![{}]({})", r.name, strip_name(capture, &r.name));
     }
+    if capture.panoptic_arc().is_some() {
+        let _ = writeln!(
+            s,
+            "\nViews away from the arc (the package of all cameras, middle time step; {} views looking at the point the cameras \
+             look at, from the second camera's azimuth to the second to last's): the full method along the arc (top), {OFF_ARC_DEG:.0} \
+             degrees above it (middle) and the blend there (bottom). Each moving object should be shown once.\n\n![orbit]({})",
+            ORBIT_VIEWS,
+            orbit_strip_name(capture)
+        );
+    }
     let _ = writeln!(
         s,
         "\nReproduce: `cargo xtask eval --real --capture {} --frames {frames}{}{}{}` (work in `{}/{}/`; `--fresh` redoes the prep runs).\n",
@@ -105,6 +122,16 @@ pub(super) fn markdown(
         capture.label()
     );
     s
+}
+
+/// The table of each method's mean score over `results`.
+fn mean_table(s: &mut String, results: &[&CameraResult]) {
+    let methods = results.first().map_or(0, |r| r.scores.len());
+    let _ = writeln!(s, "| method | {SCORE_COLUMNS} |\n| --- |{}", " ---: |".repeat(7));
+    for i in 0..methods {
+        let scores: Vec<&Score> = results.iter().map(|r| &r.scores[i]).collect();
+        let _ = writeln!(s, "| {} | {} |", scores[0].label, cells(&mean_score(&scores)));
+    }
 }
 
 /// The score columns of one row ([`SCORE_COLUMNS`]).
@@ -205,7 +232,8 @@ mod tests {
             result("cam09", vec![score("full", 20.0, 15.0), score("blend", 18.0, f64::NAN)]),
             result("cam04", vec![score("full", 22.0, f64::NAN), score("blend", 16.0, f64::NAN)]),
         ];
-        let text = markdown(RealCapture::PanopticArc2, &results, &options, 75, (640, 360), 20.0);
+        let interior = ["cam09".to_string(), "cam04".to_string(), "cam07".to_string()];
+        let text = markdown(RealCapture::PanopticArc2, &results, &interior, &options, 75, (640, 360), 20.0);
         assert!(text.starts_with("## panoptic-arc2\n"), "{text}");
         assert!(text.contains("First 75 of its 75 frames, prepared at 640x360"), "{text}");
         // The mean skips the camera without moving pixels; a measure without any value is a dash.
@@ -215,5 +243,31 @@ mod tests {
         assert!(text.contains("| cam09 | cam02 | 12.5 | 1000 | 0.3 / 0.4 | 10 | 100 |"), "{text}");
         assert!(text.contains("![cam04](real_strip_panoptic-arc2_cam04.png)"), "{text}");
         assert!(text.contains("`cargo xtask eval --real --capture panoptic-arc2 --frames 75 --held-out cam09 --held-out cam04`"), "{text}");
+        assert!(text.contains("Mean over the held-out cameras (cam09, cam04)"), "{text}");
+        assert!(text.contains("![orbit](orbit_strip_panoptic-arc2.png)"), "{text}");
+    }
+
+    #[test]
+    fn cameras_off_the_arc_are_averaged_apart_from_the_interior_ones() {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Cli {
+            #[command(flatten)]
+            options: Options,
+        }
+        let options = Cli::parse_from(["x", "--capture", "panoptic-arc2"]).options;
+        let results = [
+            result("cam09", vec![score("full", 20.0, 15.0)]),
+            result("cam04", vec![score("full", 22.0, 17.0)]),
+            result("cam02", vec![score("full", 10.0, 5.0)]),
+        ];
+        let interior = ["cam09".to_string(), "cam04".to_string(), "cam07".to_string()];
+        let text = markdown(RealCapture::PanopticArc2, &results, &interior, &options, 75, (640, 360), 20.0);
+        let inside = text.find("Mean over the interior cameras (cam09, cam04):").expect("interior mean");
+        let outside = text.find("Mean over the cameras off the arc").expect("off-arc mean");
+        assert!(inside < outside, "{text}");
+        assert!(text[inside..outside].contains("| full | 21.00 |"), "{text}");
+        assert!(text[outside..].contains("(cam02):\n\n| method |"), "{text}");
+        assert!(text[outside..].contains("| full | 10.00 |"), "{text}");
     }
 }

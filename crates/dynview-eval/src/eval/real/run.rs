@@ -94,3 +94,8 @@ pub(super) fn work_folder(prep_args: &[String]) -> String {
 pub(super) fn strip_name(capture: RealCapture, camera: &str) -> String {
     format!("real_strip_{}_{camera}.png", capture.label())
 }
+
+/// The file name of a capture's orbit strip ([`super::orbit`]).
+pub(super) fn orbit_strip_name(capture: RealCapture) -> String {
+    format!("orbit_strip_{}.png", capture.label())
+}
