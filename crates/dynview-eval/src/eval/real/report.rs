@@ -18,7 +18,8 @@ pub(super) fn header() -> String {
      left-out camera is rendered at each time step from that package and compared with its real frame. Its intrinsics, pose and \
      reference frames come from a package prepared the same way from all cameras (same undistortion and size), as filmed: the \
      package's color balance reaches only the renderer's inputs. Every capture is evaluated on all its frames, every interior \
-     camera left out in turn, unless the reproduce line says otherwise.\n\n\
+     camera left out in turn and, on the Panoptic arcs, also the highest and the lowest camera (views off the others' arc, \
+     averaged apart), unless the reproduce line says otherwise.\n\n\
      Measures, averaged over the time steps: PSNR and SSIM on the whole frame, raw and colour-corrected (cc: per frame and per \
      channel, the affine map `a * render + b` that best fits the real frame by least squares is applied to the render first, \
      clamped to [0, 1], so that a camera whose response differs from its neighbours' does not decide the score; gsplat's \
