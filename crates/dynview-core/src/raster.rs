@@ -127,18 +127,35 @@ impl RgbRaster {
 /// The maximum of `mask` (non-negative values) over a square window of side `2 radius + 1`
 /// (rows, then columns).
 pub fn dilated(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
-    let (w, h) = (mask.width, mask.height);
-    let mut rows = vec![0.0f32; w * h];
-    for y in 0..h {
-        let row = &mask.data[y * w..(y + 1) * w];
-        for x in 0..w {
-            rows[y * w + x] = row[x.saturating_sub(radius)..(x + radius + 1).min(w)].iter().fold(0.0, |a, &b| a.max(b));
+    window_extreme(mask, radius, |a, b| if b > a { b } else { a })
+}
+
+/// The minimum of `raster` over a square window of side `2 radius + 1` (rows, then columns;
+/// infinite values stand for none).
+pub fn min_filtered(raster: &ScalarRaster, radius: usize) -> ScalarRaster {
+    window_extreme(raster, radius, |a, b| if b < a { b } else { a })
+}
+
+/// `raster` with each pixel replaced by the `pick` of the pixels in its square window of side
+/// `2 radius + 1`, separably: along rows, then along columns. Each pass combines whole shifted
+/// rows, in memory order, so that it vectorizes.
+fn window_extreme(raster: &ScalarRaster, radius: usize, pick: impl Fn(f32, f32) -> f32 + Copy) -> ScalarRaster {
+    let (w, h) = (raster.width, raster.height);
+    let mut rows = raster.data.clone();
+    if w == 0 || h == 0 {
+        return Raster { width: w, height: h, data: rows };
+    }
+    let combine = |dst: &mut [f32], src: &[f32]| dst.iter_mut().zip(src).for_each(|(a, &b)| *a = pick(*a, b));
+    for (src, dst) in raster.data.chunks_exact(w).zip(rows.chunks_exact_mut(w)) {
+        for d in 1..=radius.min(w - 1) {
+            combine(&mut dst[..w - d], &src[d..]);
+            combine(&mut dst[d..], &src[..w - d]);
         }
     }
-    let mut out = vec![0.0f32; w * h];
-    for x in 0..w {
-        for y in 0..h {
-            out[y * w + x] = (y.saturating_sub(radius)..(y + radius + 1).min(h)).map(|k| rows[k * w + x]).fold(0.0, f32::max);
+    let mut out = rows.clone();
+    for (y, dst) in out.chunks_exact_mut(w).enumerate() {
+        for k in (y.saturating_sub(radius)..=(y + radius).min(h - 1)).filter(|&k| k != y) {
+            combine(dst, &rows[k * w..(k + 1) * w]);
         }
     }
     Raster { width: w, height: h, data: out }
@@ -147,6 +164,42 @@ pub fn dilated(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The `pick` of every pixel's square window, pixel by pixel.
+    fn brute_force(r: &ScalarRaster, radius: usize, pick: fn(f32, f32) -> f32, start: f32) -> Vec<f32> {
+        let (w, h) = (r.width, r.height);
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let mut v = start;
+                for yy in y.saturating_sub(radius)..=(y + radius).min(h - 1) {
+                    for xx in x.saturating_sub(radius)..=(x + radius).min(w - 1) {
+                        v = pick(v, r.data[yy * w + xx]);
+                    }
+                }
+                v
+            })
+            .collect()
+    }
+
+    #[test]
+    fn window_maxima_and_minima_match_a_pixel_by_pixel_search() {
+        // A fixed pseudo-random pattern with runs of zeros and infinite values.
+        let mut state = 12345u32;
+        let mut next = || {
+            state = state.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            (state >> 16) as f32 / 65536.0
+        };
+        for (w, h) in [(1, 1), (7, 3), (23, 17), (5, 40)] {
+            let data: Vec<f32> = (0..w * h).map(|_| next()).map(|v| if v < 0.4 { 0.0 } else { v }).collect();
+            let mask = Raster { width: w, height: h, data };
+            let depth = Raster { width: w, height: h, data: mask.data.iter().map(|&v| if v == 0.0 { f32::INFINITY } else { v }).collect() };
+            for radius in [0, 1, 2, 6, 30] {
+                assert_eq!(dilated(&mask, radius).data, brute_force(&mask, radius, f32::max, 0.0), "{w}x{h} radius {radius}");
+                assert_eq!(min_filtered(&depth, radius).data, brute_force(&depth, radius, f32::min, f32::INFINITY), "{w}x{h} radius {radius}");
+            }
+        }
+    }
 
     #[test]
     fn u8_round_trip_is_exact() {

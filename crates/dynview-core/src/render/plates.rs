@@ -14,10 +14,10 @@
 //! no view a plate, nothing changes.
 
 use super::params::RenderParams;
-use super::sparse::project_cloud;
+use super::sparse::nearest_depth;
 use crate::camera::Camera;
 use crate::points::PointCloud;
-use crate::raster::{Raster, ScalarRaster, dilated};
+use crate::raster::{Raster, ScalarRaster, dilated, min_filtered};
 
 /// Relative depth by which an own point must lie nearer than the static surface to count as in
 /// front of it.
@@ -31,19 +31,31 @@ pub fn static_mask(params: &RenderParams, cloud: &PointCloud, static_points: usi
         return None;
     }
     let split = cloud.len() - static_points;
-    let own = project_cloud(&cloud.select(0..split), camera).with_footprint(params.sparse_footprint_px);
-    let statics = project_cloud(&cloud.select(split..cloud.len()), camera).with_footprint(params.sparse_footprint_px);
+    let own = attached_depth(&cloud.positions_world[..split], camera, params.sparse_footprint_px);
+    let statics = attached_depth(&cloud.positions_world[split..], camera, params.sparse_footprint_px);
     let data = own
-        .depth
         .data
         .iter()
-        .zip(&statics.depth.data)
+        .zip(&statics.data)
         .map(|(&own, &stat)| if own.is_finite() && own < stat * (1.0 - NEARER_MARGIN) { 1.0 } else { 0.0 })
         .collect();
-    let nearer = Raster { width: own.depth.width, height: own.depth.height, data };
+    let nearer = Raster { width: own.width, height: own.height, data };
     let mut mask = dilated(&nearer, params.plate_moving_dilation_px);
     mask.data.iter_mut().for_each(|v| *v = 1.0 - *v);
     Some(mask)
+}
+
+/// The depth of the nearest of `positions_world` at each pixel of `camera`, each point attached
+/// over `footprint_px` where a pixel has none of its own: the depth of
+/// [`super::sparse::project_cloud`] then
+/// [`super::sparse::SplatMaps::with_footprint`], without the colours.
+fn attached_depth(positions_world: &[[f32; 3]], camera: &Camera, footprint_px: usize) -> ScalarRaster {
+    let mut depth = nearest_depth(positions_world, camera);
+    if footprint_px > 0 {
+        let nearest_around = min_filtered(&depth, footprint_px);
+        depth.data.iter_mut().zip(&nearest_around.data).filter(|(d, _)| !d.is_finite()).for_each(|(d, &n)| *d = n);
+    }
+    depth
 }
 
 /// `mask` at `width x height` by nearest sampling (the pixel whose area holds the sample's).
@@ -62,6 +74,7 @@ pub fn mask_at(mask: &ScalarRaster, width: usize, height: usize) -> ScalarRaster
 
 #[cfg(test)]
 mod tests {
+    use super::super::sparse::project_cloud;
     use super::*;
     use crate::camera::{Intrinsics, Rigid3};
 
@@ -111,6 +124,29 @@ mod tests {
         // An own point on the static surface itself leaves its pixels static.
         assert_eq!(at(30, 20), 1.0);
         assert_eq!(mask.data.iter().filter(|&&v| v == 0.0).count(), 81, "a 9x9 square");
+    }
+
+    #[test]
+    fn attached_depth_is_the_depth_of_the_splat_with_its_footprint() {
+        let cam = camera();
+        let mut state = 7u32;
+        let mut next = || {
+            state = state.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            f64::from(state >> 16) / 65536.0
+        };
+        let mut cloud = PointCloud::default();
+        for _ in 0..300 {
+            // Some points off the image and some behind the camera.
+            let (x, y, z) = (next() * 50.0 - 5.0, next() * 40.0 - 5.0, next() * 12.0 - 1.0);
+            let p = cam.unproject_world(glam::DVec2::new(x, y), z.max(0.5));
+            let z_sign = if z < 0.0 { -1.0 } else { 1.0 };
+            cloud.positions_world.push([p.x as f32, p.y as f32, (p.z * z_sign) as f32]);
+        }
+        cloud.colors = vec![[9; 3]; cloud.positions_world.len()];
+        for radius in [0, 1, 2, 3] {
+            let expected = project_cloud(&cloud, &cam).with_footprint(radius).depth.data;
+            assert_eq!(attached_depth(&cloud.positions_world, &cam, radius).data, expected, "radius {radius}");
+        }
     }
 
     #[test]

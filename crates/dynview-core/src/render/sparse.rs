@@ -28,11 +28,7 @@ impl SplatMaps {
 
     #[inline]
     fn splat(&mut self, u: f32, v: f32, depth: f32, color: Rgb) {
-        let (x, y) = (u.round(), v.round());
-        if !(x >= 0.0 && y >= 0.0 && x < self.depth.width as f32 && y < self.depth.height as f32) {
-            return;
-        }
-        let i = y as usize * self.depth.width + x as usize;
+        let Some(i) = pixel_index(u, v, self.depth.width, self.depth.height) else { return };
         if depth < self.depth.data[i] {
             self.depth.data[i] = depth;
             self.color.data[i] = color;
@@ -162,9 +158,18 @@ impl SplatMaps {
     }
 }
 
-/// Projects `cloud` into `camera` (`D^`, `I^` and `m` of METHOD.md).
-pub fn project_cloud(cloud: &PointCloud, camera: &Camera) -> SplatMaps {
-    let mut maps = SplatMaps::empty(camera.width_px as usize, camera.height_px as usize);
+/// The pixel (row-major index) that a sample at `(u, v)` lands on in a `width x height` image:
+/// the nearest pixel centre; `None` outside the image (or for a NaN position).
+#[inline]
+fn pixel_index(u: f32, v: f32, width: usize, height: usize) -> Option<usize> {
+    let (x, y) = (u.round(), v.round());
+    (x >= 0.0 && y >= 0.0 && x < width as f32 && y < height as f32).then(|| y as usize * width + x as usize)
+}
+
+/// Calls `visit(i, u, v, depth)` for each point `i` of `positions_world` in front of `camera`,
+/// with its pixel position (not rounded) and z-depth.
+#[inline]
+fn for_each_projected(positions_world: &[[f32; 3]], camera: &Camera, mut visit: impl FnMut(usize, f32, f32, f32)) {
     let r = camera.camera_from_world.rotation;
     let t = camera.camera_from_world.translation;
     let k = camera.intrinsics;
@@ -174,17 +179,37 @@ pub fn project_cloud(cloud: &PointCloud, camera: &Camera) -> SplatMaps {
         [row.x as f32, row.y as f32, row.z as f32, t[i] as f32]
     });
     let (fx, fy, cx, cy) = (k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32);
-    for (p, c) in cloud.positions_world.iter().zip(&cloud.colors) {
+    for (i, p) in positions_world.iter().enumerate() {
         let xc = rows[0][0] * p[0] + rows[0][1] * p[1] + rows[0][2] * p[2] + rows[0][3];
         let yc = rows[1][0] * p[0] + rows[1][1] * p[1] + rows[1][2] * p[2] + rows[1][3];
         let zc = rows[2][0] * p[0] + rows[2][1] * p[1] + rows[2][2] * p[2] + rows[2][3];
         if zc <= 1e-6 {
             continue;
         }
-        let (u, v) = (fx * xc / zc + cx, fy * yc / zc + cy);
-        maps.splat(u, v, zc, c.map(unit_from_u8));
+        visit(i, fx * xc / zc + cx, fy * yc / zc + cy, zc);
     }
+}
+
+/// Projects `cloud` into `camera` (`D^`, `I^` and `m` of METHOD.md).
+pub fn project_cloud(cloud: &PointCloud, camera: &Camera) -> SplatMaps {
+    let mut maps = SplatMaps::empty(camera.width_px as usize, camera.height_px as usize);
+    for_each_projected(&cloud.positions_world, camera, |i, u, v, z| maps.splat(u, v, z, cloud.colors[i].map(unit_from_u8)));
     maps
+}
+
+/// The z-depth of the nearest of `positions_world` at each pixel of `camera`, infinite where
+/// none lands: [`project_cloud`]'s depth without the colours.
+pub fn nearest_depth(positions_world: &[[f32; 3]], camera: &Camera) -> ScalarRaster {
+    let (width, height) = (camera.width_px as usize, camera.height_px as usize);
+    let mut depth = Raster::filled(width, height, f32::INFINITY);
+    for_each_projected(positions_world, camera, |_, u, v, z| {
+        if let Some(i) = pixel_index(u, v, width, height)
+            && z < depth.data[i]
+        {
+            depth.data[i] = z;
+        }
+    });
+    depth
 }
 
 /// Forward-warps a rendered frame (its camera, depth and color) into `camera`: the
