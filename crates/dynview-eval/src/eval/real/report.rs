@@ -66,10 +66,10 @@ pub(super) fn markdown(
     let groups: Vec<(&str, Vec<&CameraResult>)> = if inside.is_empty() || outside.is_empty() {
         vec![("held-out cameras", results.iter().collect())]
     } else {
-        vec![("interior cameras", inside), ("cameras off the arc (its highest and lowest, seen from the point the cameras look at)", outside)]
+        vec![("interior cameras", inside), ("cameras off the arc (the highest and the lowest seen from the point the cameras look at, where not interior)", outside)]
     };
     for (what, group) in groups {
-        let _ = writeln!(s, "Mean over the {what} ({}):\n", group.iter().map(|r| r.name.as_str()).collect::<Vec<_>>().join(", "));
+        let _ = writeln!(s, "Mean over the {what}: {}\n", group.iter().map(|r| r.name.as_str()).collect::<Vec<_>>().join(", "));
         mean_table(&mut s, &group);
         s.push('\n');
     }
@@ -244,7 +244,7 @@ mod tests {
         assert!(text.contains("| cam09 | cam02 | 12.5 | 1000 | 0.3 / 0.4 | 10 | 100 |"), "{text}");
         assert!(text.contains("![cam04](real_strip_panoptic-arc2_cam04.png)"), "{text}");
         assert!(text.contains("`cargo xtask eval --real --capture panoptic-arc2 --frames 75 --held-out cam09 --held-out cam04`"), "{text}");
-        assert!(text.contains("Mean over the held-out cameras (cam09, cam04)"), "{text}");
+        assert!(text.contains("Mean over the held-out cameras: cam09, cam04\n"), "{text}");
         assert!(text.contains("![orbit](orbit_strip_panoptic-arc2.png)"), "{text}");
     }
 
@@ -264,11 +264,11 @@ mod tests {
         ];
         let interior = ["cam09".to_string(), "cam04".to_string(), "cam07".to_string()];
         let text = markdown(RealCapture::PanopticArc2, &results, &interior, &options, 75, (640, 360), 20.0);
-        let inside = text.find("Mean over the interior cameras (cam09, cam04):").expect("interior mean");
+        let inside = text.find("Mean over the interior cameras: cam09, cam04\n").expect("interior mean");
         let outside = text.find("Mean over the cameras off the arc").expect("off-arc mean");
         assert!(inside < outside, "{text}");
         assert!(text[inside..outside].contains("| full | 21.00 |"), "{text}");
-        assert!(text[outside..].contains("(cam02):\n\n| method |"), "{text}");
+        assert!(text[outside..].contains("where not interior): cam02\n\n| method |"), "{text}");
         assert!(text[outside..].contains("| full | 10.00 |"), "{text}");
     }
 }
