@@ -136,6 +136,37 @@ pub fn min_filtered(raster: &ScalarRaster, radius: usize) -> ScalarRaster {
     window_extreme(raster, radius, |a, b| if b < a { b } else { a })
 }
 
+/// The mean of `raster` over a square window of side `2 radius + 1`, the window cut at the
+/// image's edges (separable: rows, then columns, by running sums).
+pub fn box_filtered(raster: &ScalarRaster, radius: usize) -> ScalarRaster {
+    let (w, h) = (raster.width, raster.height);
+    let mean_along = |values: &[f32], out: &mut [f32], n: usize, stride: usize| {
+        let mut sum = 0.0f64;
+        let (mut lo, mut hi) = (0usize, 0usize); // the window [lo, hi)
+        for i in 0..n {
+            let (want_lo, want_hi) = (i.saturating_sub(radius), (i + radius + 1).min(n));
+            while hi < want_hi {
+                sum += f64::from(values[hi * stride]);
+                hi += 1;
+            }
+            while lo < want_lo {
+                sum -= f64::from(values[lo * stride]);
+                lo += 1;
+            }
+            out[i * stride] = (sum / (hi - lo) as f64) as f32;
+        }
+    };
+    let mut rows = vec![0.0f32; w * h];
+    for y in 0..h {
+        mean_along(&raster.data[y * w..(y + 1) * w], &mut rows[y * w..(y + 1) * w], w, 1);
+    }
+    let mut out = vec![0.0f32; w * h];
+    for x in 0..w {
+        mean_along(&rows[x..], &mut out[x..], h, w);
+    }
+    Raster { width: w, height: h, data: out }
+}
+
 /// `raster` with each pixel replaced by the `pick` of the pixels in its square window of side
 /// `2 radius + 1`, separably: along rows, then along columns. Each pass combines whole shifted
 /// rows, in memory order, so that it vectorizes.
@@ -180,6 +211,27 @@ mod tests {
                 v
             })
             .collect()
+    }
+
+    #[test]
+    fn box_filtered_means_are_the_window_means() {
+        let data: Vec<f32> = (0..7 * 5).map(|i| ((i * 37) % 11) as f32).collect();
+        let r = Raster { width: 7, height: 5, data };
+        for radius in [0, 1, 3, 9] {
+            let got = box_filtered(&r, radius);
+            for y in 0..5usize {
+                for x in 0..7usize {
+                    let (mut sum, mut n) = (0.0, 0.0);
+                    for yy in y.saturating_sub(radius)..=(y + radius).min(4) {
+                        for xx in x.saturating_sub(radius)..=(x + radius).min(6) {
+                            sum += r.data[yy * 7 + xx];
+                            n += 1.0;
+                        }
+                    }
+                    assert!((got.data[y * 7 + x] - sum / n).abs() < 1e-5, "radius {radius} at ({x}, {y})");
+                }
+            }
+        }
     }
 
     #[test]

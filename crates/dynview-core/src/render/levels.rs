@@ -68,9 +68,7 @@ impl<'a> LevelViews<'a> {
             for (warp, plate) in self.warps.iter_mut().zip(plate_warps) {
                 let Some(plate) = plate else { continue };
                 for ((color, plate), &stat) in warp.color.iter_mut().zip(plate).zip(&level_mask.data) {
-                    if stat > 0.5 {
-                        *color = plate;
-                    }
+                    *color = plates::mixed(*color, plate, stat);
                 }
             }
         }

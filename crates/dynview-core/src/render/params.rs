@@ -88,6 +88,11 @@ pub struct RenderParams {
     /// (and out of the novel view) is not painted onto it. Needs a package with plates and a
     /// static cloud; CPU and GPU alike. See `docs/RENDERER.md`.
     pub plate_moving_dilation_px: usize,
+    /// Radius in pixels (at the finest level) over which the plates' static mask fades from the
+    /// region that keeps the frames to the static scene (ours; 0 = a hard edge): the mask is
+    /// box-filtered, and a view with a plate mixes its frame's and its plate's colour by the
+    /// mask's value, so no seam runs around the people. CPU and GPU alike.
+    pub plate_feather_px: usize,
     /// `lambda_P`: color data term per view (paper Eq. rendering_color; 5 to 20, default 10).
     pub lambda_p: f32,
     /// Exponent `gamma` of the view's rank in the color energy where no point supports the
@@ -175,6 +180,7 @@ impl Default for RenderParams {
             plane_support: 0.002,
             sparse_footprint_px: 2,
             plate_moving_dilation_px: 6,
+            plate_feather_px: 0,
             lambda_p: 10.0,
             view_rank_exponent: 1.0,
             view_rank_support: 0.01,
@@ -251,6 +257,9 @@ impl RenderParams {
         }
         if self.sparse_footprint_px > 16 {
             return bad("sparse_footprint_px", format!("must be at most 16, found {}", self.sparse_footprint_px));
+        }
+        if self.plate_feather_px > 32 {
+            return bad("plate_feather_px", format!("must be at most 32, found {}", self.plate_feather_px));
         }
         if self.sparse_surround_px > 32 {
             return bad("sparse_surround_px", format!("must be at most 32, found {}", self.sparse_surround_px));

@@ -17,14 +17,15 @@ use super::params::RenderParams;
 use super::sparse::nearest_depth;
 use crate::camera::Camera;
 use crate::points::PointCloud;
-use crate::raster::{Raster, ScalarRaster, dilated, min_filtered};
+use crate::raster::{Raster, Rgb, ScalarRaster, box_filtered, dilated, min_filtered};
 
 /// Relative depth by which an own point must lie nearer than the static surface to count as in
 /// front of it.
 pub const NEARER_MARGIN: f32 = 0.03;
 
 /// The static mask of the novel view `camera` at full size (1 where the pixel shows the static
-/// scene, 0 where something stands in front of it), from a cloud whose last `static_points`
+/// scene, 0 where something stands in front of it, in between over `plate_feather_px` of its
+/// edge), from a cloud whose last `static_points`
 /// points are static. `None` when there is no static point or the plates are off.
 pub fn static_mask(params: &RenderParams, cloud: &PointCloud, static_points: usize, camera: &Camera) -> Option<ScalarRaster> {
     if params.plate_moving_dilation_px == 0 || static_points == 0 || static_points > cloud.len() {
@@ -42,7 +43,7 @@ pub fn static_mask(params: &RenderParams, cloud: &PointCloud, static_points: usi
     let nearer = Raster { width: own.width, height: own.height, data };
     let mut mask = dilated(&nearer, params.plate_moving_dilation_px);
     mask.data.iter_mut().for_each(|v| *v = 1.0 - *v);
-    Some(mask)
+    Some(if params.plate_feather_px > 0 { box_filtered(&mask, params.plate_feather_px) } else { mask })
 }
 
 /// The depth of the nearest of `positions_world` at each pixel of `camera`, each point attached
@@ -56,6 +57,20 @@ fn attached_depth(positions_world: &[[f32; 3]], camera: &Camera, footprint_px: u
         depth.data.iter_mut().zip(&nearest_around.data).filter(|(d, _)| !d.is_finite()).for_each(|(d, &n)| *d = n);
     }
     depth
+}
+
+/// A view's colour at a novel pixel whose static mask is `stat`: its frame's where nothing
+/// static shows (0), its plate's where only the static scene does (1 and above), their mix in
+/// between (a feathered edge).
+#[inline]
+pub fn mixed(frame: Rgb, plate: Rgb, stat: f32) -> Rgb {
+    if stat >= 1.0 {
+        plate
+    } else if stat > 0.0 {
+        std::array::from_fn(|k| frame[k] + (plate[k] - frame[k]) * stat)
+    } else {
+        frame
+    }
 }
 
 /// `mask` at `width x height` by nearest sampling (the pixel whose area holds the sample's).

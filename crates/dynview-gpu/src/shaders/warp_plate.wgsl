@@ -2,8 +2,9 @@
 // dynview-core's render::levels: after warp.wgsl has written a view's warped frame, each novel
 // pixel that the static mask marks as static (the mask at full size, sampled at the nearest
 // pixel as render::plates::mask_at) and that lands inside the input takes the same bilinear
-// sample of the view's plate instead. The uniform block is warp.wgsl's
-// (common/warp_sample.wgsl).
+// sample of the view's plate instead: all of it where the mask is 1, mixed with the frame's by
+// the mask's value on a feathered edge (render::plates::mixed). The uniform block is
+// warp.wgsl's (common/warp_sample.wgsl).
 
 // Novel-view z-depth.
 @group(0) @binding(1) var<storage, read> depth: array<f32>;
@@ -22,7 +23,8 @@ fn warp_plate(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let m = (y * params.mask_height / params.height) * params.mask_width + x * params.mask_width / params.width;
-    if (!(static_mask[m] > 0.5)) {
+    let stat = static_mask[m];
+    if (!(stat > 0.0)) {
         return;
     }
     let i = y * params.width + x;
@@ -42,6 +44,12 @@ fn warp_plate(@builtin(global_invocation_id) id: vec3<u32>) {
         let e = plate[(at.i00 + at.dy + at.dx) * 3u + k];
         let top = a + (b - a) * at.tx;
         let bottom = c + (e - c) * at.tx;
-        color[o * 3u + k] = top + (bottom - top) * at.ty;
+        let sample = top + (bottom - top) * at.ty;
+        if (stat >= 1.0) {
+            color[o * 3u + k] = sample;
+        } else {
+            let frame = color[o * 3u + k];
+            color[o * 3u + k] = frame + (sample - frame) * stat;
+        }
     }
 }
