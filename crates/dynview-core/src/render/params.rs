@@ -91,7 +91,9 @@ pub struct RenderParams {
     /// Radius in pixels (at the finest level) over which the plates' static mask fades from the
     /// region that keeps the frames to the static scene (ours; 0 = a hard edge): the mask is
     /// box-filtered, and a view with a plate mixes its frame's and its plate's colour by the
-    /// mask's value, so no seam runs around the people. CPU and GPU alike.
+    /// mask's value, so no seam runs around the people. CPU and GPU alike. Default 3: on both
+    /// Panoptic arcs and Pose2Sim every held-out camera but one (-0.01 dB) gains a little
+    /// (`docs/results/static_scene.md`).
     pub plate_feather_px: usize,
     /// `lambda_P`: color data term per view (paper Eq. rendering_color; 5 to 20, default 10).
     pub lambda_p: f32,
@@ -180,7 +182,7 @@ impl Default for RenderParams {
             plane_support: 0.002,
             sparse_footprint_px: 2,
             plate_moving_dilation_px: 6,
-            plate_feather_px: 0,
+            plate_feather_px: 3,
             lambda_p: 10.0,
             view_rank_exponent: 1.0,
             view_rank_support: 0.01,

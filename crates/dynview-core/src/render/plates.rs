@@ -127,7 +127,7 @@ mod tests {
     #[test]
     fn pixels_near_an_own_point_in_front_of_the_static_scene_are_not_static() {
         let (cloud, statics) = cloud();
-        let params = RenderParams { plate_moving_dilation_px: 3, sparse_footprint_px: 1, ..RenderParams::default() };
+        let params = RenderParams { plate_moving_dilation_px: 3, sparse_footprint_px: 1, plate_feather_px: 0, ..RenderParams::default() };
         let mask = static_mask(&params, &cloud, statics, &camera()).expect("static points and plates on");
         let at = |x: usize, y: usize| mask.data[y * 40 + x];
         // The point in front, its footprint (1) and the dilation (3): 4 pixels each way.
@@ -162,6 +162,28 @@ mod tests {
             let expected = project_cloud(&cloud, &cam).with_footprint(radius).depth.data;
             assert_eq!(attached_depth(&cloud.positions_world, &cam, radius).data, expected, "radius {radius}");
         }
+    }
+
+    #[test]
+    fn a_feathered_mask_rises_across_the_edge_and_mixes_frame_and_plate() {
+        let (cloud, statics) = cloud();
+        let hard = RenderParams { plate_moving_dilation_px: 3, sparse_footprint_px: 1, plate_feather_px: 0, ..RenderParams::default() };
+        let soft = RenderParams { plate_feather_px: 2, ..hard.clone() };
+        let (hard, soft) =
+            (static_mask(&hard, &cloud, statics, &camera()).unwrap(), static_mask(&soft, &cloud, statics, &camera()).unwrap());
+        // Along row 10 the hard edge runs from 0 (x <= 14) to 1 (x >= 15); feathered over 2 px
+        // the mask rises through it, and is the hard one away from it.
+        let row: Vec<f32> = (10..=20).map(|x| soft.data[10 * 40 + x]).collect();
+        assert!(row.windows(2).all(|w| w[1] >= w[0]), "{row:?}");
+        assert_eq!(soft.data[10 * 40 + 10], 0.0);
+        assert_eq!(soft.data[10 * 40 + 20], 1.0);
+        assert!(soft.data[10 * 40 + 14] > 0.0 && soft.data[10 * 40 + 15] < 1.0, "{row:?}");
+        let edge = soft.data.iter().zip(&hard.data).filter(|(s, h)| s != h).count();
+        assert!(edge > 0 && soft.data.iter().all(|v| (0.0..=1.0).contains(v)));
+        // Frame and plate mixed by the mask's value.
+        assert_eq!(mixed([0.0, 0.2, 1.0], [1.0, 0.2, 0.0], 0.0), [0.0, 0.2, 1.0]);
+        assert_eq!(mixed([0.0, 0.2, 1.0], [1.0, 0.2, 0.0], 1.0), [1.0, 0.2, 0.0]);
+        assert_eq!(mixed([0.0, 0.2, 1.0], [1.0, 0.2, 0.0], 0.25), [0.25, 0.2, 0.75]);
     }
 
     #[test]
