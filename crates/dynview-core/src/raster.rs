@@ -248,7 +248,11 @@ mod tests {
             let depth = Raster { width: w, height: h, data: mask.data.iter().map(|&v| if v == 0.0 { f32::INFINITY } else { v }).collect() };
             for radius in [0, 1, 2, 6, 30] {
                 assert_eq!(dilated(&mask, radius).data, brute_force(&mask, radius, f32::max, 0.0), "{w}x{h} radius {radius}");
-                assert_eq!(min_filtered(&depth, radius).data, brute_force(&depth, radius, f32::min, f32::INFINITY), "{w}x{h} radius {radius}");
+                assert_eq!(
+                    min_filtered(&depth, radius).data,
+                    brute_force(&depth, radius, f32::min, f32::INFINITY),
+                    "{w}x{h} radius {radius}"
+                );
             }
         }
     }

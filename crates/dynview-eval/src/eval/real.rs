@@ -37,8 +37,8 @@ use crate::paths::workspace_root;
 use crate::runs::prep::{PrepRun, cloud_point_counts, prep_once, stage_seconds};
 use crate::runs::programs::dynview_binary;
 use report::{header, markdown};
-pub use run::Options;
 use rig::Rig;
+pub use run::Options;
 use run::{CameraResult, METHODS, orbit_strip_name, strip_name, work_folder};
 use scores::{MOVING_DILATION_PX, MOVING_THRESHOLD, Score, Sums, moving_mask, temporal_median};
 
@@ -135,12 +135,8 @@ pub(crate) fn off_arc_cameras(capture: RealCapture) -> anyhow::Result<Vec<String
 fn capture_rig(capture: RealCapture) -> anyhow::Result<Option<Rig>> {
     let Some(arc) = capture.panoptic_arc() else { return Ok(None) };
     let poses = crate::datasets::panoptic::calibration(arc, None)?;
-    let cameras: Vec<(String, dynview_core::Rigid3)> = poses
-        .cameras
-        .iter()
-        .enumerate()
-        .filter_map(|(i, c)| poses.camera_from_world(i, 0).map(|pose| (c.name.clone(), pose)))
-        .collect();
+    let cameras: Vec<(String, dynview_core::Rigid3)> =
+        poses.cameras.iter().enumerate().filter_map(|(i, c)| poses.camera_from_world(i, 0).map(|pose| (c.name.clone(), pose))).collect();
     Ok(Some(Rig::new(&cameras)?))
 }
 

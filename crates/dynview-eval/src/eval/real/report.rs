@@ -66,7 +66,10 @@ pub(super) fn markdown(
     let groups: Vec<(&str, Vec<&CameraResult>)> = if inside.is_empty() || outside.is_empty() {
         vec![("held-out cameras", results.iter().collect())]
     } else {
-        vec![("interior cameras", inside), ("cameras off the arc (the highest and the lowest seen from the point the cameras look at, where not interior)", outside)]
+        vec![
+            ("interior cameras", inside),
+            ("cameras off the arc (the highest and the lowest seen from the point the cameras look at, where not interior)", outside),
+        ]
     };
     for (what, group) in groups {
         let _ = writeln!(s, "Mean over the {what}: {}\n", group.iter().map(|r| r.name.as_str()).collect::<Vec<_>>().join(", "));
