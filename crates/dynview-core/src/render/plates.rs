@@ -10,8 +10,9 @@
 //! moving things among them) and the static points it borrows are splatted separately into the
 //! novel view, each over its footprint; a pixel where an own point lies nearer than the static
 //! surface (by [`NEARER_MARGIN`]) shows something in front of it, and that region is grown by
-//! `plate_moving_dilation_px`. Everywhere else is static. Where the step has no static points, or
-//! no view a plate, nothing changes.
+//! `plate_moving_dilation_px`. Everywhere else is static. The mask's edge is feathered over
+//! `plate_feather_px`, where a view mixes its frame's and its plate's colour ([`mixed`]). Where
+//! the step has no static points, or no view a plate, nothing changes.
 
 use super::params::RenderParams;
 use super::sparse::nearest_depth;
@@ -25,8 +26,8 @@ pub const NEARER_MARGIN: f32 = 0.03;
 
 /// The static mask of the novel view `camera` at full size (1 where the pixel shows the static
 /// scene, 0 where something stands in front of it, in between over `plate_feather_px` of its
-/// edge), from a cloud whose last `static_points`
-/// points are static. `None` when there is no static point or the plates are off.
+/// edge), from a cloud whose last `static_points` points are static. `None` when there is no
+/// static point or the plates are off.
 pub fn static_mask(params: &RenderParams, cloud: &PointCloud, static_points: usize, camera: &Camera) -> Option<ScalarRaster> {
     if params.plate_moving_dilation_px == 0 || static_points == 0 || static_points > cloud.len() {
         return None;
@@ -48,8 +49,8 @@ pub fn static_mask(params: &RenderParams, cloud: &PointCloud, static_points: usi
 
 /// The depth of the nearest of `positions_world` at each pixel of `camera`, each point attached
 /// over `footprint_px` where a pixel has none of its own: the depth of
-/// [`super::sparse::project_cloud`] then
-/// [`super::sparse::SplatMaps::with_footprint`], without the colours.
+/// [`super::sparse::project_cloud`] then [`super::sparse::SplatMaps::with_footprint`], without
+/// the colours.
 fn attached_depth(positions_world: &[[f32; 3]], camera: &Camera, footprint_px: usize) -> ScalarRaster {
     let mut depth = nearest_depth(positions_world, camera);
     if footprint_px > 0 {
