@@ -48,17 +48,17 @@ impl Rig {
         let mut rhs = DVec3::ZERO;
         let mut up_sum = DVec3::ZERO;
         let mut across_x = DMat3::ZERO;
+        let mut centers = Vec::with_capacity(cameras.len());
         for (_, camera_from_world) in cameras {
             let world_from_camera = camera_from_world.inverse();
             let center = world_from_camera.translation;
-            let forward = world_from_camera.transform_vector(DVec3::Z).normalize();
             // Distance to the line of sight: (I - f f^T)(x - c).
-            let across = DMat3::IDENTITY - DMat3::from_cols(forward * forward.x, forward * forward.y, forward * forward.z);
+            let across = DMat3::IDENTITY - outer(world_from_camera.transform_vector(DVec3::Z).normalize());
             normal += across;
             rhs += across * center;
             up_sum += world_from_camera.transform_vector(DVec3::NEG_Y);
-            let x = world_from_camera.transform_vector(DVec3::X);
-            across_x += DMat3::from_cols(x * x.x, x * x.y, x * x.z);
+            across_x += outer(world_from_camera.transform_vector(DVec3::X));
+            centers.push(center);
         }
         if normal.determinant().abs() < 1e-9 * cameras.len() as f64 {
             bail!("the cameras' lines of sight are parallel: no common target");
@@ -66,7 +66,6 @@ impl Rig {
         let target_world = normal.inverse() * rhs;
         let level = smallest_eigenvector(&across_x);
         let up_world = if level.dot(up_sum) < 0.0 { -level } else { level };
-        let centers: Vec<DVec3> = cameras.iter().map(|(_, c)| c.inverse().translation).collect();
         let horizontal = |v: DVec3| v - up_world * v.dot(up_world);
         let front_world = horizontal(centers.iter().map(|c| (*c - target_world).normalize_or_zero()).sum()).normalize_or_zero();
         if up_world == DVec3::ZERO || front_world == DVec3::ZERO || !target_world.is_finite() {
@@ -123,6 +122,11 @@ impl Rig {
         let horizontal = self.front_world * az.cos() + side_world * az.sin();
         self.target_world + (horizontal * el.cos() + self.up_world * el.sin()) * self.distance
     }
+}
+
+/// `v v^T`.
+fn outer(v: DVec3) -> DMat3 {
+    DMat3::from_cols(v * v.x, v * v.y, v * v.z)
 }
 
 /// The unit eigenvector of the symmetric `m` with the smallest eigenvalue.
