@@ -2,7 +2,9 @@
 # The GPU benchmark of issue 17 on the lent device machine, in one call, after
 # `tools/device/pack.sh` here (carry [".device", ".gl"]). Writes every report to $OUT:
 #   1. both sweep kernels at 1080p and 4K output (`--sweeps per-colour`, `--sweeps tiled`);
-#   2. 4K under WebGPU's default limits (`--webgpu-limits`: views split into several buffers).
+#   2. 4K under WebGPU's default limits (`--webgpu-limits`: views split into several buffers);
+#   3. with SCENE (a prepared package, e.g. copied into .device/) and CAMERA_PATH (its novel
+#      camera and time step), that real package at SCENE_SIZES (default 640x360,1920x1080).
 # SIZES and RUNS override the sizes and timed frames (a quick check on lavapipe here:
 # `OUT=/tmp/gpu SIZES=480x270 RUNS=1 bash tools/device/gpu-bench.sh`).
 set -uo pipefail
@@ -40,4 +42,7 @@ bench() {
 bench per-colour --gpu-only --sizes "$sizes" --runs "$runs" --sweeps per-colour
 bench tiled --gpu-only --sizes "$sizes" --runs "$runs" --sweeps tiled
 bench webgpu-limits --gpu-only --sizes "$largest" --runs "$runs" --webgpu-limits
+if [ -n "${SCENE:-}" ]; then
+    bench package --gpu-only --sizes "${SCENE_SIZES:-640x360,1920x1080}" --runs "$runs" --scene "$SCENE" --camera-path "${CAMERA_PATH:?CAMERA_PATH with SCENE}"
+fi
 exit "$status"

@@ -3,7 +3,7 @@
 //! that wgpu finds (lavapipe without one: correctness, not speed).
 
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
@@ -40,6 +40,15 @@ pub struct Options {
     /// Timed frames per size and path (after the warm-up); the median is reported.
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u16).range(1..))]
     pub runs: u16,
+    /// Time a prepared scene package instead of the synthetic event: the time step and camera
+    /// of `--camera-path`'s first frame, the camera resized to each of `--sizes` (the inputs
+    /// keep the package's size).
+    #[arg(long, requires = "camera_path")]
+    pub scene: Option<PathBuf>,
+    /// Camera path (nerfstudio or dynview JSON, as `dynview render --path` reads) whose first
+    /// frame `--scene` is seen from.
+    #[arg(long, requires = "scene")]
+    pub camera_path: Option<PathBuf>,
 }
 
 /// The `--sweeps` choice.
@@ -77,14 +86,36 @@ pub fn bench_event(width: u32, height: u32) -> anyhow::Result<(TimeStepInputs, C
     Ok((inputs, camera))
 }
 
+/// The time step of `path`'s first frame in the package at `scene`, and its camera.
+pub fn package_frame(scene: &Path, path: &Path) -> anyhow::Result<(TimeStepInputs, Camera)> {
+    let package = ScenePackage::open(scene).with_context(|| format!("opening the scene package {}", scene.display()))?;
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let frame = *parse_path(&bytes, &path.display().to_string(), None)?
+        .first()
+        .with_context(|| format!("{}: the camera path has no frame", path.display()))?;
+    let t = frame.time.time_step(package.manifest().time_step_count);
+    let inputs = package.time_step_inputs(t, RenderParams::default().levels).with_context(|| format!("loading time step {t}"))?;
+    println!("{}: time step {t}, {} views, {} points", scene.display(), inputs.views.len(), inputs.cloud.len());
+    Ok((inputs, frame.camera))
+}
+
 /// The benchmark: prints the tables and writes them to `target/bench/report.md`.
 pub fn run(options: Options) -> anyhow::Result<()> {
-    let Options { sizes, gpu_only, webgpu_limits, sweeps, runs } = options;
+    let Options { sizes, gpu_only, webgpu_limits, sweeps, runs, scene, camera_path } = options;
+    let package = match (&scene, &camera_path) {
+        (Some(scene), Some(path)) => Some(package_frame(scene, path)?),
+        _ => None,
+    };
     let runs = usize::from(runs);
     let params = RenderParams::default();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut report = String::new();
-    let _ = writeln!(report, "Full method, {} views, {} levels, {threads} threads, median of {runs} runs:\n", params.views, params.levels);
+    let subject = scene.as_ref().map_or("the synthetic event".to_string(), |s| format!("the package {}", s.display()));
+    let _ = writeln!(
+        report,
+        "Full method on {subject}, {} views, {} levels, {threads} threads, median of {runs} runs:\n",
+        params.views, params.levels
+    );
     let context = match webgpu_limits {
         true => dynview_gpu::GpuContext::with_limits_blocking(dynview_gpu::wgpu::Limits::default()),
         false => dynview_gpu::GpuContext::new_blocking(),
@@ -119,7 +150,10 @@ pub fn run(options: Options) -> anyhow::Result<()> {
     let mut gpu_rows = String::new();
     let mut playback_rows = String::new();
     for (w, h) in sizes {
-        let (inputs, camera) = bench_event(w, h)?;
+        let (inputs, camera) = match &package {
+            Some((inputs, camera)) => (inputs.clone(), camera.resized(w, h)),
+            None => bench_event(w, h)?,
+        };
         let origin = Instant::now();
         let clock = move || origin.elapsed().as_secs_f64() * 1000.0;
         let mut cpu_runs = Vec::new();
@@ -248,4 +282,33 @@ fn level_row(l: &LevelTimings) -> String {
 fn write_report(path: &Path, text: &str) -> anyhow::Result<()> {
     dynview_core::fsutil::write_atomic(path, text.as_bytes())?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use dynview_synth::SynthConfig;
+
+    use super::*;
+
+    #[test]
+    fn a_package_is_timed_at_its_paths_first_step_and_camera() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = SynthConfig { frames: 3, width: 64, height: 36, videos: false, ..SynthConfig::default() };
+        dynview_synth::generate(&config, dir.path(), &|_, _, _| {}).unwrap();
+        let path_file = dir.path().join("camera_path.json");
+        let path = parse_path(&std::fs::read(&path_file).unwrap(), "camera_path.json", None).unwrap();
+        let package = ScenePackage::open(dir.path().join("scene")).unwrap();
+        let step = path[0].time.time_step(package.manifest().time_step_count);
+        let (inputs, camera) = package_frame(&dir.path().join("scene"), &path_file).unwrap();
+        assert_eq!(camera, path[0].camera);
+        let expected = package.time_step_inputs(step, RenderParams::default().levels).unwrap();
+        assert_eq!(inputs.cloud.positions_world, expected.cloud.positions_world);
+        assert_eq!(inputs.views.len(), package.manifest().cameras.len());
+
+        let missing = dir.path().join("no_path.json");
+        let error = format!("{:#}", package_frame(&dir.path().join("scene"), &missing).unwrap_err());
+        assert!(error.contains("no_path.json"), "{error}");
+        let error = format!("{:#}", package_frame(&dir.path().join("no_scene"), &path_file).unwrap_err());
+        assert!(error.contains("no_scene"), "{error}");
+    }
 }
