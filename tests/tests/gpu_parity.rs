@@ -6,6 +6,7 @@ use dynview_core::RgbRaster;
 use dynview_core::display::{DisplayMode, picture, to_rgba8};
 use dynview_core::metrics::psnr;
 use dynview_core::raster::Raster;
+use dynview_core::render::plates::{STATIC_MASK_MAX_PIXELS, static_mask};
 use dynview_core::render::{Method, RenderHooks, RenderParams, render_frame};
 use dynview_core::scene::ScenePackage;
 use dynview_gpu::{FrameDisplay, GpuContext, GpuInputs, GpuRenderer, GpuStreamingRenderer, StreamRequest, SweepKernel, wgpu};
@@ -113,6 +114,15 @@ fn gpu_frames_match_cpu_frames_with_background_plates() {
     eprintln!("with plates, a hard edge: GPU vs CPU {db_hard:.1} dB");
     assert!(db_hard >= MIN_PSNR_DB, "hard edge: GPU vs CPU {db_hard:.1} dB");
     assert!(psnr(&cpu_hard.color, &cpu.color) < 90.0, "feathering changed nothing");
+    // A view past `STATIC_MASK_MAX_PIXELS` gets a smaller static mask, sampled alike by both.
+    let large = frame.camera.resized(1024, 576);
+    let mask = static_mask(&params, &inputs.cloud, inputs.static_points, &large).unwrap();
+    assert!(mask.width < 1024 && mask.width * mask.height <= STATIC_MASK_MAX_PIXELS, "{}x{}", mask.width, mask.height);
+    let cpu_large = render_frame(&params, &large, &inputs, None, &mut RenderHooks::default()).unwrap();
+    let gpu_large = download_rgb(&ctx, &renderer.render(&ctx, &params, &large, &GpuInputs::upload(&ctx, &inputs).unwrap(), None).unwrap());
+    let db_large = psnr(&gpu_large, &cpu_large.color);
+    eprintln!("with plates, 1024x576 (a smaller static mask): GPU vs CPU {db_large:.1} dB");
+    assert!(db_large >= MIN_PSNR_DB, "1024x576: GPU vs CPU {db_large:.1} dB");
     // The plates were used, on both.
     let cpu_plain = render_frame(&params, &frame.camera, &plain, None, &mut RenderHooks::default()).unwrap();
     let gpu_plain =

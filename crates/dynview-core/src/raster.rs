@@ -137,34 +137,19 @@ pub fn min_filtered(raster: &ScalarRaster, radius: usize) -> ScalarRaster {
 }
 
 /// The mean of `raster` over a square window of side `2 radius + 1`, the window cut at the
-/// image's edges (separable: rows, then columns, by running sums).
+/// image's edges: the window sums (separable, whole shifted rows as [`dilated`]) over the cut
+/// window's size.
 pub fn box_filtered(raster: &ScalarRaster, radius: usize) -> ScalarRaster {
     let (w, h) = (raster.width, raster.height);
-    let mean_along = |values: &[f32], out: &mut [f32], n: usize, stride: usize| {
-        let mut sum = 0.0f64;
-        let (mut lo, mut hi) = (0usize, 0usize); // the window [lo, hi)
-        for i in 0..n {
-            let (want_lo, want_hi) = (i.saturating_sub(radius), (i + radius + 1).min(n));
-            while hi < want_hi {
-                sum += f64::from(values[hi * stride]);
-                hi += 1;
-            }
-            while lo < want_lo {
-                sum -= f64::from(values[lo * stride]);
-                lo += 1;
-            }
-            out[i * stride] = (sum / (hi - lo) as f64) as f32;
-        }
-    };
-    let mut rows = vec![0.0f32; w * h];
-    for y in 0..h {
-        mean_along(&raster.data[y * w..(y + 1) * w], &mut rows[y * w..(y + 1) * w], w, 1);
+    let mut out = window_extreme(raster, radius, |a, b| a + b);
+    // The cut window at (x, y) spans `count(x, w)` columns and `count(y, h)` rows.
+    let count = |i: usize, n: usize| ((i + radius).min(n - 1) - i.saturating_sub(radius) + 1) as f32;
+    let column_counts: Vec<f32> = (0..w).map(|x| count(x, w)).collect();
+    for (y, row) in out.data.chunks_exact_mut(w.max(1)).enumerate() {
+        let rows = count(y, h);
+        row.iter_mut().zip(&column_counts).for_each(|(v, &columns)| *v /= rows * columns);
     }
-    let mut out = vec![0.0f32; w * h];
-    for x in 0..w {
-        mean_along(&rows[x..], &mut out[x..], h, w);
-    }
-    Raster { width: w, height: h, data: out }
+    out
 }
 
 /// `raster` with each pixel replaced by the `pick` of the pixels in its square window of side

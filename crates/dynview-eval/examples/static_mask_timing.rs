@@ -20,19 +20,22 @@ fn main() -> anyhow::Result<()> {
     for (width, height) in [(640, 360), (1920, 1080)] {
         let camera = camera.resized(width, height);
         let mut ms = Vec::new();
-        let mut masked = 0;
+        let (mut masked, mut size) = (0, (0, 0));
         for _ in 0..5 {
             let start = Instant::now();
             let mask = plates::static_mask(&params, &inputs.cloud, inputs.static_points, &camera).context("the package has no plates")?;
             ms.push(start.elapsed().as_secs_f64() * 1000.0);
             masked = mask.data.iter().filter(|&&v| v == 0.0).count();
+            size = (mask.width, mask.height);
         }
         ms.sort_by(f64::total_cmp);
         println!(
-            "{width}x{height}: {:.1} ms (median of 5); {} points, {} static; {masked} pixels not static",
+            "{width}x{height}: {:.1} ms (median of 5); {} points, {} static; mask {}x{}, {masked} pixels not static",
             ms[2],
             inputs.cloud.len(),
-            inputs.static_points
+            inputs.static_points,
+            size.0,
+            size.1
         );
     }
     Ok(())

@@ -46,7 +46,7 @@ pub struct FrameJob<I, P> {
     init_weights: Vec<f32>,
     /// The plane the depth is pulled toward (`lambda_plane`), fitted once per frame.
     plane: Option<InverseDepthPlane>,
-    /// Where the novel view shows the static scene, at full size (views with a background plate
+    /// Where the novel view shows the static scene, at its size or smaller (views with a background plate
     /// give its color there); `None` without static points or plates.
     static_mask: Option<ScalarRaster>,
     /// The level the next step solves; `None` once done.

@@ -25,7 +25,8 @@ pub(super) struct LevelViews<'a> {
     views: Vec<(Camera, &'a RgbRaster)>,
     /// Each view's background plate at this level, if it has one.
     plates: Vec<Option<&'a RgbRaster>>,
-    /// The novel view's static mask at full size ([`super::plates::static_mask`]).
+    /// The novel view's static mask ([`super::plates::static_mask`]: at its size, or smaller
+    /// for a large view).
     static_mask: Option<&'a ScalarRaster>,
     /// That mask at this level's size, once known.
     level_mask: Option<ScalarRaster>,

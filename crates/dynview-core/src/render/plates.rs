@@ -24,17 +24,40 @@ use crate::raster::{Raster, Rgb, ScalarRaster, box_filtered, dilated, min_filter
 /// front of it.
 pub const NEARER_MARGIN: f32 = 0.03;
 
-/// The static mask of the novel view `camera` at full size (1 where the pixel shows the static
-/// scene, 0 where something stands in front of it, in between over `plate_feather_px` of its
-/// edge), from a cloud whose last `static_points` points are static. `None` when there is no
-/// static point or the plates are off.
+/// Most pixels of a static mask: a novel view larger than this gets its mask at the largest
+/// size of its aspect within it (the footprint, dilation and feather scaled alike), which the
+/// renderer samples at the nearest pixel ([`mask_at`]) at every level. 960x540: the mask of a
+/// 1080p or 4K view costs what a 540p view's does, and is as fine as the inputs of most
+/// captures.
+pub const STATIC_MASK_MAX_PIXELS: usize = 960 * 540;
+
+/// The static mask of the novel view `camera` (1 where the pixel shows the static scene, 0
+/// where something stands in front of it, in between over `plate_feather_px` of its edge), from
+/// a cloud whose last `static_points` points are static; at the view's size, or smaller within
+/// [`STATIC_MASK_MAX_PIXELS`]. `None` when there is no static point or the plates are off.
 pub fn static_mask(params: &RenderParams, cloud: &PointCloud, static_points: usize, camera: &Camera) -> Option<ScalarRaster> {
+    let pixels = camera.width_px as usize * camera.height_px as usize;
+    let scale = (STATIC_MASK_MAX_PIXELS as f64 / pixels.max(1) as f64).sqrt().min(1.0);
+    mask_at_scale(params, cloud, static_points, camera, scale)
+}
+
+/// [`static_mask`] at `scale` times the view's size (at most 1), its radii scaled alike.
+fn mask_at_scale(params: &RenderParams, cloud: &PointCloud, static_points: usize, camera: &Camera, scale: f64) -> Option<ScalarRaster> {
     if params.plate_moving_dilation_px == 0 || static_points == 0 || static_points > cloud.len() {
         return None;
     }
+    let camera = match scale < 1.0 {
+        true => camera.resized(
+            ((f64::from(camera.width_px) * scale).floor() as u32).max(1),
+            ((f64::from(camera.height_px) * scale).floor() as u32).max(1),
+        ),
+        false => *camera,
+    };
+    // A radius in the view's pixels, in the mask's (at least 1 where it was).
+    let radius = |r: usize| if r == 0 { 0 } else { ((r as f64 * scale).round() as usize).max(1) };
     let split = cloud.len() - static_points;
-    let own = attached_depth(&cloud.positions_world[..split], camera, params.sparse_footprint_px);
-    let statics = attached_depth(&cloud.positions_world[split..], camera, params.sparse_footprint_px);
+    let own = attached_depth(&cloud.positions_world[..split], &camera, radius(params.sparse_footprint_px));
+    let statics = attached_depth(&cloud.positions_world[split..], &camera, radius(params.sparse_footprint_px));
     let data = own
         .data
         .iter()
@@ -42,9 +65,10 @@ pub fn static_mask(params: &RenderParams, cloud: &PointCloud, static_points: usi
         .map(|(&own, &stat)| if own.is_finite() && own < stat * (1.0 - NEARER_MARGIN) { 1.0 } else { 0.0 })
         .collect();
     let nearer = Raster { width: own.width, height: own.height, data };
-    let mut mask = dilated(&nearer, params.plate_moving_dilation_px);
+    let mut mask = dilated(&nearer, radius(params.plate_moving_dilation_px));
     mask.data.iter_mut().for_each(|v| *v = 1.0 - *v);
-    Some(if params.plate_feather_px > 0 { box_filtered(&mask, params.plate_feather_px) } else { mask })
+    let feather_px = radius(params.plate_feather_px);
+    Some(if feather_px > 0 { box_filtered(&mask, feather_px) } else { mask })
 }
 
 /// The depth of the nearest of `positions_world` at each pixel of `camera`, each point attached
@@ -185,6 +209,36 @@ mod tests {
         assert_eq!(mixed([0.0, 0.2, 1.0], [1.0, 0.2, 0.0], 0.0), [0.0, 0.2, 1.0]);
         assert_eq!(mixed([0.0, 0.2, 1.0], [1.0, 0.2, 0.0], 1.0), [1.0, 0.2, 0.0]);
         assert_eq!(mixed([0.0, 0.2, 1.0], [1.0, 0.2, 0.0], 0.25), [0.25, 0.2, 0.75]);
+    }
+
+    #[test]
+    fn a_large_view_gets_its_mask_at_most_at_the_largest_size_and_alike() {
+        // The wall, the point in front of it and a block of points in front, seen by a view
+        // 32 times as large as `camera()` (1280x960).
+        let (mut cloud, statics) = cloud();
+        let cam = camera();
+        let block: Vec<[f32; 3]> = (0..16)
+            .map(|i| {
+                let p = cam.unproject_world(glam::DVec2::new(20.0 + f64::from(i % 4), 5.0 + f64::from(i / 4)), 5.0);
+                [p.x as f32, p.y as f32, p.z as f32]
+            })
+            .collect();
+        cloud.positions_world.splice(0..0, block);
+        cloud.colors = vec![[128; 3]; cloud.positions_world.len()];
+        let params = RenderParams { plate_moving_dilation_px: 64, sparse_footprint_px: 32, plate_feather_px: 6, ..RenderParams::default() };
+        assert_eq!(static_mask(&params, &cloud, statics, &cam).map(|m| (m.width, m.height)), Some((40, 30)), "a small view's mask");
+        let large = cam.resized(1280, 960);
+        let capped = static_mask(&params, &cloud, statics, &large).unwrap();
+        assert!(capped.width * capped.height <= STATIC_MASK_MAX_PIXELS);
+        let aspect = capped.width as f64 / capped.height as f64;
+        assert!((aspect - 4.0 / 3.0).abs() < 0.01, "aspect {aspect} of {}x{}", capped.width, capped.height);
+        // Sampled at the view's size it is the mask computed there, but on the edges.
+        let full = mask_at_scale(&params, &cloud, statics, &large, 1.0).unwrap();
+        let sampled = mask_at(&capped, 1280, 960);
+        let differing = sampled.data.iter().zip(&full.data).filter(|(a, b)| (**a - **b).abs() > 0.25).count();
+        let masked = full.data.iter().filter(|&&v| v < 0.5).count();
+        assert!(masked > 100_000, "{masked} pixels in front");
+        assert!(differing * 100 < masked * 2, "{differing} pixels differ, {masked} in front");
     }
 
     #[test]

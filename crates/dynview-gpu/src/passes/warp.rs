@@ -74,7 +74,7 @@ impl WarpKernels {
 
     /// Warps each input (an RGB image seen by its camera, with its background plate if it has
     /// one) into `novel` with z-depth `depth`, and tests visibility with relative depth
-    /// `tolerance`. With `static_mask` (the novel view's at full size,
+    /// `tolerance`. With `static_mask` (the novel view's, at its size or smaller,
     /// `dynview_core::render::plates::static_mask`), a view with a plate gives the plate's color
     /// where the mask marks the static scene.
     pub fn warp_views(

@@ -1,6 +1,6 @@
 // The background plates where the novel view shows the static scene (issue 33), following
 // dynview-core's render::levels: after warp.wgsl has written a view's warped frame, each novel
-// pixel that the static mask marks as static (the mask at full size, sampled at the nearest
+// pixel that the static mask marks as static (the mask at the view's size or smaller, sampled at the nearest
 // pixel as render::plates::mask_at) and that lands inside the input takes the same bilinear
 // sample of the view's plate instead: all of it where the mask is 1, mixed with the frame's by
 // the mask's value on a feathered edge (render::plates::mixed). The uniform block is
@@ -10,7 +10,7 @@
 @group(0) @binding(1) var<storage, read> depth: array<f32>;
 // The view's background plate, RGB floats, the input's size.
 @group(0) @binding(2) var<storage, read> plate: array<f32>;
-// The novel view's static mask at full size (1: the static scene), `mask_width x mask_height`.
+// The novel view's static mask, at its size or smaller (1: the static scene), `mask_width x mask_height`.
 @group(0) @binding(3) var<storage, read> static_mask: array<f32>;
 // Warped colors of the stacked views (RGB floats, the view at `offset`).
 @group(0) @binding(4) var<storage, read_write> color: array<f32>;
