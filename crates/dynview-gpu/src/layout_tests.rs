@@ -19,6 +19,7 @@ fn all_mirrors() -> Vec<Mirror> {
         crate::passes::pyramid::wgsl_mirrors(),
         crate::passes::solver::wgsl_mirrors(),
         crate::passes::splat::wgsl_mirrors(),
+        crate::passes::static_mask::wgsl_mirrors(),
         crate::passes::temporal::wgsl_mirrors(),
         crate::passes::warp::wgsl_mirrors(),
         crate::render::display::wgsl_mirrors(),

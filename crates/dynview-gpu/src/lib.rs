@@ -3,7 +3,8 @@
 //!
 //! [`GpuRenderer`] runs the full method and its no-temporal ablation of METHOD.md Part 2 level
 //! by level on the GPU: z-buffered splats of the cloud and of the previous frame
-//! ([`SplatKernels`]), the sparse consistency filter ([`ConsistencyKernels`]), push-pull and
+//! ([`SplatKernels`]), the sparse consistency filter ([`ConsistencyKernels`]), the plates' static
+//! mask ([`StaticMaskKernels`]), push-pull and
 //! pyramid resampling ([`ImageKernels`]), backward warps with visibility ([`WarpKernels`]), the
 //! weights and the assembly of both systems ([`AssembleKernels`]), the color initial guess
 //! ([`BlendKernel`]), the color energy's rank preference where points are scarce
@@ -46,6 +47,7 @@ pub use passes::pyramid::ImageKernels;
 pub use passes::rank::RankKernels;
 pub use passes::solver::{GridSolver, SweepKernel};
 pub use passes::splat::{GpuCloud, GpuSplat, SplatKernels};
+pub use passes::static_mask::StaticMaskKernels;
 pub use passes::temporal::TemporalKernels;
 pub use passes::views::{ViewChunks, ViewStack};
 pub use passes::warp::{GpuWarps, WarpKernels};

@@ -36,28 +36,59 @@ pub const STATIC_MASK_MAX_PIXELS: usize = 960 * 540;
 /// a cloud whose last `static_points` points are static; at the view's size, or smaller within
 /// [`STATIC_MASK_MAX_PIXELS`]. `None` when there is no static point or the plates are off.
 pub fn static_mask(params: &RenderParams, cloud: &PointCloud, static_points: usize, camera: &Camera) -> Option<ScalarRaster> {
-    let pixels = camera.width_px as usize * camera.height_px as usize;
-    let scale = (STATIC_MASK_MAX_PIXELS as f64 / pixels.max(1) as f64).sqrt().min(1.0);
-    mask_at_scale(params, cloud, static_points, camera, scale)
+    mask_of(params, cloud, static_points, &MaskGeometry::of(params, camera))
 }
 
-/// [`static_mask`] at `scale` times the view's size (at most 1), its radii scaled alike.
-fn mask_at_scale(params: &RenderParams, cloud: &PointCloud, static_points: usize, camera: &Camera, scale: f64) -> Option<ScalarRaster> {
+/// Where and how a static mask is computed: the camera it is seen by (the view's, or a smaller
+/// one within [`STATIC_MASK_MAX_PIXELS`]) and the radii in that camera's pixels. The GPU's mask
+/// (`dynview-gpu`) is computed on the same geometry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MaskGeometry {
+    /// The camera the mask is computed for.
+    pub camera: Camera,
+    /// Each point attached over this radius (`sparse_footprint_px`, scaled).
+    pub footprint_px: usize,
+    /// The region in front grown by this radius (`plate_moving_dilation_px`, scaled).
+    pub dilation_px: usize,
+    /// The edge box-filtered over this radius (`plate_feather_px`, scaled).
+    pub feather_px: usize,
+}
+
+impl MaskGeometry {
+    /// The static mask's geometry for the novel view `camera`.
+    pub fn of(params: &RenderParams, camera: &Camera) -> Self {
+        let pixels = camera.width_px as usize * camera.height_px as usize;
+        Self::at_scale(params, camera, (STATIC_MASK_MAX_PIXELS as f64 / pixels.max(1) as f64).sqrt().min(1.0))
+    }
+
+    /// At `scale` (at most 1) times `camera`'s size, radii scaled alike (at least 1 where not 0).
+    fn at_scale(params: &RenderParams, camera: &Camera, scale: f64) -> Self {
+        let camera = match scale < 1.0 {
+            true => camera.resized(
+                ((f64::from(camera.width_px) * scale).floor() as u32).max(1),
+                ((f64::from(camera.height_px) * scale).floor() as u32).max(1),
+            ),
+            false => *camera,
+        };
+        let radius = |r: usize| if r == 0 { 0 } else { ((r as f64 * scale).round() as usize).max(1) };
+        Self {
+            camera,
+            footprint_px: radius(params.sparse_footprint_px),
+            dilation_px: radius(params.plate_moving_dilation_px),
+            feather_px: radius(params.plate_feather_px),
+        }
+    }
+}
+
+/// The static mask on `geometry`.
+fn mask_of(params: &RenderParams, cloud: &PointCloud, static_points: usize, geometry: &MaskGeometry) -> Option<ScalarRaster> {
     if params.plate_moving_dilation_px == 0 || static_points == 0 || static_points > cloud.len() {
         return None;
     }
-    let camera = match scale < 1.0 {
-        true => camera.resized(
-            ((f64::from(camera.width_px) * scale).floor() as u32).max(1),
-            ((f64::from(camera.height_px) * scale).floor() as u32).max(1),
-        ),
-        false => *camera,
-    };
-    // A radius in the view's pixels, in the mask's (at least 1 where it was).
-    let radius = |r: usize| if r == 0 { 0 } else { ((r as f64 * scale).round() as usize).max(1) };
+    let MaskGeometry { camera, footprint_px, dilation_px, feather_px } = *geometry;
     let split = cloud.len() - static_points;
-    let own = attached_depth(&cloud.positions_world[..split], &camera, radius(params.sparse_footprint_px));
-    let statics = attached_depth(&cloud.positions_world[split..], &camera, radius(params.sparse_footprint_px));
+    let own = attached_depth(&cloud.positions_world[..split], &camera, footprint_px);
+    let statics = attached_depth(&cloud.positions_world[split..], &camera, footprint_px);
     let data = own
         .data
         .iter()
@@ -65,9 +96,8 @@ fn mask_at_scale(params: &RenderParams, cloud: &PointCloud, static_points: usize
         .map(|(&own, &stat)| if own.is_finite() && own < stat * (1.0 - NEARER_MARGIN) { 1.0 } else { 0.0 })
         .collect();
     let nearer = Raster { width: own.width, height: own.height, data };
-    let mut mask = dilated(&nearer, radius(params.plate_moving_dilation_px));
+    let mut mask = dilated(&nearer, dilation_px);
     mask.data.iter_mut().for_each(|v| *v = 1.0 - *v);
-    let feather_px = radius(params.plate_feather_px);
     Some(if feather_px > 0 { box_filtered(&mask, feather_px) } else { mask })
 }
 
@@ -233,7 +263,7 @@ mod tests {
         let aspect = capped.width as f64 / capped.height as f64;
         assert!((aspect - 4.0 / 3.0).abs() < 0.01, "aspect {aspect} of {}x{}", capped.width, capped.height);
         // Sampled at the view's size it is the mask computed there, but on the edges.
-        let full = mask_at_scale(&params, &cloud, statics, &large, 1.0).unwrap();
+        let full = mask_of(&params, &cloud, statics, &MaskGeometry::at_scale(&params, &large, 1.0)).unwrap();
         let sampled = mask_at(&capped, 1280, 960);
         let differing = sampled.data.iter().zip(&full.data).filter(|(a, b)| (**a - **b).abs() > 0.25).count();
         let masked = full.data.iter().filter(|&&v| v < 0.5).count();

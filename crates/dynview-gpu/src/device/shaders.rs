@@ -60,6 +60,8 @@ pub(crate) const SPLAT_RESOLVE: Shader =
     shader!("splat_resolve.wgsl", "common/float_bits.wgsl", "common/outside.wgsl", "common/linear.wgsl");
 /// The sparse samples attached over their footprints.
 pub(crate) const SPLAT_FOOTPRINT: Shader = shader!("splat_footprint.wgsl");
+/// The plates' static mask from the own and static points' splats.
+pub(crate) const STATIC_MASK: Shader = shader!("static_mask.wgsl");
 /// The sparse maps' color and mask as one RGBA image.
 pub(crate) const SPLAT_PACK: Shader = shader!("splat_pack.wgsl");
 /// The sparse consistency filter.
@@ -98,6 +100,7 @@ pub const SHADERS: &[(&str, &str)] = &[
     SPLAT_RESOLVE,
     SPLAT_PACK,
     SPLAT_FOOTPRINT,
+    STATIC_MASK,
     CONSISTENCY,
     BLEND,
     TEMPORAL_WEIGHTS,

@@ -2,7 +2,8 @@
 //! ([`crate::device`]) and each matching its dynview-core counterpart.
 //!
 //! From the bottom up: the image pyramid and push-pull ([`pyramid`]), the z-buffered splats
-//! ([`splat`]) and the sparse consistency filter on them ([`consistency`]), the chosen views'
+//! ([`splat`]) and the sparse consistency filter on them ([`consistency`]), the plates' static
+//! mask from them ([`static_mask`]), the chosen views'
 //! stacked images ([`views`]) and the backward warps into them ([`warp`]), the color initial
 //! guess ([`blend`]), the weights and both systems ([`assemble`]), the rank preference
 //! ([`rank`]), the temporal terms ([`temporal`]) and the red-black solver ([`solver`]). They use
@@ -15,6 +16,7 @@ pub(crate) mod pyramid;
 pub(crate) mod rank;
 pub(crate) mod solver;
 pub(crate) mod splat;
+pub(crate) mod static_mask;
 pub(crate) mod temporal;
 pub(crate) mod views;
 pub(crate) mod warp;

@@ -35,6 +35,16 @@ pub struct GpuCloud {
 }
 
 impl GpuCloud {
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    /// True without points.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
     /// Uploads `cloud` (positions as f32 triples, colors as packed RGBA8); an error when its
     /// positions pass the device's storage limit.
     pub fn upload(ctx: &GpuContext, cloud: &PointCloud) -> Result<Self, GpuError> {
@@ -73,7 +83,7 @@ struct PointsParams {
     count: u32,
     width: u32,
     height: u32,
-    _pad0: u32,
+    first: u32,
     camera_from_world_row0: [f32; 4],
     camera_from_world_row1: [f32; 4],
     camera_from_world_row2: [f32; 4],
@@ -167,6 +177,22 @@ impl SplatKernels {
     /// Projects `cloud` into `camera` (dynview-core's `project_cloud`, without the consistency
     /// filter).
     pub fn project_cloud(&self, ctx: &GpuContext, cloud: &GpuCloud, camera: &Camera) -> Result<GpuSplat, GpuError> {
+        self.project_range(ctx, cloud, 0..cloud.count, camera)
+    }
+
+    /// Projects the points `range` of `cloud` into `camera`, as [`Self::project_cloud`] the
+    /// whole cloud; an empty map where the range is empty or past the cloud's end.
+    pub fn project_range(
+        &self,
+        ctx: &GpuContext,
+        cloud: &GpuCloud,
+        range: std::ops::Range<usize>,
+        camera: &Camera,
+    ) -> Result<GpuSplat, GpuError> {
+        let (first, count) = match range.end <= cloud.count {
+            true => (range.start, range.len()),
+            false => (0, 0),
+        };
         let r = camera.camera_from_world.rotation;
         let t = camera.camera_from_world.translation;
         let k = camera.intrinsics;
@@ -175,16 +201,16 @@ impl SplatKernels {
             [row.x as f32, row.y as f32, row.z as f32, t[i] as f32]
         };
         let params = PointsParams {
-            count: cloud.count as u32,
+            count: count as u32,
             width: camera.width_px,
             height: camera.height_px,
-            _pad0: 0,
+            first: first as u32,
             camera_from_world_row0: row(0),
             camera_from_world_row1: row(1),
             camera_from_world_row2: row(2),
             focal_principal_px: [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32],
         };
-        let project = Projection { kernel: &self.project_points, params: bytemuck::bytes_of(&params), count: cloud.count };
+        let project = Projection { kernel: &self.project_points, params: bytemuck::bytes_of(&params), count };
         self.splat(ctx, project, &cloud.positions, &cloud.colors, camera)
     }
 
@@ -310,7 +336,7 @@ pub(crate) fn wgsl_mirrors() -> Vec<crate::device::shader_layout::Mirror> {
                 count,
                 width,
                 height,
-                _pad0,
+                first,
                 camera_from_world_row0,
                 camera_from_world_row1,
                 camera_from_world_row2,

@@ -10,7 +10,6 @@ use dynview_core::render::plane::{InverseDepthPlane, WorldPlane};
 use dynview_core::render::pyramid::{camera_at, level_sizes};
 use dynview_core::render::{FALLBACK_COLOR, FALLBACK_DEPTH, Method, RenderParams, TimeStepInputs};
 use dynview_core::render::{plates, weights};
-use dynview_core::scene::PointCloud;
 use dynview_core::view_ranking::{ChosenViews, choose_views};
 
 use crate::device::context::GpuContext;
@@ -23,6 +22,7 @@ use crate::passes::pyramid::ImageKernels;
 use crate::passes::rank::RankKernels;
 use crate::passes::solver::{GridSolver, SweepKernel};
 use crate::passes::splat::{GpuCloud, GpuSplat, SplatKernels};
+use crate::passes::static_mask::StaticMaskKernels;
 use crate::passes::temporal::TemporalKernels;
 use crate::passes::warp::WarpKernels;
 
@@ -40,10 +40,9 @@ pub struct GpuInputs {
     /// Per view: its background plate per level (finest first), once the view is uploaded and
     /// if it has one (shared with other time steps' inputs where the host shares the plate).
     plates: Vec<Option<Rc<Vec<GpuImage>>>>,
-    /// The cloud and how many of its points (at its end) are static, kept on the host for the
-    /// static mask of the plates (`render::plates::static_mask`); `None` when no view has a
-    /// plate.
-    plate_cloud: Option<(PointCloud, usize)>,
+    /// How many of the cloud's points (at its end) are static, for the static mask of the
+    /// plates (computed on the GPU, [`StaticMaskKernels`]); `None` when no view has a plate.
+    static_points: Option<usize>,
 }
 
 impl GpuInputs {
@@ -66,7 +65,7 @@ impl GpuInputs {
             positions_world: inputs.cloud.positions_world.clone(),
             views: inputs.views.iter().map(|v| (v.camera, None)).collect(),
             plates: inputs.views.iter().map(|_| None).collect(),
-            plate_cloud: has_plates.then(|| (inputs.cloud.clone(), inputs.static_points)),
+            static_points: has_plates.then_some(inputs.static_points),
         })
     }
 
@@ -206,6 +205,7 @@ pub struct GpuRenderer {
     blend: BlendKernel,
     temporal: TemporalKernels,
     rank: RankKernels,
+    static_mask: StaticMaskKernels,
     /// Plates uploaded for earlier time steps, reused by later ones.
     plates: RefCell<UploadedPlates>,
 }
@@ -229,6 +229,7 @@ impl GpuRenderer {
             blend: BlendKernel::new(ctx),
             temporal: TemporalKernels::new(ctx),
             rank: RankKernels::new(ctx),
+            static_mask: StaticMaskKernels::new(ctx),
             plates: Default::default(),
         }
     }
@@ -298,11 +299,14 @@ impl GpuRenderer {
             .then(|| InverseDepthPlane::fit_points(camera, &inputs.positions_world, previous_plane.as_ref()))
             .flatten();
         // Where the novel view shows the static scene, views with a plate give its color.
-        let static_mask =
-            match inputs.plate_cloud.as_ref().and_then(|(cloud, statics)| plates::static_mask(params, cloud, *statics, camera)) {
-                Some(mask) => Some(GpuImage::upload(ctx, &mask.data, mask.width, mask.height, 1)?),
-                None => None,
-            };
+        let static_mask = match inputs.static_points {
+            Some(statics) => {
+                ctx.set_stage(0, "splat");
+                let geometry = plates::MaskGeometry::of(params, camera);
+                self.static_mask.static_mask(ctx, &self.splat, params, &inputs.cloud, statics, &geometry)?
+            }
+            None => None,
+        };
         let mut state: Option<(GpuImage, GpuImage)> = None;
         let mut solutions = Vec::with_capacity(params.levels);
         let mut view_weight = None;

@@ -3,12 +3,14 @@
 // bindings and `emit` are in common/splat_emit.wgsl.
 
 struct Params {
-    // Number of points.
+    // Number of points projected.
     count: u32,
     // Target image size.
     width: u32,
     height: u32,
-    _pad0: u32,
+    // Index of the first point projected (a range of the cloud: the static mask splats its
+    // own and its static points apart).
+    first: u32,
     // Rows of the target's camera_from_world: rotation row i in xyz, translation i in w.
     camera_from_world_row0: vec4<f32>,
     camera_from_world_row1: vec4<f32>,
@@ -30,7 +32,8 @@ fn project_points(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_wor
         return;
     }
     element_target[e] = OUTSIDE;
-    let p = vec4<f32>(positions_world[e * 3u], positions_world[e * 3u + 1u], positions_world[e * 3u + 2u], 1.0);
+    let q = params.first + e;
+    let p = vec4<f32>(positions_world[q * 3u], positions_world[q * 3u + 1u], positions_world[q * 3u + 2u], 1.0);
     let r0 = params.camera_from_world_row0;
     let r1 = params.camera_from_world_row1;
     let r2 = params.camera_from_world_row2;
@@ -43,7 +46,7 @@ fn project_points(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_wor
     let k = params.focal_principal_px;
     let u = k.x * xc / zc + k.z;
     let v = k.y * yc / zc + k.w;
-    let c = unpack4x8unorm(colors_rgba8[e]);
+    let c = unpack4x8unorm(colors_rgba8[q]);
     // unit_from_u8: code * (1 / 255).
     let color = vec3<f32>(round(c.x * 255.0), round(c.y * 255.0), round(c.z * 255.0)) * (1.0 / 255.0);
     emit(e, u, v, zc, color, params.width, params.height);
