@@ -122,3 +122,19 @@ fn render_on_the_gpu_matches_the_cpu_render() {
     let (ok, log) = render(&event, &path, &tmp.path().join("x"), &["--gpu", "--method", "blend"]);
     assert!(!ok && log.contains("runs on the CPU"), "{log}");
 }
+
+#[test]
+fn a_frame_that_cannot_be_written_is_an_error_naming_it_and_the_others_are_written() {
+    let tmp = tempfile::tempdir().unwrap();
+    let event = tmp.path().join("event");
+    synth(&event, 2, 3, 32, 18);
+    let out = tmp.path().join("o");
+    // A folder where the second frame's PNG goes: the frames are written beside the rendering,
+    // and that one fails.
+    fs::create_dir_all(out.join("00001.png").join("taken")).unwrap();
+    let (ok, log) = render(&event, &event.join("camera_path.json"), &out, &[]);
+    assert!(!ok, "{log}");
+    assert!(log.contains("00001.png"), "{log}");
+    assert!(out.join("00000.png").is_file() && out.join("depth/00000.png").is_file(), "the first frame is written");
+    assert!(out.join("00001.png").join("taken").is_dir(), "what was there is kept");
+}

@@ -93,6 +93,25 @@ impl Backend {
     }
 }
 
+/// Writes each `(index, color, depth)` received as `out/<index>.png` and
+/// `depth_dir/<index>.png` (each file replaced only once complete), until the sender is gone.
+fn write_frames(
+    inbox: &std::sync::mpsc::Receiver<(usize, RgbRaster, ScalarRaster)>,
+    out: &Path,
+    depth_dir: &Path,
+    scale: DepthScale,
+) -> anyhow::Result<()> {
+    for (i, color, depth) in inbox {
+        let color_path = out.join(format!("{i:05}.png"));
+        let mut png = Vec::new();
+        color.to_rgb8().write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+        write_atomic(&color_path, &png).with_context(|| format!("writing {}", color_path.display()))?;
+        let depth_path = depth_dir.join(format!("{i:05}.png"));
+        write_atomic(&depth_path, &depth_png_bytes(&depth, scale)?).with_context(|| format!("writing {}", depth_path.display()))?;
+    }
+    Ok(())
+}
+
 /// Reads the parameters file and applies the command-line overrides.
 pub fn load_params(file: Option<&Path>, method: Option<&str>, no_temporal: bool) -> anyhow::Result<RenderParams> {
     let mut params = match file {
@@ -157,28 +176,42 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut last_step: Option<u32> = None;
     let mut frame_ms = Vec::with_capacity(frames.len());
     let steps = package.time_step_count();
-    for (i, frame) in frames.iter().enumerate() {
-        let t = frame.time.time_step(steps);
-        if cached.as_ref().is_none_or(|(ct, _)| *ct != t) {
-            cached = Some((t, package.time_step_inputs(t, params.levels).with_context(|| format!("loading time step {t}"))?));
+    // The PNGs are encoded and written on a thread of their own while the next frame renders
+    // (at most two frames wait for it).
+    let (to_writer, writer_inbox) = std::sync::mpsc::sync_channel::<(usize, RgbRaster, ScalarRaster)>(2);
+    let writer = {
+        let (out, depth_dir) = (args.out.clone(), depth_dir.clone());
+        std::thread::spawn(move || write_frames(&writer_inbox, &out, &depth_dir, scale))
+    };
+    let mut render_all = || -> anyhow::Result<()> {
+        for (i, frame) in frames.iter().enumerate() {
+            let t = frame.time.time_step(steps);
+            if cached.as_ref().is_none_or(|(ct, _)| *ct != t) {
+                cached = Some((t, package.time_step_inputs(t, params.levels).with_context(|| format!("loading time step {t}"))?));
+            }
+            // Streaming only across consecutive (or equal) time steps; a jump drops the previous frame.
+            if last_step.is_some_and(|lt| lt.abs_diff(t) > 1) {
+                renderer.jump();
+            }
+            last_step = Some(t);
+            let inputs = &cached.as_ref().map(|(_, inputs)| inputs).context("time step not loaded")?;
+            let (color, depth, ms) =
+                renderer.render(&params, &frame.camera, t, inputs, &clock).with_context(|| format!("rendering frame {i}"))?;
+            frame_ms.push(ms);
+            if to_writer.send((i, color, depth)).is_err() {
+                // The writer stopped on an error, which joining it gives.
+                break;
+            }
+            bars.update("render", i as u64 + 1, frames.len() as u64);
         }
-        // Streaming only across consecutive (or equal) time steps; a jump drops the previous frame.
-        if last_step.is_some_and(|lt| lt.abs_diff(t) > 1) {
-            renderer.jump();
-        }
-        last_step = Some(t);
-        let inputs = &cached.as_ref().map(|(_, inputs)| inputs).context("time step not loaded")?;
-        let (color, depth, ms) =
-            renderer.render(&params, &frame.camera, t, inputs, &clock).with_context(|| format!("rendering frame {i}"))?;
-        frame_ms.push(ms);
-        let color_path = args.out.join(format!("{i:05}.png"));
-        let mut png = Vec::new();
-        color.to_rgb8().write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
-        write_atomic(&color_path, &png).with_context(|| format!("writing {}", color_path.display()))?;
-        let depth_path = depth_dir.join(format!("{i:05}.png"));
-        write_atomic(&depth_path, &depth_png_bytes(&depth, scale)?).with_context(|| format!("writing {}", depth_path.display()))?;
-        bars.update("render", i as u64 + 1, frames.len() as u64);
-    }
+        Ok(())
+    };
+    let rendered = render_all();
+    // The frames sent so far are written (or the writer's error kept) before anything returns.
+    drop(to_writer);
+    let written = writer.join().map_err(|_| anyhow::anyhow!("the thread writing the frames panicked"))?;
+    rendered?;
+    written?;
     bars.finish();
     println!(
         "rendered {} frames with {} on the {} into {} ({})",
