@@ -6,11 +6,14 @@
 #   3. with SCENE (a prepared package, e.g. copied into .device/) and CAMERA_PATH (its novel
 #      camera and time step), that real package at SCENE_SIZES (default 640x360,1920x1080).
 # SIZES and RUNS override the sizes and timed frames (a quick check on lavapipe here:
-# `OUT=/tmp/gpu SIZES=480x270 RUNS=1 bash tools/device/gpu-bench.sh`).
+# `OUT=/tmp/gpu SIZES=480x270 RUNS=1 bash tools/device/gpu-bench.sh`; the binaries unpacked by it
+# stay in `.device/`, ignored).
 set -uo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 cd "$root"
 : "${OUT:?set OUT to the folder for the reports}"
+# The binaries `pack.sh` compressed.
+if [ -f .device/bin.tar.xz ]; then tar -xJf .device/bin.tar.xz -C .device; fi
 sizes="${SIZES:-1920x1080,3840x2160}"
 runs="${RUNS:-5}"
 largest="${sizes##*,}"

@@ -2,13 +2,17 @@
 # The GPU path's correctness on the lent device machine, in one call, after
 # `tools/device/pack.sh --tests` here (carry [".device", ".gl"]): every dynview-gpu test (the
 # sweep kernels, both of them, against the CPU; the image kernels; the plane fit; the
-# consistency filter) and `dynview render --gpu` against the CPU render, on the device's own
+# consistency filter; the static mask), whole frames against the CPU's (tests/gpu_parity.rs:
+# with and without the temporal terms and the plates) and `dynview render --gpu` against the
+# CPU render, on the device's own
 # GPU, then one timed `dynview render` of a 1920x1080 synthetic event on the GPU and the CPU.
 # Logs go to $OUT. Checked here on lavapipe with `OUT=/tmp/gpu-check bash tools/device/gpu-check.sh`.
 set -uo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 cd "$root"
 : "${OUT:?set OUT to the folder for the logs}"
+# The binaries `pack.sh` compressed.
+if [ -f .device/bin.tar.xz ]; then tar -xJf .device/bin.tar.xz -C .device; fi
 # The loaders in .gl/, on the device only (it may have libvulkan but not the GL dispatch
 # libraries NVIDIA's Vulkan driver needs); a machine with its own loader keeps it.
 if command -v nvidia-smi >/dev/null || ! ldconfig -p | grep -q libvulkan.so.1; then
