@@ -61,7 +61,7 @@ pub(crate) const SPLAT_RESOLVE: Shader =
 /// The sparse samples attached over their footprints.
 pub(crate) const SPLAT_FOOTPRINT: Shader = shader!("splat_footprint.wgsl");
 /// The plates' static mask from the own and static points' splats.
-pub(crate) const STATIC_MASK: Shader = shader!("static_mask.wgsl");
+pub(crate) const STATIC_MASK: Shader = shader!("static_mask.wgsl", "common/float_bits.wgsl");
 /// The sparse maps' color and mask as one RGBA image.
 pub(crate) const SPLAT_PACK: Shader = shader!("splat_pack.wgsl");
 /// The sparse consistency filter.

@@ -4,6 +4,7 @@
 // nearer: 1 where an own point lies more than NEARER_MARGIN nearer than the static surface;
 // grown: 1 - the maximum of `nearer` over the square window of `radius` (the static pixels);
 // feathered: the mean of `grown` over the square window of `radius` cut at the image's edges.
+// `is_finite` is common/float_bits.wgsl's.
 
 struct MaskParams {
     width: u32,
@@ -20,10 +21,6 @@ struct MaskParams {
 // nearer: the static points' depth; unused by the others (bound to `first_in`'s buffer).
 @group(0) @binding(2) var<storage, read> second_in: array<f32>;
 @group(0) @binding(3) var<storage, read_write> mask_out: array<f32>;
-
-fn is_finite(x: f32) -> bool {
-    return x == x && abs(x) <= 3.40282347e38;
-}
 
 @compute @workgroup_size(8, 8)
 fn nearer(@builtin(global_invocation_id) id: vec3<u32>) {
