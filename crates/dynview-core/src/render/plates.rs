@@ -80,9 +80,15 @@ impl MaskGeometry {
     }
 }
 
+/// True when a cloud of `points` points, the last `static_points` static, has a static mask:
+/// the plates on, and static points among its points (the CPU's and the GPU's test).
+pub fn has_mask(params: &RenderParams, static_points: usize, points: usize) -> bool {
+    params.plate_moving_dilation_px > 0 && static_points > 0 && static_points <= points
+}
+
 /// The static mask on `geometry`.
 fn mask_of(params: &RenderParams, cloud: &PointCloud, static_points: usize, geometry: &MaskGeometry) -> Option<ScalarRaster> {
-    if params.plate_moving_dilation_px == 0 || static_points == 0 || static_points > cloud.len() {
+    if !has_mask(params, static_points, cloud.len()) {
         return None;
     }
     let MaskGeometry { camera, footprint_px, dilation_px, feather_px } = *geometry;

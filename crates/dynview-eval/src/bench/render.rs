@@ -2,6 +2,7 @@
 //! pyramid level and per stage, on this machine with all cores (release build), and on the GPU
 //! that wgpu finds (lavapipe without one: correctness, not speed).
 
+use std::borrow::Cow;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -150,9 +151,10 @@ pub fn run(options: Options) -> anyhow::Result<()> {
     let mut gpu_rows = String::new();
     let mut playback_rows = String::new();
     for (w, h) in sizes {
+        // The package's inputs are shared by every size; the synthetic event is made per size.
         let (inputs, camera) = match &package {
-            Some((inputs, camera)) => (inputs.clone(), camera.resized(w, h)),
-            None => bench_event(w, h)?,
+            Some((inputs, camera)) => (Cow::Borrowed(inputs), camera.resized(w, h)),
+            None => bench_event(w, h).map(|(inputs, camera)| (Cow::Owned(inputs), camera))?,
         };
         let origin = Instant::now();
         let clock = move || origin.elapsed().as_secs_f64() * 1000.0;

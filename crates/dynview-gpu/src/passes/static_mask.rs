@@ -6,7 +6,7 @@
 //! its time.
 
 use dynview_core::render::RenderParams;
-use dynview_core::render::plates::{MaskGeometry, NEARER_MARGIN};
+use dynview_core::render::plates::{self, MaskGeometry, NEARER_MARGIN};
 
 use crate::device::context::GpuContext;
 use crate::device::error::GpuError;
@@ -59,7 +59,7 @@ impl StaticMaskKernels {
         geometry: &MaskGeometry,
     ) -> Result<Option<GpuImage>, GpuError> {
         let count = cloud.len();
-        if params.plate_moving_dilation_px == 0 || static_points == 0 || static_points > count {
+        if !plates::has_mask(params, static_points, count) {
             return Ok(None);
         }
         let camera = &geometry.camera;
