@@ -125,6 +125,11 @@ pub struct Args {
     /// (docs/results/moving.md).
     #[arg(long, value_name = "RAYS", default_value_t = 0, conflicts_with = "no_hull")]
     hull_region_rays: usize,
+    /// Cells of the visual hull's ray grid around a hull point whose own stereo points move it
+    /// from where its ray enters the hull onto their surface (a flat face between matched
+    /// edges). Off (0) by default (docs/results/moving.md).
+    #[arg(long, value_name = "CELLS", default_value_t = 0, conflicts_with = "no_hull")]
+    hull_own_reach: usize,
     /// Keep the steps' own points that float in front of the static scene where two or more
     /// still cameras see their background plate (by default they are dropped: nothing stands
     /// where a camera looking through it sees the wall behind).
@@ -269,6 +274,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     if let Some(hull) = options.package.hull.as_mut() {
         hull.min_region_rays = args.hull_region_rays;
+        hull.own_point_reach = args.hull_own_reach;
     }
     if args.no_free_space {
         options.package.free_space = None;
