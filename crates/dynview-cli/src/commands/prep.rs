@@ -126,9 +126,10 @@ pub struct Args {
     #[arg(long, value_name = "RAYS", default_value_t = 0, conflicts_with = "no_hull")]
     hull_region_rays: usize,
     /// Cells of the visual hull's ray grid around a hull point whose own stereo points move it
-    /// from where its ray enters the hull onto their surface (a flat face between matched
-    /// edges). Off (0) by default (docs/results/moving.md).
-    #[arg(long, value_name = "CELLS", default_value_t = 0, conflicts_with = "no_hull")]
+    /// from where its ray enters the hull onto their surface (a plain shirt between a textured
+    /// face and arms, a flat face between matched edges); 0 leaves hull points where their rays
+    /// enter the hull (docs/results/moving.md).
+    #[arg(long, value_name = "CELLS", default_value_t = 6, conflicts_with = "no_hull")]
     hull_own_reach: usize,
     /// Keep the steps' own points that float in front of the static scene where two or more
     /// still cameras see their background plate (by default they are dropped: nothing stands

@@ -84,7 +84,8 @@ pub struct HullOptions {
     pub own_point_band: f64,
     /// Cells (of the ray grid) around a hull point whose own points, where they lie inside the
     /// hull on the ray's foreground, move it onto their surface; 0: the point stays where the
-    /// ray enters the hull.
+    /// ray enters the hull. 6 by default (`docs/results/moving.md`: every held-out camera of
+    /// both Panoptic arcs gains).
     pub own_point_reach: usize,
 }
 
@@ -104,7 +105,7 @@ impl Default for HullOptions {
             max_background_votes: 0,
             near_fraction: 0.1,
             own_point_band: 0.25,
-            own_point_reach: 0,
+            own_point_reach: 6,
         }
     }
 }
