@@ -256,8 +256,9 @@ fn view_points(views: &[HullView], c: usize, own: &PointCloud, options: &HullOpt
     let stride = (camera.width_px / options.rays_across).max(1) as usize;
     let near = options.near_fraction * view.median_static_depth_m;
     let far = view.far_depth_m.max(near * 1.01);
-    let own_cells = own_depths_by_cell(camera, own, stride);
-    let cells_x = w.div_ceil(stride);
+    let own_cells = OwnCells::of(camera, own, stride);
+    // The own points that may carry a hull point: those on this view's foreground.
+    let foreground_cells = (options.own_point_reach > 0).then(|| own_cells.on(&view.foreground.mask, camera));
     let strides = region_strides(&view.foreground.mask, stride, options.min_region_rays)?;
     let mut out = PointCloud::default();
     for y in 0..h {
@@ -269,13 +270,12 @@ fn view_points(views: &[HullView], c: usize, own: &PointCloud, options: &HullOpt
             }
             let pixel = DVec2::new(x as f64, y as f64);
             let Some(entry) = entry_depth(views, c, pixel, near, far, options) else { continue };
-            let cell = &own_cells[(y / stride) * cells_x + x / stride];
-            if cell.iter().any(|&(_, d)| d >= entry * 0.95 && d <= entry * (1.0 + options.own_point_band)) {
+            if own_cells.at(x, y).iter().any(|&(_, d)| d >= entry * 0.95 && d <= entry * (1.0 + options.own_point_band)) {
                 continue;
             }
-            let depth = match options.own_point_reach {
-                0 => entry,
-                reach => surface_depth(views, c, pixel, entry, far, &own_cells, (cells_x, stride, reach), options),
+            let depth = match &foreground_cells {
+                None => entry,
+                Some(cells) => surface_depth(views, c, pixel, entry, far, cells, options),
             };
             let p = camera.unproject_world(pixel, depth);
             out.positions_world.push([p.x as f32, p.y as f32, p.z as f32]);
@@ -320,19 +320,48 @@ fn region_strides(mask: &ScalarRaster, base: usize, min_rays: usize) -> SfmResul
     Ok(labels.iter().map(|&l| stride_of[l as usize]).collect())
 }
 
-/// Per cell of `stride` px of `camera`'s image, the pixels and depths (m) of the `own` points
-/// in it.
-fn own_depths_by_cell(camera: &Camera, own: &PointCloud, stride: usize) -> Vec<Vec<(DVec2, f64)>> {
-    let (cells_x, cells_y) = ((camera.width_px as usize).div_ceil(stride), (camera.height_px as usize).div_ceil(stride));
-    let mut cells = vec![Vec::new(); cells_x * cells_y];
-    for p in &own.positions_world {
-        let Some((px, z)) = camera.project_world(glam::DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))) else { continue };
-        if z > 0.0 && camera.contains(px) {
-            let (x, y) = nearest_pixel(camera, px);
-            cells[(y / stride) * cells_x + x / stride].push((px, z));
+/// The step's own points binned by the cells of one camera's ray grid: per cell of `stride` px,
+/// the pixel and depth (m) of each point in it.
+struct OwnCells {
+    stride: usize,
+    cells_x: usize,
+    cells: Vec<Vec<(DVec2, f64)>>,
+}
+
+impl OwnCells {
+    /// The points of `own` in front of `camera` and inside its image.
+    fn of(camera: &Camera, own: &PointCloud, stride: usize) -> Self {
+        let (cells_x, cells_y) = ((camera.width_px as usize).div_ceil(stride), (camera.height_px as usize).div_ceil(stride));
+        let mut cells = vec![Vec::new(); cells_x * cells_y];
+        for p in &own.positions_world {
+            let Some((px, z)) = camera.project_world(glam::DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))) else { continue };
+            if z > 0.0 && camera.contains(px) {
+                let (x, y) = nearest_pixel(camera, px);
+                cells[(y / stride) * cells_x + x / stride].push((px, z));
+            }
         }
+        Self { stride, cells_x, cells }
     }
-    cells
+
+    /// The same cells, each with only its points on `mask` (0/1, `camera`'s size).
+    fn on(&self, mask: &ScalarRaster, camera: &Camera) -> Self {
+        let on_mask = |px: DVec2| {
+            let (x, y) = nearest_pixel(camera, px);
+            mask.get(x, y) >= 0.5
+        };
+        let cells = self.cells.iter().map(|cell| cell.iter().copied().filter(|&(px, _)| on_mask(px)).collect()).collect();
+        Self { stride: self.stride, cells_x: self.cells_x, cells }
+    }
+
+    /// The points of the cell holding pixel `(x, y)`.
+    fn at(&self, x: usize, y: usize) -> &[(DVec2, f64)] {
+        &self.cells[(y / self.stride) * self.cells_x + x / self.stride]
+    }
+
+    /// Cells down the image.
+    fn cells_y(&self) -> usize {
+        self.cells.len() / self.cells_x.max(1)
+    }
 }
 
 /// The pixel of `camera`'s image nearest to `px` (a point inside it: [`Camera::contains`]).
@@ -344,59 +373,66 @@ fn nearest_pixel(camera: &Camera, px: DVec2) -> (usize, usize) {
 /// Where the ray of view `c` through `pixel` enters the hull between `near` and `far` (z-depth,
 /// m); `None` where it does not, or is inside already at `near` (nothing bounds it there).
 fn entry_depth(views: &[HullView], c: usize, pixel: DVec2, near: f64, far: f64, options: &HullOptions) -> Option<f64> {
-    let camera = &views[c].camera;
-    let n = options.depth_samples;
-    let depth_at = |s: f64| 1.0 / (1.0 / near + s * (1.0 / far - 1.0 / near));
-    let inside = |depth: f64| is_inside(views, c, camera.unproject_world(pixel, depth), options);
-    let first = (0..n).find(|&i| inside(depth_at(i as f64 / (n - 1) as f64)))?;
-    if first == 0 {
-        return None;
+    match crossing(views, c, pixel, (near, far), 0, true, options)? {
+        (0, _) => None,
+        (_, depth) => Some(depth),
     }
-    let (mut outside, mut entered) = ((first - 1) as f64 / (n - 1) as f64, first as f64 / (n - 1) as f64);
-    for _ in 0..options.refine_steps {
-        let mid = 0.5 * (outside + entered);
-        if inside(depth_at(mid)) {
-            entered = mid;
-        } else {
-            outside = mid;
-        }
-    }
-    Some(depth_at(entered))
 }
 
-/// Where the ray of view `c` through `pixel`, entering the hull at `entry`, meets the surface
-/// the own points around it give ([`HullOptions::own_point_reach`]): in each cell within
-/// `reach` cells (`grid`: cells across, their stride, the reach), the nearest own point on the
-/// view's foreground that lies inside the hull's depth interval on this ray; their depths
-/// weighted by `1 / (1 + (distance / stride)^2)`, clamped to the interval. `entry` where no
-/// cell has one.
-#[allow(clippy::too_many_arguments)]
-fn surface_depth(
+/// Where the ray of view `c` through `pixel`, inside the hull at `entry`, leaves it before
+/// `far` (sampled and refined as [`entry_depth`]); `far` where it does not.
+fn exit_depth(views: &[HullView], c: usize, pixel: DVec2, entry: f64, far: f64, options: &HullOptions) -> f64 {
+    crossing(views, c, pixel, (entry, far), 1, false, options).map_or(far, |(_, depth)| depth)
+}
+
+/// The first of [`HullOptions::depth_samples`] samples of the ray of view `c` through `pixel`
+/// (evenly in inverse depth over `(from, to)`, from sample `first` on) that is inside the hull
+/// when `inside` (outside when not), and the depth on the inside side of that crossing after
+/// [`HullOptions::refine_steps`] bisections with the sample before it; `None` where no sample is.
+fn crossing(
     views: &[HullView],
     c: usize,
     pixel: DVec2,
-    entry: f64,
-    far: f64,
-    own_cells: &[Vec<(DVec2, f64)>],
-    grid: (usize, usize, usize),
+    (from, to): (f64, f64),
+    first: usize,
+    inside: bool,
     options: &HullOptions,
-) -> f64 {
-    let (cells_x, stride, reach) = grid;
-    let view = &views[c];
-    let cells_y = own_cells.len() / cells_x.max(1);
+) -> Option<(usize, f64)> {
+    let camera = &views[c].camera;
+    let n = options.depth_samples;
+    let depth_at = |s: f64| 1.0 / (1.0 / from + s * (1.0 / to - 1.0 / from));
+    let is_in = |depth: f64| is_inside(views, c, camera.unproject_world(pixel, depth), options);
+    let found = (first..n).find(|&i| is_in(depth_at(i as f64 / (n - 1) as f64)) == inside)?;
+    if found == 0 {
+        return Some((0, depth_at(0.0)));
+    }
+    // The sides of the crossing inside and outside the hull.
+    let (before, at) = ((found - 1) as f64 / (n - 1) as f64, found as f64 / (n - 1) as f64);
+    let (mut inner, mut outer) = if inside { (at, before) } else { (before, at) };
+    for _ in 0..options.refine_steps {
+        let mid = 0.5 * (inner + outer);
+        if is_in(depth_at(mid)) {
+            inner = mid;
+        } else {
+            outer = mid;
+        }
+    }
+    Some((found, depth_at(inner)))
+}
+
+/// Where the ray of view `c` through `pixel`, entering the hull at `entry`, meets the surface
+/// the own points around it give ([`HullOptions::own_point_reach`]): in each cell within the
+/// reach (`cells`: the own points on the view's foreground), the nearest point that lies inside
+/// the hull's depth interval on this ray; their depths weighted by
+/// `1 / (1 + (distance / stride)^2)`, clamped to the interval. `entry` where no cell has one.
+fn surface_depth(views: &[HullView], c: usize, pixel: DVec2, entry: f64, far: f64, cells: &OwnCells, options: &HullOptions) -> f64 {
+    let (reach, stride) = (options.own_point_reach, cells.stride);
     let (cx, cy) = (pixel.x as usize / stride, pixel.y as usize / stride);
-    let on_foreground = |px: DVec2| {
-        let (x, y) = nearest_pixel(&view.camera, px);
-        view.foreground.mask.get(x, y) >= 0.5
-    };
-    // Per cell, its nearest own point on the foreground behind the entry.
+    // Per cell, its nearest point behind the entry.
     let mut nearest: Vec<(DVec2, f64)> = Vec::new();
-    for y in cy.saturating_sub(reach)..(cy + reach + 1).min(cells_y) {
-        for x in cx.saturating_sub(reach)..(cx + reach + 1).min(cells_x) {
-            let best = own_cells[y * cells_x + x]
-                .iter()
-                .filter(|(px, d)| *d >= entry * 0.97 && on_foreground(*px))
-                .min_by(|a, b| a.1.total_cmp(&b.1));
+    for y in cy.saturating_sub(reach)..(cy + reach + 1).min(cells.cells_y()) {
+        for x in cx.saturating_sub(reach)..(cx + reach + 1).min(cells.cells_x) {
+            let best = cells.cells[y * cells.cells_x + x].iter().filter(|(_, d)| *d >= entry * 0.97).min_by(|a, b| a.1.total_cmp(&b.1));
             nearest.extend(best);
         }
     }
@@ -412,26 +448,6 @@ fn surface_depth(
         weights += w;
     }
     if weights == 0.0 { entry } else { (sum / weights).clamp(entry, exit) }
-}
-
-/// Where the ray of view `c` through `pixel`, inside the hull at `entry`, leaves it before
-/// `far` (sampled as [`entry_depth`] samples, refined alike); `far` where it does not.
-fn exit_depth(views: &[HullView], c: usize, pixel: DVec2, entry: f64, far: f64, options: &HullOptions) -> f64 {
-    let camera = &views[c].camera;
-    let n = options.depth_samples;
-    let depth_at = |s: f64| 1.0 / (1.0 / entry + s * (1.0 / far - 1.0 / entry));
-    let inside = |depth: f64| is_inside(views, c, camera.unproject_world(pixel, depth), options);
-    let Some(last) = (1..n).find(|&i| !inside(depth_at(i as f64 / (n - 1) as f64))) else { return far };
-    let (mut inner, mut left) = ((last - 1) as f64 / (n - 1) as f64, last as f64 / (n - 1) as f64);
-    for _ in 0..options.refine_steps {
-        let mid = 0.5 * (inner + left);
-        if inside(depth_at(mid)) {
-            inner = mid;
-        } else {
-            left = mid;
-        }
-    }
-    depth_at(inner)
 }
 
 /// Whether `point` is inside the hull as the views other than `c` see it.
