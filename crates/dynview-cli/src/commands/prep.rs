@@ -9,6 +9,7 @@ use anyhow::{Context, bail};
 use std::ops::Range;
 
 use dynview_sfm::dense::densify::DensifyOptions;
+use dynview_sfm::dense::hull::HullOptions;
 use dynview_sfm::input::timing::SyncMethod;
 use dynview_sfm::input::timing::retime::Retime;
 use dynview_sfm::mapping::step_adjust::StepAdjustOptions;
@@ -129,7 +130,7 @@ pub struct Args {
     /// from where its ray enters the hull onto their surface (a plain shirt between a textured
     /// face and arms, a flat face between matched edges); 0 leaves hull points where their rays
     /// enter the hull (docs/results/moving.md).
-    #[arg(long, value_name = "CELLS", default_value_t = 6, conflicts_with = "no_hull")]
+    #[arg(long, value_name = "CELLS", default_value_t = HullOptions::default().own_point_reach, conflicts_with = "no_hull")]
     hull_own_reach: usize,
     /// Keep the steps' own points that float in front of the static scene where two or more
     /// still cameras see their background plate (by default they are dropped: nothing stands
