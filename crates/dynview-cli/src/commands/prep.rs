@@ -114,6 +114,12 @@ pub struct Args {
     /// still (by default it replaces the static points found across time, which seed it).
     #[arg(long)]
     no_plates: bool,
+    /// Keep each plate as estimated (the colour each pixel showed longest): by default, where
+    /// someone stood in front of the background longer than it was seen and the static points
+    /// other cameras see show one of the pixel's other colours (seen in at least 15% of the
+    /// frames), that colour is the plate's (docs/PREP.md).
+    #[arg(long, conflicts_with = "no_plates")]
+    no_plate_repair: bool,
     /// No points from the visual hull of what moves (by default, with plates of four cameras
     /// or more, rays through each camera's foreground give moving things without stereo points
     /// a depth where they enter the space every other camera's foreground allows).
@@ -271,6 +277,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.no_plates {
         options.package.plates = None;
     }
+    if let Some(plates) = options.package.plates.as_mut().filter(|_| args.no_plate_repair) {
+        plates.repair_min_share = 0.0;
+    }
     if args.no_hull {
         options.package.hull = None;
     }
@@ -410,6 +419,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "static cloud: {statics} points, {:.0} lent to each time step on average",
                 package.borrowed_points as f64 / package.time_steps.max(1) as f64
             );
+        }
+        if let Some(repaired) = package.repaired_plate_pixels.filter(|&n| n > 0) {
+            println!("plates: {repaired} pixels repaired where someone stood longer than the background was seen");
         }
         if !package.color_changes.is_empty() {
             let changes: Vec<String> = package.color_changes.iter().map(|(name, change)| format!("{name} {change:.0}")).collect();

@@ -15,6 +15,10 @@
 //!    show their plate's color there in the step's frame ([`PlateCloudOptions::color_tolerance`]):
 //!    where something moved in front of it, the step's own points stand instead.
 //!
+//! 5. Before step 3 counts, each plate is repaired where someone stood in front of the
+//!    background longer than it was seen ([`super::plate_repair`], [`PlateCloudOptions::repair_min_share`]):
+//!    the points the other cameras see give the colour it should show.
+//!
 //! Colors are compared within one camera (frame against that camera's plate), so exposure and
 //! white balance that differ between cameras do not matter.
 
@@ -29,6 +33,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::densify::{DensifyOptions, densify};
+use super::plate_repair::repair_plate;
 use super::plates::{Plate, PlateEstimator, PlateOptions};
 use super::static_cloud::{StaticCloud, StepFrames, agreeing_cameras, difference, sample};
 use crate::error::{SfmError, SfmResult};
@@ -54,6 +59,10 @@ pub struct PlateCloudOptions {
     /// Voxel edge in pixels of the first camera at the points' median depth: the step's own
     /// points in or next to the voxel of a lent point are left to it.
     pub voxel_px: f64,
+    /// Least share of the frames in which a plate pixel's other colour must have been seen for
+    /// it to replace the plate's where the points other cameras see show that colour (0 turns
+    /// the repair off; [`super::plate_repair`]).
+    pub repair_min_share: f32,
 }
 
 impl Default for PlateCloudOptions {
@@ -71,6 +80,7 @@ impl Default for PlateCloudOptions {
             seen_tolerance: 0.1,
             color_tolerance: 0.06,
             voxel_px: 2.0,
+            repair_min_share: 0.15,
         }
     }
 }
@@ -119,10 +129,11 @@ fn bgr_mat(image: &image::RgbImage) -> SfmResult<Mat> {
 /// The static cloud grown from `plates` (one per camera, `None` for a camera that moves), seeded
 /// with `seeds` (static points: each view's depth range and first guesses), and lent to every step
 /// whose frames (`frames_at`) agree with the plates there. `None` when fewer than two cameras have
-/// a plate.
+/// a plate. The plates are repaired on the way ([`PlateCloudOptions::repair_min_share`]); the
+/// cloud's `repaired_plate_pixels` counts the pixels changed.
 pub fn plate_cloud(
     cameras: &[Vec<Camera>],
-    plates: &[Option<Plate>],
+    plates: &mut [Option<Plate>],
     seeds: &PointCloud,
     frames_at: impl Fn(usize) -> SfmResult<StepFrames> + Sync,
     options: &PlateCloudOptions,
@@ -148,34 +159,23 @@ pub fn plate_cloud(
         views: vec![2; seeds.len()],
     };
     let dense = densify(&views, &sparse, &options.densify)?;
-    // Per point and camera, the plate's color where the point lands, for the cameras that see it.
-    let count = cameras.len();
-    let seen_in = |p: DVec3, color: [u8; 3]| -> Vec<Option<[f32; 3]>> {
-        let color = color.map(|v| f32::from(v) / 255.0);
-        (0..count)
-            .map(|c| {
-                let plate = plates.get(c)?.as_ref()?;
-                let (pixel, _) = cameras[c].first()?.project_world(p)?;
-                let index = nearest_index(&plate.image, pixel.x, pixel.y)?;
-                let shown = sample(&plate.image, pixel.x, pixel.y)?;
-                (plate.confidence[index] >= options.min_confidence && difference(shown, color) <= options.seen_tolerance).then_some(shown)
-            })
-            .collect()
-    };
+    let mut kept = seen_points(cameras, plates, &dense.positions_world, &dense.colors, options);
     let mut out = StaticCloud::default();
-    let mut own = Vec::new();
-    let mut seen = Vec::new();
-    for (position, &color) in dense.positions_world.iter().zip(&dense.colors) {
-        let p = DVec3::new(position.x, position.y, position.z);
-        let shown = seen_in(p, color);
-        let n = shown.iter().filter(|s| s.is_some()).count();
-        if n >= 2 {
-            out.points.positions_world.push([p.x as f32, p.y as f32, p.z as f32]);
-            out.points.colors.push(color);
-            own.extend(shown);
-            seen.push(n);
+    if options.repair_min_share > 0.0 {
+        let count = cameras.len();
+        for &c in &with_plate {
+            let seen_elsewhere = |i: usize| (0..count).filter(|&o| o != c && kept.shown[i * count + o].is_some()).count() >= 2;
+            let plate = plates[c].as_mut().expect("cameras with a plate only");
+            out.repaired_plate_pixels +=
+                repair_plate(plate, &cameras[c][0], &kept.points, seen_elsewhere, options.repair_min_share, options.seen_tolerance);
+        }
+        if out.repaired_plate_pixels > 0 {
+            kept = seen_points(cameras, plates, &dense.positions_world, &dense.colors, options);
         }
     }
+    let Kept { points, shown: own, seen } = kept;
+    out.points = points;
+    let count = cameras.len();
     out.candidates = dense.positions_world.len();
     out.voxel_edge = voxel_edge(cameras, &out.points, options.voxel_px);
     let at_step = |t: usize| -> Vec<Camera> { cameras.iter().map(|c| c[t]).collect() };
@@ -196,6 +196,57 @@ pub fn plate_cloud(
         })
         .collect::<SfmResult<_>>()?;
     Ok(Some(out))
+}
+
+/// The dense points seen by two cameras or more, with per point and camera the plate's colour
+/// where a camera sees it (`shown[i * cameras + c]`) and how many do.
+struct Kept {
+    points: PointCloud,
+    shown: Vec<Option<[f32; 3]>>,
+    seen: Vec<usize>,
+}
+
+/// A dense point kept: where it is, its colour, and per camera the plate's colour where seen.
+type SeenPoint = (DVec3, [u8; 3], Vec<Option<[f32; 3]>>);
+
+/// A camera *sees* a point where it lands inside its plate, the plate is confident and shows
+/// the point's colour; the points seen by fewer than two cameras are dropped.
+fn seen_points(
+    cameras: &[Vec<Camera>],
+    plates: &[Option<Plate>],
+    positions: &[Vector3<f64>],
+    colors: &[[u8; 3]],
+    options: &PlateCloudOptions,
+) -> Kept {
+    let seen_in = |p: DVec3, color: [u8; 3]| -> Vec<Option<[f32; 3]>> {
+        let color = color.map(|v| f32::from(v) / 255.0);
+        (0..cameras.len())
+            .map(|c| {
+                let plate = plates.get(c)?.as_ref()?;
+                let (pixel, _) = cameras[c].first()?.project_world(p)?;
+                let index = nearest_index(&plate.image, pixel.x, pixel.y)?;
+                let shown = sample(&plate.image, pixel.x, pixel.y)?;
+                (plate.confidence[index] >= options.min_confidence && difference(shown, color) <= options.seen_tolerance).then_some(shown)
+            })
+            .collect()
+    };
+    let per_point: Vec<SeenPoint> = positions
+        .par_iter()
+        .zip(colors)
+        .filter_map(|(position, &color)| {
+            let p = DVec3::new(position.x, position.y, position.z);
+            let shown = seen_in(p, color);
+            (shown.iter().filter(|s| s.is_some()).count() >= 2).then_some((p, color, shown))
+        })
+        .collect();
+    let mut kept = Kept { points: PointCloud::default(), shown: Vec::new(), seen: Vec::new() };
+    for (p, color, shown) in per_point {
+        kept.points.positions_world.push([p.x as f32, p.y as f32, p.z as f32]);
+        kept.points.colors.push(color);
+        kept.seen.push(shown.iter().filter(|s| s.is_some()).count());
+        kept.shown.extend(shown);
+    }
+    kept
 }
 
 fn plate_of(plates: &[Option<Plate>], c: usize) -> &Plate {
@@ -279,7 +330,7 @@ mod tests {
     fn the_plates_give_a_dense_wall_lent_except_where_something_stands_in_front() {
         let (cameras, frames) = event();
         let options = PlateCloudOptions::default();
-        let plates = estimate_plates(&cameras, |t| Ok(frames[t].clone()), &options.plates).expect("in memory");
+        let mut plates = estimate_plates(&cameras, |t| Ok(frames[t].clone()), &options.plates).expect("in memory");
         assert!(plates.iter().all(Option::is_some), "every camera stands still");
         // The plate shows the wall where the dark thing stood for one step of six.
         let plate = plates[1].as_ref().expect("a plate");
@@ -290,7 +341,7 @@ mod tests {
             seeds.positions_world.push([x, y, WALL_Z as f32]);
             seeds.colors.push(wall_color(DVec3::new(f64::from(x), f64::from(y), WALL_Z)).0);
         }
-        let statics = plate_cloud(&cameras, &plates, &seeds, |t| Ok(frames[t].clone()), &options).expect("in memory").expect("plates");
+        let statics = plate_cloud(&cameras, &mut plates, &seeds, |t| Ok(frames[t].clone()), &options).expect("in memory").expect("plates");
         assert!(statics.points.len() > 1000, "a dense wall: {} points", statics.points.len());
         let on_wall = statics.points.positions_world.iter().filter(|p| (f64::from(p[2]) - WALL_Z).abs() < 0.01 * WALL_Z).count();
         assert!(on_wall * 100 >= statics.points.len() * 98, "{on_wall} of {} points on the wall", statics.points.len());
@@ -320,10 +371,11 @@ mod tests {
         cameras[0][STEPS - 1] = moved;
         cameras[1][STEPS - 1] = moved;
         assert!(!stands_still(&cameras[0]) && stands_still(&cameras[2]));
-        let plates = estimate_plates(&cameras, |t| Ok(frames[t].clone()), &PlateOptions::default()).expect("in memory");
+        let mut plates = estimate_plates(&cameras, |t| Ok(frames[t].clone()), &PlateOptions::default()).expect("in memory");
         assert_eq!(plates.iter().map(Option::is_some).collect::<Vec<_>>(), [false, false, true]);
         let seeds = PointCloud { positions_world: vec![[0.0, 0.0, 5.0]], colors: vec![[128; 3]] };
-        let grown = plate_cloud(&cameras, &plates, &seeds, |t| Ok(frames[t].clone()), &PlateCloudOptions::default()).expect("in memory");
+        let grown =
+            plate_cloud(&cameras, &mut plates, &seeds, |t| Ok(frames[t].clone()), &PlateCloudOptions::default()).expect("in memory");
         assert!(grown.is_none());
     }
 }

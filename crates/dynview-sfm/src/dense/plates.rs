@@ -101,6 +101,34 @@ pub struct Plate {
     pub confidence: Vec<f32>,
     /// Frames the plate was estimated from.
     pub frames: u64,
+    /// Per pixel, row-major, the colours it showed besides the plate's: the estimator's other
+    /// modes, most seen first, [`Plate::others_per_pixel`] of them per pixel (an empty slot has
+    /// share 0). The plate's colour is the most stable one; where someone stood in front of the
+    /// background longer than it was seen, the background is among these
+    /// ([`super::plate_repair`]).
+    pub others: Vec<PlateMode>,
+}
+
+/// A colour a pixel of a [`Plate`] showed, and for how long.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PlateMode {
+    /// The colour (mean of the values that joined it).
+    pub color: [u8; 3],
+    /// Share of the frames it was seen in, in `[0, 1]` (a lower bound, as the confidence).
+    pub share: f32,
+}
+
+impl Plate {
+    /// Other modes kept per pixel in [`Plate::others`] (0 when none are kept).
+    pub fn others_per_pixel(&self) -> usize {
+        self.others.len().checked_div(self.confidence.len()).unwrap_or(0)
+    }
+
+    /// The other modes of the pixel at row-major `index`, most seen first.
+    pub fn others_at(&self, index: usize) -> &[PlateMode] {
+        let k = self.others_per_pixel();
+        self.others.get(index * k..(index + 1) * k).unwrap_or(&[])
+    }
 }
 
 /// Streams frames of one still camera and estimates its [`Plate`].
@@ -176,15 +204,22 @@ impl PlateEstimator {
     pub fn plate(&self) -> Plate {
         let k = self.options.modes;
         let mut image = RgbImage::new(self.width, self.height);
-        let mut confidence = vec![0.0; self.modes.len() / k];
-        for ((modes, out), c) in self.modes.chunks_exact(k).zip(image.pixels_mut()).zip(&mut confidence) {
-            let best = leading(modes);
-            out.0 = best.mean.map(|v| v.round().clamp(0.0, 255.0) as u8);
-            if self.frames > 0 {
-                *c = (f64::from(best.count) / self.frames as f64) as f32;
+        let pixels = self.modes.len() / k;
+        let mut confidence = vec![0.0; pixels];
+        let mut others = vec![PlateMode::default(); pixels * (k - 1)];
+        let share = |count: u32| if self.frames > 0 { (f64::from(count) / self.frames as f64) as f32 } else { 0.0 };
+        let color = |m: &Mode| m.mean.map(|v| v.round().clamp(0.0, 255.0) as u8);
+        for (p, (modes, out)) in self.modes.chunks_exact(k).zip(image.pixels_mut()).enumerate() {
+            let lead = leading_index(modes);
+            out.0 = color(&modes[lead]);
+            confidence[p] = share(modes[lead].count);
+            let mut rest: Vec<&Mode> = modes.iter().enumerate().filter(|&(i, m)| i != lead && m.count > 0).map(|(_, m)| m).collect();
+            rest.sort_by_key(|m| std::cmp::Reverse(m.count));
+            for (slot, m) in others[p * (k - 1)..(p + 1) * (k - 1)].iter_mut().zip(rest) {
+                *slot = PlateMode { color: color(m), share: share(m.count) };
             }
         }
-        Plate { image, confidence, frames: self.frames }
+        Plate { image, confidence, frames: self.frames, others }
     }
 
     fn size_error(&self, got: String) -> SfmError {
@@ -197,9 +232,10 @@ impl PlateEstimator {
     }
 }
 
-/// The mode with the highest count; among equal counts the one seen most recently.
-fn leading(modes: &[Mode]) -> Mode {
-    modes.iter().copied().fold(Mode::default(), |best, m| if m.count > best.count { m } else { best })
+/// Index of the mode with the highest count; among equal counts the one seen most recently
+/// (the first: modes are kept most recently seen first).
+fn leading_index(modes: &[Mode]) -> usize {
+    (0..modes.len()).fold(0, |best, i| if modes[i].count > modes[best].count { i } else { best })
 }
 
 /// Adds one value to a pixel's modes (most recently seen first; empty slots, count 0, last).

@@ -64,6 +64,9 @@ pub struct StaticCloud {
     pub candidates: usize,
     /// Edge of the voxels the static points stand for (world units; 0 without static points).
     pub voxel_edge: f64,
+    /// Plate pixels repaired on the way, over all cameras (a cloud from plates only;
+    /// [`super::plate_repair`]).
+    pub repaired_plate_pixels: usize,
 }
 
 impl StaticCloud {
@@ -429,6 +432,7 @@ mod tests {
             active: vec![vec![0, 1], vec![1]],
             candidates: 2,
             voxel_edge: 0.1,
+            ..StaticCloud::default()
         };
         // Same voxel, the neighbouring voxel, two voxels away, and far away.
         let own = cloud(&[[0.01, 0.02, 0.03], [0.15, 0.05, 0.05], [0.25, 0.05, 0.05], [2.0, 2.0, 2.0]], &[[9; 3]; 4]);

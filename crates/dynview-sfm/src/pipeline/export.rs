@@ -118,6 +118,10 @@ pub struct ExportReport {
     /// Points of the static cloud grown from the background plates (`None` without plates).
     #[serde(default)]
     pub plate_points: Option<usize>,
+    /// Plate pixels repaired from the points other cameras see, over all cameras (`None`
+    /// without plates; `dense::plate_repair`).
+    #[serde(default)]
+    pub repaired_plate_pixels: Option<usize>,
     /// Points of the moving things' visual hulls, summed over steps (`None` without hulls).
     #[serde(default)]
     pub hull_points: Option<usize>,
@@ -263,11 +267,13 @@ pub fn export_package(
         None => None,
     };
     let mut plate_points = None;
+    let mut repaired_plate_pixels = None;
     let mut plates = Vec::new();
     if let (Some(across_time), Some(options)) = (&static_cloud, &options.plates) {
         let (grown, estimated) = static_cloud_from_plates(&source_of, &manifest, &across_time.points, options, progress)?;
         if let Some(grown) = grown {
             plate_points = Some(grown.points.len());
+            repaired_plate_pixels = Some(grown.repaired_plate_pixels);
             static_cloud = Some(grown);
             plates = estimated;
         }
@@ -290,6 +296,7 @@ pub fn export_package(
         warnings,
         static_points: static_cloud.as_ref().map(|s| s.points.len()),
         plate_points,
+        repaired_plate_pixels,
         ..ExportReport::default()
     };
     // A hull point needs the camera it is seen from and `min_witnesses` others with a plate.
@@ -539,10 +546,10 @@ fn static_cloud_from_plates(
         progress("plates", t as u64, source_of.len() as u64);
         work_frames(source_of[t], manifest, t)
     };
-    let plates = estimate_plates(&cameras, frames_at, &options.plates)?;
+    let mut plates = estimate_plates(&cameras, frames_at, &options.plates)?;
     progress("plates", source_of.len() as u64, source_of.len() as u64);
     progress("static cloud from plates", 0, 1);
-    let grown = plate_cloud(&cameras, &plates, seeds, |t| work_frames(source_of[t], manifest, t), options)?;
+    let grown = plate_cloud(&cameras, &mut plates, seeds, |t| work_frames(source_of[t], manifest, t), options)?;
     progress("static cloud from plates", 1, 1);
     Ok((grown, plates))
 }

@@ -74,7 +74,7 @@ fn render_with(camera: &Camera, hit: Option<Hit>) -> RgbImage {
 }
 
 fn plate(camera: &Camera) -> Plate {
-    Plate { image: render(camera, false), confidence: vec![1.0; (SIZE_PX.0 * SIZE_PX.1) as usize], frames: 10 }
+    Plate { image: render(camera, false), confidence: vec![1.0; (SIZE_PX.0 * SIZE_PX.1) as usize], frames: 10, others: Vec::new() }
 }
 
 /// Points on the wall, as the static cloud would have them.
