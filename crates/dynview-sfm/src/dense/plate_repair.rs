@@ -77,9 +77,11 @@ pub fn repair_plate(
             .filter(|&(_, d)| d <= tolerance && d < lead)
             .min_by(|a, b| a.1.total_cmp(&b.1));
         if let Some((k, _)) = best {
-            let k = p * plate.others_per_pixel() + k;
+            let per_pixel = plate.others_per_pixel();
             let old = PlateMode { color: pixel(plate, p), share: plate.confidence[p] };
-            let new = std::mem::replace(&mut plate.others[k], old);
+            let new = std::mem::replace(&mut plate.others[p * per_pixel + k], old);
+            // The others stay most seen first.
+            plate.others[p * per_pixel..(p + 1) * per_pixel].sort_by(|a, b| b.share.total_cmp(&a.share));
             plate.image.get_pixel_mut((p % w) as u32, (p / w) as u32).0 = new.color;
             plate.confidence[p] = new.share;
             changed += 1;
@@ -256,7 +258,9 @@ mod tests {
             }
         }
         assert!((plate.confidence[25 * W as usize + 28] - 0.4).abs() < 1e-6, "its share becomes the confidence");
-        assert_eq!(plate.others_at(25 * W as usize + 28)[0].color, SHIRT, "the person stays among the other modes");
+        let others = plate.others_at(25 * W as usize + 28);
+        assert_eq!(others[0].color, SHIRT, "the person stays among the other modes, most seen first");
+        assert!(others.windows(2).all(|w| w[0].share >= w[1].share));
     }
 
     #[test]
