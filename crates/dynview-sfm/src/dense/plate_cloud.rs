@@ -159,10 +159,10 @@ pub fn plate_cloud(
         views: vec![2; seeds.len()],
     };
     let dense = densify(&views, &sparse, &options.densify)?;
+    let count = cameras.len();
     let mut kept = seen_points(cameras, plates, &dense.positions_world, &dense.colors, options);
     let mut out = StaticCloud::default();
     if options.repair_min_share > 0.0 {
-        let count = cameras.len();
         for &c in &with_plate {
             let seen_elsewhere = |i: usize| (0..count).filter(|&o| o != c && kept.shown[i * count + o].is_some()).count() >= 2;
             let plate = plates[c].as_mut().expect("cameras with a plate only");
@@ -175,7 +175,6 @@ pub fn plate_cloud(
     }
     let Kept { points, shown: own, seen } = kept;
     out.points = points;
-    let count = cameras.len();
     out.candidates = dense.positions_world.len();
     out.voxel_edge = voxel_edge(cameras, &out.points, options.voxel_px);
     let at_step = |t: usize| -> Vec<Camera> { cameras.iter().map(|c| c[t]).collect() };

@@ -51,7 +51,7 @@ pub fn repair_plate(
         return 0;
     }
     let exact = nearest_points(camera, points, &seen_elsewhere, w, h);
-    let nearest: Vec<Option<usize>> = (0..w * h).map(|p| exact[p].or_else(|| nearest_around(&exact, points, camera, p, w, h))).collect();
+    let nearest: Vec<Option<usize>> = (0..w * h).map(|p| exact[p].map(|(i, _)| i).or_else(|| nearest_around(&exact, p, w, h))).collect();
     let pairs: Vec<([f32; 3], [f32; 3])> = (0..w * h)
         .filter(|&p| plate.confidence[p] >= SURE_CONFIDENCE)
         .filter_map(|p| nearest[p].map(|i| (unit(points.colors[i]), unit(pixel(plate, p)))))
@@ -61,10 +61,11 @@ pub fn repair_plate(
     for (p, near) in nearest.iter().enumerate() {
         let Some(i) = *near else { continue };
         let expected = map.apply(unit(points.colors[i]));
-        let lead = difference(unit(pixel(plate, p)), expected);
+        let shown = unit(pixel(plate, p));
+        let lead = difference(shown, expected);
         if lead <= tolerance
             || window(p, w, h, AGREE_PX)
-                .any(|q| exact[q].is_some_and(|j| difference(unit(pixel(plate, p)), map.apply(unit(points.colors[j]))) <= tolerance))
+                .any(|q| exact[q].is_some_and(|(j, _)| difference(shown, map.apply(unit(points.colors[j]))) <= tolerance))
         {
             continue;
         }
@@ -90,10 +91,10 @@ pub fn repair_plate(
     changed
 }
 
-/// Per pixel of a `w` x `h` camera, the nearest of the points that count landing on it.
-fn nearest_points(camera: &Camera, points: &PointCloud, counts: &impl Fn(usize) -> bool, w: usize, h: usize) -> Vec<Option<usize>> {
-    let mut depth = vec![f64::INFINITY; w * h];
-    let mut nearest = vec![None; w * h];
+/// Per pixel of a `w` x `h` camera, the nearest of the points that count landing on it, and
+/// its z-depth.
+fn nearest_points(camera: &Camera, points: &PointCloud, counts: &impl Fn(usize) -> bool, w: usize, h: usize) -> Vec<Option<(usize, f64)>> {
+    let mut nearest: Vec<Option<(usize, f64)>> = vec![None; w * h];
     for (i, p) in points.positions_world.iter().enumerate() {
         if !counts(i) {
             continue;
@@ -104,18 +105,16 @@ fn nearest_points(camera: &Camera, points: &PointCloud, counts: &impl Fn(usize) 
             continue;
         }
         let q = y as usize * w + x as usize;
-        if z < depth[q] {
-            depth[q] = z;
-            nearest[q] = Some(i);
+        if nearest[q].is_none_or(|(_, depth)| z < depth) {
+            nearest[q] = Some((i, z));
         }
     }
     nearest
 }
 
 /// The nearest to the camera of the points on the pixels within [`FOOTPRINT_PX`] of `p`.
-fn nearest_around(exact: &[Option<usize>], points: &PointCloud, camera: &Camera, p: usize, w: usize, h: usize) -> Option<usize> {
-    let depth = |i: usize| camera.camera_from_world.transform_point(to_world(points.positions_world[i])).z;
-    window(p, w, h, FOOTPRINT_PX).filter_map(|q| exact[q]).min_by(|&a, &b| depth(a).total_cmp(&depth(b)))
+fn nearest_around(exact: &[Option<(usize, f64)>], p: usize, w: usize, h: usize) -> Option<usize> {
+    window(p, w, h, FOOTPRINT_PX).filter_map(|q| exact[q]).min_by(|a, b| a.1.total_cmp(&b.1)).map(|(i, _)| i)
 }
 
 /// Row-major pixels within `radius` of pixel `p` (inside the `w` x `h` image).
