@@ -65,4 +65,9 @@ fn bad_inputs_fail_with_the_file_named() {
     assert!(!ok && log.contains("--focal"), "{log}");
     let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap(), "--stop-after", "meshes"]);
     assert!(!ok && log.contains("unknown stage"), "{log}");
+    for share in ["1.5", "-0.1", "NaN"] {
+        let option = format!("--plate-repair-min-share={share}");
+        let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap(), &option]);
+        assert!(!ok && log.contains("--plate-repair-min-share must be between 0 and 1"), "{share}: {log}");
+    }
 }

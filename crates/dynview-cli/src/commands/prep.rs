@@ -10,6 +10,7 @@ use std::ops::Range;
 
 use dynview_sfm::dense::densify::DensifyOptions;
 use dynview_sfm::dense::hull::HullOptions;
+use dynview_sfm::dense::plate_cloud::PlateCloudOptions;
 use dynview_sfm::input::timing::SyncMethod;
 use dynview_sfm::input::timing::retime::Retime;
 use dynview_sfm::mapping::step_adjust::StepAdjustOptions;
@@ -120,6 +121,10 @@ pub struct Args {
     /// frames), that colour is the plate's (docs/PREP.md).
     #[arg(long, conflicts_with = "no_plates")]
     no_plate_repair: bool,
+    /// The least share of the frames a pixel's other colour must have been seen in for the
+    /// plate repair to take it (0 to 1; 0 repairs nothing, as `--no-plate-repair`).
+    #[arg(long, default_value_t = PlateCloudOptions::default().repair_min_share, conflicts_with = "no_plate_repair")]
+    plate_repair_min_share: f32,
     /// No points from the visual hull of what moves (by default, with plates of four cameras
     /// or more, rays through each camera's foreground give moving things without stereo points
     /// a depth where they enter the space every other camera's foreground allows).
@@ -277,8 +282,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.no_plates {
         options.package.plates = None;
     }
-    if let Some(plates) = options.package.plates.as_mut().filter(|_| args.no_plate_repair) {
-        plates.repair_min_share = 0.0;
+    if !(0.0..=1.0).contains(&args.plate_repair_min_share) {
+        bail!("--plate-repair-min-share must be between 0 and 1, found {}", args.plate_repair_min_share);
+    }
+    if let Some(plates) = options.package.plates.as_mut() {
+        plates.repair_min_share = if args.no_plate_repair { 0.0 } else { args.plate_repair_min_share };
     }
     if args.no_hull {
         options.package.hull = None;
