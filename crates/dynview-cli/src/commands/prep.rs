@@ -90,6 +90,14 @@ pub struct Args {
     /// intrinsics are kept).
     #[arg(long, default_value_t = StepAdjustOptions::default().samples)]
     adjust_steps: usize,
+    /// Where every camera stands still, only points at least this many cameras see join the
+    /// time-step adjustment (0: still rigs keep the keyframes' intrinsics and poses).
+    #[arg(long, value_name = "N", default_value_t = StepAdjustOptions::default().still_rig_min_cameras)]
+    adjust_still_min_cameras: usize,
+    /// On a still rig, keep the first pass of the time-step adjustment (over points three
+    /// cameras or more see) without the settling pass over every point.
+    #[arg(long)]
+    no_adjust_settle: bool,
     /// The last stage to run: frames, keyframes, poses, points or package.
     #[arg(long, default_value = "package")]
     stop_after: Stage,
@@ -317,6 +325,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     options.visual_sync.max_offset_s = args.sync_max_offset;
     options.refine.smoothness = args.smoothness;
     options.step_adjust.samples = args.adjust_steps;
+    options.step_adjust.still_rig_min_cameras = args.adjust_still_min_cameras;
+    options.step_adjust.settle = !args.no_adjust_settle;
     options.features.max_features = args.max_features;
     let interrupt = Arc::new(AtomicBool::new(false));
     let flag = interrupt.clone();
@@ -388,14 +398,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     if let Some(a) = &report.step_adjustment {
         println!(
-            "adjusted over {} time steps: {} points, {} observations, RMS {:.3} -> {:.3} px; focal changes {}",
+            "adjusted over {} time steps: {} points ({} cameras or more), {} observations, RMS {:.3} -> {:.3} px; focal changes {}",
             a.steps.len(),
             a.points,
+            a.min_track_cameras,
             a.observations,
             a.rms_px[0],
             a.rms_px[1],
             a.focal_change_percent.iter().map(|p| format!("{p:+.2}%")).collect::<Vec<_>>().join(" ")
         );
+        if let Some(s) = &a.settled {
+            println!(
+                "  then settled over every point: {} points, {} observations, RMS {:.3} -> {:.3} px",
+                s.points, s.observations, s.rms_px[0], s.rms_px[1]
+            );
+        }
     }
     if let Some(steps) = &report.steps {
         let mean = |v: &[usize]| v.iter().sum::<usize>() as f64 / v.len().max(1) as f64;

@@ -28,17 +28,32 @@ use crate::mapping::points::{PointOptions, TimestepView, timestep_tracks};
 /// Default number of sampled time steps.
 pub const DEFAULT_SAMPLES: usize = 24;
 
+/// Default for [`StepAdjustOptions::still_rig_min_cameras`]: still rigs are not adjusted.
+/// Three cameras a point brought our poses nearer the calibration on every held-out camera of
+/// both Panoptic arcs but rendered them worse on four of six (`docs/results/sfm.md`, "Still
+/// rigs adjusted over points three cameras see").
+pub const DEFAULT_STILL_RIG_MIN_CAMERAS: usize = 0;
+
 /// How the time steps adjust the intrinsics and poses.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StepAdjustOptions {
     /// Time steps sampled, evenly over the capture (every frame when it has fewer); 0 turns
     /// the adjustment off.
     pub samples: usize,
+    /// Where every camera stands still, only points at least this many cameras see join the
+    /// adjustment (0, the default: still rigs are not adjusted). Points two cameras see hold a
+    /// wrong focal-distance minimum on the Panoptic arc: with them, even over 75 steps, nothing
+    /// moves; with only those three or more cameras see, cam08's focal goes from +11.1% to
+    /// +2.7% and the rotation median from 1.00 to 0.65 degrees (`docs/results/sfm.md`).
+    pub still_rig_min_cameras: usize,
+    /// After a still rig's first pass, adjust once more over every point (those two cameras
+    /// see too), from where the first pass left the cameras.
+    pub settle: bool,
 }
 
 impl Default for StepAdjustOptions {
     fn default() -> Self {
-        Self { samples: DEFAULT_SAMPLES }
+        Self { samples: DEFAULT_SAMPLES, still_rig_min_cameras: DEFAULT_STILL_RIG_MIN_CAMERAS, settle: true }
     }
 }
 
@@ -47,8 +62,11 @@ impl Default for StepAdjustOptions {
 pub struct StepAdjustReport {
     /// The sampled time steps.
     pub steps: Vec<usize>,
-    /// Points triangulated over them.
+    /// Points triangulated over them (those enough cameras see).
     pub points: usize,
+    /// The fewest cameras a point was seen by to join (2 on a rig with a moving camera).
+    #[serde(default)]
+    pub min_track_cameras: usize,
     /// Their observations.
     pub observations: usize,
     /// RMS reprojection error before and after (px).
@@ -68,6 +86,10 @@ pub struct StepAdjustReport {
     pub principal_point_std_px: Vec<Option<f64>>,
     /// Whether the refined principal points were kept (all fixed to within their prior).
     pub principal_point_refined: bool,
+    /// The settling pass over every point after a first pass over points three cameras or
+    /// more see (a still rig's); the focal figures above are after it.
+    #[serde(default)]
+    pub settled: Option<Box<StepAdjustReport>>,
 }
 
 /// The cameras as the adjustment sees them.
@@ -93,10 +115,10 @@ pub struct StepCameras<'a> {
 
 /// Adjusts `poses` (per camera, per frame) and returns the intrinsics per set with the report;
 /// `None` where nothing can be adjusted (off, fewer than two cameras with poses, or no point
-/// seen by two of them) and where every camera stands still: then the time steps add views of
-/// what moves only, whose cross-camera timing real rigs do not guarantee (on the Panoptic arc,
-/// with 12 steps, they moved the principal points 5-12 px from the calibration's and the
-/// rotation median from 0.551 to 0.649 degrees).
+/// seen by enough of them). Where every camera stands still the time steps add no new
+/// viewpoints, only more points, and those two cameras see hold the keyframes' solution where it
+/// is wrong; there only points `still_rig_min_cameras` cameras or more see join (by default
+/// none: still rigs keep the keyframes' solution), then, with `settle`, every point once more.
 pub fn adjust_with_steps(
     cameras: &StepCameras,
     poses: &mut [Vec<Rigid3>],
@@ -109,15 +131,56 @@ pub fn adjust_with_steps(
     let posed: Vec<usize> = (0..poses.len()).filter(|&c| !poses[c].is_empty()).collect();
     let frames_count = posed.iter().map(|&c| poses[c].len()).min().unwrap_or(0);
     let moving = posed.iter().any(|&c| cameras.still.get(c) != Some(&true));
-    if options.samples == 0 || posed.len() < 2 || frames_count == 0 || !moving {
+    let min_track_cameras = if moving { 2 } else { options.still_rig_min_cameras };
+    if options.samples == 0 || posed.len() < min_track_cameras.max(2) || frames_count == 0 || min_track_cameras == 0 {
         return Ok(None);
     }
     let steps = sample_steps(frames_count, options.samples);
+    let Some((first, mut report)) = adjust_pass(cameras, poses, &posed, &steps, min_track_cameras, features, mapper, progress, interrupt)?
+    else {
+        return Ok(None);
+    };
+    if min_track_cameras <= 2 || !options.settle {
+        return Ok(Some((first, report)));
+    }
+    // The settling pass: every point again, from where the first pass left the cameras.
+    let settled_cameras = StepCameras {
+        frames: cameras.frames,
+        group: cameras.group,
+        intrinsics: first.clone(),
+        held: cameras.held.clone(),
+        still: cameras.still,
+        principal_points_fixed: cameras.principal_points_fixed,
+    };
+    let Some((settled, second)) = adjust_pass(&settled_cameras, poses, &posed, &steps, 2, features, mapper, progress, interrupt)? else {
+        return Ok(Some((first, report)));
+    };
+    report.settled = Some(Box::new(second));
+    report.focal_px = (0..poses.len()).map(|c| settled[cameras.group[c]].f).collect();
+    report.focal_change_percent =
+        (0..poses.len()).map(|c| 100.0 * (settled[cameras.group[c]].f / cameras.intrinsics[cameras.group[c]].f - 1.0)).collect();
+    Ok(Some((settled, report)))
+}
+
+/// One adjustment over `steps`, with the points `min_track_cameras` cameras or more see.
+#[allow(clippy::too_many_arguments)]
+fn adjust_pass(
+    cameras: &StepCameras,
+    poses: &mut [Vec<Rigid3>],
+    posed: &[usize],
+    steps: &[usize],
+    min_track_cameras: usize,
+    features: &FeatureOptions,
+    mapper: &MapperOptions,
+    progress: StageProgress,
+    interrupt: &AtomicBool,
+) -> SfmResult<Option<(Vec<Radial>, StepAdjustReport)>> {
+    let steps = steps.to_vec();
     // One image per sampled frame; a still camera has one image for all.
     let mut image_of = vec![vec![usize::MAX; steps.len()]; poses.len()];
     let mut problem =
         dynview_ba::Problem { cameras: cameras.intrinsics.clone(), held_intrinsics: cameras.held.clone(), ..Default::default() };
-    for &c in &posed {
+    for &c in posed {
         for (s, &t) in steps.iter().enumerate() {
             if cameras.still.get(c) == Some(&true) && s > 0 {
                 image_of[c][s] = image_of[c][0];
@@ -143,6 +206,9 @@ pub fn adjust_with_steps(
             .map(|(&c, image)| TimestepView { intrinsics: cameras.intrinsics[cameras.group[c]], pose: poses[c][t], image_bgr: image })
             .collect();
         for (xyz, observations) in timestep_tracks(&views, features, &point_options)? {
+            if observations.len() < min_track_cameras {
+                continue;
+            }
             let point = problem.points_world.len();
             problem.points_world.push(xyz.into());
             problem.point_fixed.push(false);
@@ -166,7 +232,7 @@ pub fn adjust_with_steps(
     let prior_px: Vec<f64> = cameras.intrinsics.iter().map(|k| PRINCIPAL_POINT_PRIOR_FRACTION * longer_side_px(k)).collect();
     let solved = solve_final(&mut problem, ba, mapper.refine_principal_point && cameras.principal_points_fixed, &prior_px)?;
     let adjusted: Vec<Radial> = problem.cameras.clone();
-    for &c in &posed {
+    for &c in posed {
         let corrections: Vec<(usize, Correction)> = steps
             .iter()
             .enumerate()
@@ -182,6 +248,7 @@ pub fn adjust_with_steps(
     }
     let report = StepAdjustReport {
         points: problem.points_world.len(),
+        min_track_cameras: min_track_cameras.max(2),
         observations: problem.observations.len(),
         rms_px: [solved.report.initial_rms_px, solved.report.final_rms_px],
         iterations: solved.report.iterations,
@@ -195,6 +262,7 @@ pub fn adjust_with_steps(
             .collect(),
         principal_point_std_px: (0..poses.len()).map(|c| solved.principal_point_std_px.get(cameras.group[c]).copied().flatten()).collect(),
         principal_point_refined: solved.principal_point_refined,
+        settled: None,
         steps,
     };
     Ok(Some((adjusted, report)))
