@@ -41,15 +41,22 @@ fn errors(poses: &EventPoses, truth: &ColmapModel) -> (f64, f64, f64) {
     (accuracy.rotation_error_median_deg, focal_pct, principal_px)
 }
 
-#[test]
-fn the_time_steps_fix_the_intrinsics_the_keyframes_leave_loose() {
+/// `cameras` over 90 degrees (focal 1.6 to 0.8 x the longer side, principal points 5 px off),
+/// 25 frames at 640x360, hand-held or on tripods: its folder, its input and its truth.
+fn arc_event(cameras: usize, handheld: bool) -> (tempfile::TempDir, std::path::PathBuf, ColmapModel) {
     let dir = tempfile::tempdir().expect("temp dir");
     let event = dir.path().join("event");
     let layout = Layout { arc_deg: 90.0, focal_range: Some([1.6, 0.8]), principal_offset_px: [5.0, 5.0] };
-    let config = SynthConfig { cameras: 8, frames: 25, width: 640, height: 360, handheld: true, layout, ..SynthConfig::default() };
+    let config = SynthConfig { cameras, frames: 25, width: 640, height: 360, handheld, layout, ..SynthConfig::default() };
     dynview_synth::generate(&config, &event, &|_, _, _| {}).expect("synth");
     let input = if event.join("videos").is_dir() { event.join("videos") } else { event.join("input") };
     let truth = ColmapModel::read_dir(&event.join("colmap")).expect("ground truth");
+    (dir, input, truth)
+}
+
+#[test]
+fn the_time_steps_fix_the_intrinsics_the_keyframes_leave_loose() {
+    let (dir, input, truth) = arc_event(8, true);
     let out = dir.path().join("prep");
     let stop = AtomicBool::new(false);
     let keyframes_only = PrepOptions {
@@ -88,13 +95,7 @@ fn the_time_steps_fix_the_intrinsics_the_keyframes_leave_loose() {
 
 #[test]
 fn a_still_rig_is_adjusted_over_points_three_cameras_see_then_over_every_point() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let event = dir.path().join("event");
-    let layout = Layout { arc_deg: 90.0, focal_range: Some([1.6, 0.8]), principal_offset_px: [5.0, 5.0] };
-    let config = SynthConfig { cameras: 6, frames: 25, width: 640, height: 360, handheld: false, layout, ..SynthConfig::default() };
-    dynview_synth::generate(&config, &event, &|_, _, _| {}).expect("synth");
-    let input = if event.join("videos").is_dir() { event.join("videos") } else { event.join("input") };
-    let truth = ColmapModel::read_dir(&event.join("colmap")).expect("ground truth");
+    let (dir, input, truth) = arc_event(6, false);
     let out = dir.path().join("prep");
     let stop = AtomicBool::new(false);
     let off = StepAdjustOptions::default();
