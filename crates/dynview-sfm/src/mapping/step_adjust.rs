@@ -87,7 +87,8 @@ pub struct StepAdjustReport {
     /// Whether the refined principal points were kept (all fixed to within their prior).
     pub principal_point_refined: bool,
     /// The settling pass over every point after a first pass over points three cameras or
-    /// more see (a still rig's); the focal figures above are after it.
+    /// more see (a still rig's); the intrinsics figures above are after it (the focal changes
+    /// from before both).
     #[serde(default)]
     pub settled: Option<Box<StepAdjustReport>>,
 }
@@ -131,8 +132,12 @@ pub fn adjust_with_steps(
     let posed: Vec<usize> = (0..poses.len()).filter(|&c| !poses[c].is_empty()).collect();
     let frames_count = posed.iter().map(|&c| poses[c].len()).min().unwrap_or(0);
     let moving = posed.iter().any(|&c| cameras.still.get(c) != Some(&true));
-    let min_track_cameras = if moving { 2 } else { options.still_rig_min_cameras };
-    if options.samples == 0 || posed.len() < min_track_cameras.max(2) || frames_count == 0 || min_track_cameras == 0 {
+    let min_track_cameras = match (moving, options.still_rig_min_cameras) {
+        (false, 0) => return Ok(None),
+        (false, n) => n.max(2),
+        (true, _) => 2,
+    };
+    if options.samples == 0 || posed.len() < min_track_cameras || frames_count == 0 {
         return Ok(None);
     }
     let steps = sample_steps(frames_count, options.samples);
@@ -155,11 +160,19 @@ pub fn adjust_with_steps(
     let Some((settled, second)) = adjust_pass(&settled_cameras, poses, &posed, &steps, 2, features, mapper, progress, interrupt)? else {
         return Ok(Some((first, report)));
     };
+    report.focal_px = second.focal_px.clone();
+    report.focal_change_percent = focal_change_percent(cameras, &settled);
+    report.focal_std_percent = second.focal_std_percent.clone();
+    report.principal_point_std_px = second.principal_point_std_px.clone();
+    report.principal_point_refined = second.principal_point_refined;
     report.settled = Some(Box::new(second));
-    report.focal_px = (0..poses.len()).map(|c| settled[cameras.group[c]].f).collect();
-    report.focal_change_percent =
-        (0..poses.len()).map(|c| 100.0 * (settled[cameras.group[c]].f / cameras.intrinsics[cameras.group[c]].f - 1.0)).collect();
     Ok(Some((settled, report)))
+}
+
+/// Per camera, the change of its focal length in `adjusted` (per intrinsics set), % of its
+/// focal in `cameras`.
+fn focal_change_percent(cameras: &StepCameras, adjusted: &[Radial]) -> Vec<f64> {
+    cameras.group.iter().map(|&g| 100.0 * (adjusted[g].f / cameras.intrinsics[g].f - 1.0)).collect()
 }
 
 /// One adjustment over `steps`, with the points `min_track_cameras` cameras or more see.
@@ -248,15 +261,13 @@ fn adjust_pass(
     }
     let report = StepAdjustReport {
         points: problem.points_world.len(),
-        min_track_cameras: min_track_cameras.max(2),
+        min_track_cameras,
         observations: problem.observations.len(),
         rms_px: [solved.report.initial_rms_px, solved.report.final_rms_px],
         iterations: solved.report.iterations,
         termination: format!("{:?}", solved.report.termination),
         focal_px: (0..poses.len()).map(|c| adjusted[cameras.group[c]].f).collect(),
-        focal_change_percent: (0..poses.len())
-            .map(|c| 100.0 * (adjusted[cameras.group[c]].f / cameras.intrinsics[cameras.group[c]].f - 1.0))
-            .collect(),
+        focal_change_percent: focal_change_percent(cameras, &adjusted),
         focal_std_percent: (0..poses.len())
             .map(|c| solved.std.get(cameras.group[c]).and_then(|s| s.focal_px).map(|s| 100.0 * s / adjusted[cameras.group[c]].f))
             .collect(),
