@@ -335,7 +335,8 @@ fn phones_started_seconds_apart_are_aligned_with_a_wider_search() {
 
 /// The synthetic phones event with its sound tracks (knocks where the ball lands, claps, a
 /// murmur; each camera's distance delay and noise): aligned from the sound without any
-/// calibration, every camera within an eighth of a frame of the others by its true clock.
+/// calibration, every camera within 2 ms of the others by its true clock (the sounds' travel
+/// differs by up to a millisecond between these cameras).
 #[test]
 fn synthetic_phones_are_aligned_from_their_sound() {
     skip_without_ffmpeg!();
@@ -348,7 +349,8 @@ fn synthetic_phones_are_aligned_from_their_sound() {
     let time = report.time_alignment.expect("reported");
     assert_eq!(time.method, "audio", "auto picks the sound when every camera has a sound track");
     for (name, error_s) in clock_errors_s(&time, &truth) {
-        assert!(error_s.abs() < 0.125 / config.fps, "{name}: {:+.2} ms off ({:?})", error_s * 1e3, time.pairs);
+        eprintln!("{name}: {:+.2} ms", error_s * 1e3);
+        assert!(error_s.abs() < 2e-3, "{name}: {:+.2} ms off ({:?})", error_s * 1e3, time.pairs);
         assert!(time.cameras[&name].confidence > 0.3, "{name}: confidence {}", time.cameras[&name].confidence);
     }
 }
