@@ -10,11 +10,11 @@
 //!    lag(t) good to a few milliseconds.
 //! 3. **GCC-PHAT refinement** in windows along the overlap (short ones first, then windows of
 //!    [`AudioOptions::drift_window_s`]), on the raw samples with the second track resampled to
-//!    follow the lag line, so drift does not blur the peak; the sub-sample peak of each window
-//!    is fitted by a robust line: the pair's rate ratio; its offset is then the median lag of
-//!    short windows (64 ms) along that line, each holding about one sound (a long window holds
+//!    follow the lag line, so drift does not blur the peak; each window of the second pass is
+//!    measured by its sounds, the median lag of 64 ms windows inside it (a long window holds
 //!    sounds from several places, heard with different lags, and its peak can fall between
-//!    them, milliseconds off on a recording of a second or two).
+//!    them, milliseconds off), and the windows' lags are fitted by a robust line: the pair's
+//!    offset and rate ratio.
 //! 4. **Joint solve**: weighted least squares over all reliable pairs (log-rates first, then
 //!    starts) with the first track fixed, dropping the pair that disagrees most while it is over
 //!    [`AudioOptions::outlier_threshold_s`] and the others still connect every camera.

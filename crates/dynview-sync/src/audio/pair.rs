@@ -26,16 +26,16 @@ const FIRST_PASS_WINDOW_FRACTION: f64 = 0.25;
 const SECOND_PASS_RADIUS_S: f64 = 0.003;
 /// Windows of the second pass farther than this from the final line are outliers (s).
 const SECOND_PASS_TOLERANCE_S: f64 = 0.0005;
-/// Length of the short windows of the last pass (s): about one sound each (a clap or a hit
-/// rings for tens of ms).
+/// Length of the short windows that measure each second-pass window (s): about one sound each
+/// (a clap or a hit rings for tens of ms).
 const SHORT_WINDOW_S: f64 = 0.064;
 /// Step between the short windows' centres (s).
 const SHORT_HOP_S: f64 = 0.016;
-/// Most short windows per pair, spread evenly over the overlap.
+/// Most short windows per pair, shared among its second-pass windows.
 const MAX_SHORT_WINDOWS: usize = 512;
-/// Search radius of the short windows around the second pass's line (s).
+/// Search radius of the short windows around the first pass's line (s).
 const SHORT_RADIUS_S: f64 = 0.010;
-/// Fewest clear short windows whose median lag replaces the long windows' offset.
+/// Fewest clear short windows whose median lag measures a second-pass window.
 const MIN_SHORT_WINDOWS: usize = 8;
 /// A window's GCC-PHAT peak counts from this peak-to-sidelobe ratio: unrelated sounds reach
 /// about 4 over the few hundred lags searched.
@@ -149,7 +149,7 @@ pub(super) fn measure_pair(fft: &mut FftWork, pair: &PairInput<'_>, options: &Au
 
     // Second pass: full windows following the first pass's line.
     let (start_a_s, end_a_s) = overlap_in_a(&first_line, duration_a_s, duration_b_s);
-    let second = measure_windows(fft, pair, options, (start_a_s, end_a_s), options.drift_window_s, second_radius_s, &first_line);
+    let second = measure_windows_by_sounds(fft, pair, options, (start_a_s, end_a_s), second_radius_s, &first_line);
     let windows_total = windows_count(end_a_s - start_a_s, options.drift_window_s, options.max_windows_per_pair);
     let points: Vec<(f64, f64)> = second.iter().map(|w| (w.time_a_s, w.lag_s)).collect();
     let Some(fit) = robust_line(&points, SECOND_PASS_TOLERANCE_S, options.max_rate_deviation) else {
@@ -163,10 +163,9 @@ pub(super) fn measure_pair(fft: &mut FftWork, pair: &PairInput<'_>, options: &Au
     let times = used.iter().map(|w| w.time_a_s);
     let span_s = times.clone().fold(f64::NEG_INFINITY, f64::max) - times.fold(f64::INFINITY, f64::min);
     let rate_measured = fit.inlier_count >= 2;
-    let offset_s = fit.line.lag_s + short_windows_shift_s(fft, pair, (start_a_s, end_a_s), &fit.line).unwrap_or(0.0);
     PairMeasurement {
         time_a_s: fit.line.time_a_s,
-        offset_s,
+        offset_s: fit.line.lag_s,
         rate_ratio: if rate_measured { 1.0 + fit.line.slope } else { 1.0 },
         rate_measured,
         span_s: if span_s.is_finite() { span_s } else { 0.0 },
@@ -177,33 +176,79 @@ pub(super) fn measure_pair(fft: &mut FftWork, pair: &PairInput<'_>, options: &Au
     }
 }
 
-/// How far (s) the median lag of short windows along `(start_a_s, end_a_s)` lies from `line`,
-/// when at least [`MIN_SHORT_WINDOWS`] of them peak clearly. A long window holds many sounds from
-/// several places, each heard with its own lag, and on a short recording its GCC-PHAT peak can
-/// fall milliseconds away from every one of them (3-4 ms on the synthetic phones' 1.5 s); a
-/// short window holds about one sound, and the median over them is the lag most of the
-/// recording's sound is heard with.
-fn short_windows_shift_s(fft: &mut FftWork, pair: &PairInput<'_>, (start_a_s, end_a_s): (f64, f64), line: &LagLine) -> Option<f64> {
-    let usable_s = end_a_s - start_a_s - SHORT_WINDOW_S;
+/// The second pass's windows of [`AudioOptions::drift_window_s`] spread over `(start_a_s,
+/// end_a_s)` as [`measure_windows`] spreads them, each measured by its sounds: the median lag of
+/// short windows inside it when at least [`MIN_SHORT_WINDOWS`] of them peak clearly (searched
+/// [`SHORT_RADIUS_S`] around `line`), by GCC-PHAT over the whole window (within `radius_s`)
+/// otherwise. A long window holds many sounds from several places, each heard with its own lag,
+/// and its GCC-PHAT peak can fall milliseconds away from every one of them (2.6-4 ms on the
+/// synthetic phones' 1.5 s recordings; over 10 s windows, lags that wander with the sounds and
+/// tilt the drift); a short window holds about one sound, and the median is the lag most of the
+/// window's sound is heard with.
+fn measure_windows_by_sounds(
+    fft: &mut FftWork,
+    pair: &PairInput<'_>,
+    options: &AudioOptions,
+    (start_a_s, end_a_s): (f64, f64),
+    radius_s: f64,
+    line: &LagLine,
+) -> Vec<WindowLag> {
+    let overlap_s = end_a_s - start_a_s;
+    if overlap_s < MIN_OVERLAP_S {
+        return Vec::new();
+    }
+    let count = windows_count(overlap_s, options.drift_window_s, options.max_windows_per_pair);
+    let length_s = options.drift_window_s.min(overlap_s);
+    let short_per_window = (MAX_SHORT_WINDOWS / count).max(MIN_SHORT_WINDOWS);
+    (0..count)
+        .filter_map(|k| {
+            let centre_a_s = start_a_s + (k as f64 + 0.5) * overlap_s / count as f64;
+            let span = (centre_a_s - 0.5 * length_s, centre_a_s + 0.5 * length_s);
+            short_windows_median(fft, pair, span, short_per_window, line).or_else(|| {
+                let window = Window { centre_a_s, length_s, radius_s };
+                gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, &window, line)
+                    .filter(|w| w.peak_ratio >= MIN_PEAK_RATIO)
+            })
+        })
+        .collect()
+}
+
+/// The median lag of up to `most` short windows (every [`SHORT_HOP_S`] or spread wider) over
+/// `(from_a_s, to_a_s)`, at the middle of the span, with the median peak ratio of the clear
+/// ones; `None` with fewer than [`MIN_SHORT_WINDOWS`] clear.
+fn short_windows_median(
+    fft: &mut FftWork,
+    pair: &PairInput<'_>,
+    (from_a_s, to_a_s): (f64, f64),
+    most: usize,
+    line: &LagLine,
+) -> Option<WindowLag> {
+    let usable_s = to_a_s - from_a_s - SHORT_WINDOW_S;
     if usable_s <= 0.0 {
         return None;
     }
-    let count = ((usable_s / SHORT_HOP_S).floor() as usize + 1).min(MAX_SHORT_WINDOWS);
-    let mut shifts: Vec<f64> = (0..count)
+    let count = ((usable_s / SHORT_HOP_S).floor() as usize + 1).min(most);
+    let mut found: Vec<(f64, f64)> = (0..count)
         .filter_map(|k| {
-            let centre_a_s = start_a_s + 0.5 * SHORT_WINDOW_S + (k as f64 + 0.5) * usable_s / count as f64;
+            let centre_a_s = from_a_s + 0.5 * SHORT_WINDOW_S + (k as f64 + 0.5) * usable_s / count as f64;
             let window = Window { centre_a_s, length_s: SHORT_WINDOW_S, radius_s: SHORT_RADIUS_S };
             gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, &window, line)
         })
         .filter(|w| w.peak_ratio >= MIN_PEAK_RATIO)
-        .map(|w| w.lag_s - line.lag_at(w.time_a_s))
+        .map(|w| (w.lag_s - line.lag_at(w.time_a_s), w.peak_ratio))
         .collect();
-    if shifts.len() < MIN_SHORT_WINDOWS {
+    if found.len() < MIN_SHORT_WINDOWS {
         return None;
     }
-    shifts.sort_by(f64::total_cmp);
-    let middle = shifts.len() / 2;
-    Some(if shifts.len() % 2 == 1 { shifts[middle] } else { 0.5 * (shifts[middle - 1] + shifts[middle]) })
+    let median = |values: &mut Vec<f64>| {
+        values.sort_by(f64::total_cmp);
+        let middle = values.len() / 2;
+        if values.len() % 2 == 1 { values[middle] } else { 0.5 * (values[middle - 1] + values[middle]) }
+    };
+    let mut shifts: Vec<f64> = found.iter().map(|f| f.0).collect();
+    let mut ratios: Vec<f64> = found.drain(..).map(|f| f.1).collect();
+    let time_a_s = 0.5 * (from_a_s + to_a_s);
+    Some(WindowLag { time_a_s, lag_s: line.lag_at(time_a_s) + median(&mut shifts), peak_ratio: median(&mut ratios) })
 }
 
 /// The stretch of track a's time (s) whose sound track b also holds under `line`.
