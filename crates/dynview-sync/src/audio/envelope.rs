@@ -75,17 +75,19 @@ pub(super) struct CoarseLag {
     pub peak_ratio: f64,
 }
 
-/// The lag within ±`max_offset_s` (and with at least `min_overlap_s` of overlap) at which the
-/// envelopes correlate best; `peak_width_s` of drift smear is added to the peak's width when
-/// measuring the sidelobes. `None` when no lag qualifies.
-pub(super) fn coarse_lag(
+/// The lags within ±`max_offset_s` (and with at least `min_overlap_s` of overlap) at which the
+/// envelopes correlate best: up to `count` peaks, best first, each farther than a peak's width
+/// from the better ones; `peak_width_s` of drift smear is added to the peak's width when
+/// measuring the sidelobes. Empty when no lag qualifies.
+pub(super) fn coarse_lags(
     fft: &mut FftWork,
     a: &Envelope,
     b: &Envelope,
     max_offset_s: f64,
     min_overlap_s: f64,
     peak_width_s: f64,
-) -> Option<CoarseLag> {
+    count: usize,
+) -> Vec<CoarseLag> {
     let (len_a, len_b) = (a.len() as i64, b.len() as i64);
     let size = (a.len() + b.len()).next_power_of_two();
     let correlation = fft.cross_correlation(&a.values, &b.values, size, Weighting::Plain);
@@ -93,14 +95,29 @@ pub(super) fn coarse_lag(
     let max_lag = (max_offset_s / a.hop_s).floor() as i64;
     let min_overlap = (min_overlap_s / a.hop_s).ceil() as i64;
     let overlap = |lag: i64| len_a.min(len_b - lag) - 0i64.max(-lag);
-    let peak = (-max_lag..=max_lag).filter(|&lag| overlap(lag) >= min_overlap).max_by(|&i, &j| at(i).total_cmp(&at(j)))?;
-    let offset = parabolic_peak_offset(at(peak - 1), at(peak), at(peak + 1));
     let exclude = PEAK_HALF_WIDTH_HOPS + (peak_width_s / a.hop_s).ceil() as i64;
-    let peak_ratio = match sidelobe_stats(&correlation, -(len_b - 1)..len_a, peak, exclude) {
-        Some((mean, deviation)) if deviation > 0.0 => (at(peak) - mean) / deviation,
-        _ => 0.0,
-    };
-    Some(CoarseLag { lag_s: (peak as f64 + offset) * a.hop_s, peak_ratio })
+    let mut lags: Vec<i64> = (-max_lag..=max_lag).filter(|&lag| overlap(lag) >= min_overlap).collect();
+    lags.sort_by(|&i, &j| at(j).total_cmp(&at(i)));
+    let mut peaks: Vec<i64> = Vec::new();
+    for lag in lags {
+        if peaks.len() == count {
+            break;
+        }
+        if peaks.iter().all(|p| (p - lag).abs() > exclude) {
+            peaks.push(lag);
+        }
+    }
+    peaks
+        .into_iter()
+        .map(|peak| {
+            let offset = parabolic_peak_offset(at(peak - 1), at(peak), at(peak + 1));
+            let peak_ratio = match sidelobe_stats(&correlation, -(len_b - 1)..len_a, peak, exclude) {
+                Some((mean, deviation)) if deviation > 0.0 => (at(peak) - mean) / deviation,
+                _ => 0.0,
+            };
+            CoarseLag { lag_s: (peak as f64 + offset) * a.hop_s, peak_ratio }
+        })
+        .collect()
 }
 
 /// Lags `(time in track a, lag)` (s) of segments of about [`SEGMENT_S`] tiling `[start_a_s,

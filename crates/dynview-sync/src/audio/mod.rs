@@ -5,7 +5,9 @@
 //! [`align_audio`] works in four steps:
 //! 1. **Coarse lag** per pair of tracks: an onset-strength envelope per track (log energy in
 //!    10 ms hops, half-wave-rectified difference) cross-correlated by FFT over lags within
-//!    ±[`AudioOptions::max_offset_s`]; the best lag and its peak-to-sidelobe ratio.
+//!    ±[`AudioOptions::max_offset_s`]; of its best few lags, the one at which the most short
+//!    windows of the samples peak clearly (alike sounds, a ball's knocks, can match the wrong
+//!    one in the envelopes), with its peak-to-sidelobe ratio.
 //! 2. **Drift guess**: the same envelopes correlated in segments along the overlap give a line
 //!    lag(t) good to a few milliseconds.
 //! 3. **GCC-PHAT refinement** in windows along the overlap (short ones first, then windows of

@@ -11,6 +11,13 @@ use super::line::{LagLine, robust_line};
 
 /// Shortest overlap of two tracks that is measured (s).
 pub(super) const MIN_OVERLAP_S: f64 = 1.0;
+/// Lags of the onset envelopes' correlation checked against the sound's fine structure.
+const COARSE_CANDIDATES: usize = 4;
+/// Most short windows that check one coarse candidate.
+const CHECK_WINDOWS: usize = 128;
+/// The short windows that check a coarse candidate lie within this of the overlap's middle (s):
+/// drift within it stays inside the search.
+const CHECK_SPAN_S: f64 = 20.0;
 /// How far the coarse lag may be off (s): a few envelope hops.
 const COARSE_TOLERANCE_S: f64 = 0.05;
 /// Segments of the drift guess farther than this from its line are outliers (s).
@@ -98,7 +105,9 @@ pub(super) fn measure_pair(fft: &mut FftWork, pair: &PairInput<'_>, options: &Au
     let duration_a_s = pair.samples_a.len() as f64 / rate_hz;
     let duration_b_s = pair.samples_b.len() as f64 / rate_hz;
     let max_drift_s = options.max_rate_deviation * duration_a_s.min(duration_b_s);
-    let coarse = envelope::coarse_lag(fft, pair.envelope_a, pair.envelope_b, options.max_offset_s, MIN_OVERLAP_S, max_drift_s);
+    let candidates =
+        envelope::coarse_lags(fft, pair.envelope_a, pair.envelope_b, options.max_offset_s, MIN_OVERLAP_S, max_drift_s, COARSE_CANDIDATES);
+    let coarse = best_heard_lag(fft, pair, &candidates, (duration_a_s, duration_b_s), options);
     let coarse_offset_s = coarse.map_or(0.0, |c| c.lag_s);
     let mut result = PairMeasurement {
         a: pair.a,
@@ -213,9 +222,36 @@ fn measure_windows_by_sounds(
         .collect()
 }
 
-/// The median lag of up to `most` short windows (every [`SHORT_HOP_S`] or spread wider) over
-/// `(from_a_s, to_a_s)`, at the middle of the span, with the median peak ratio of the clear
-/// ones; `None` with fewer than [`MIN_SHORT_WINDOWS`] clear.
+/// The clear short windows (every [`SHORT_HOP_S`], or spread wider to at most `most`) over
+/// `(from_a_s, to_a_s)`, each searched within `radius_s` of `line`: per window, its lag less
+/// the line's there (s) and its peak ratio.
+fn short_windows(
+    fft: &mut FftWork,
+    pair: &PairInput<'_>,
+    (from_a_s, to_a_s): (f64, f64),
+    most: usize,
+    radius_s: f64,
+    line: &LagLine,
+) -> Vec<(f64, f64)> {
+    let usable_s = to_a_s - from_a_s - SHORT_WINDOW_S;
+    if usable_s <= 0.0 {
+        return Vec::new();
+    }
+    let count = ((usable_s / SHORT_HOP_S).floor() as usize + 1).min(most);
+    (0..count)
+        .filter_map(|k| {
+            let centre_a_s = from_a_s + 0.5 * SHORT_WINDOW_S + (k as f64 + 0.5) * usable_s / count as f64;
+            let window = Window { centre_a_s, length_s: SHORT_WINDOW_S, radius_s };
+            gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, &window, line)
+        })
+        .filter(|w| w.peak_ratio >= MIN_PEAK_RATIO)
+        .map(|w| (w.lag_s - line.lag_at(w.time_a_s), w.peak_ratio))
+        .collect()
+}
+
+/// The median lag of the clear [`short_windows`] (up to `most`, searched [`SHORT_RADIUS_S`]
+/// around `line`) over `(from_a_s, to_a_s)`, at the middle of the span, with their median peak
+/// ratio; `None` with fewer than [`MIN_SHORT_WINDOWS`] clear.
 fn short_windows_median(
     fft: &mut FftWork,
     pair: &PairInput<'_>,
@@ -223,32 +259,50 @@ fn short_windows_median(
     most: usize,
     line: &LagLine,
 ) -> Option<WindowLag> {
-    let usable_s = to_a_s - from_a_s - SHORT_WINDOW_S;
-    if usable_s <= 0.0 {
-        return None;
-    }
-    let count = ((usable_s / SHORT_HOP_S).floor() as usize + 1).min(most);
-    let mut found: Vec<(f64, f64)> = (0..count)
-        .filter_map(|k| {
-            let centre_a_s = from_a_s + 0.5 * SHORT_WINDOW_S + (k as f64 + 0.5) * usable_s / count as f64;
-            let window = Window { centre_a_s, length_s: SHORT_WINDOW_S, radius_s: SHORT_RADIUS_S };
-            gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, &window, line)
-        })
-        .filter(|w| w.peak_ratio >= MIN_PEAK_RATIO)
-        .map(|w| (w.lag_s - line.lag_at(w.time_a_s), w.peak_ratio))
-        .collect();
+    let found = short_windows(fft, pair, (from_a_s, to_a_s), most, SHORT_RADIUS_S, line);
     if found.len() < MIN_SHORT_WINDOWS {
         return None;
     }
-    let median = |values: &mut Vec<f64>| {
+    let median = |mut values: Vec<f64>| {
         values.sort_by(f64::total_cmp);
         let middle = values.len() / 2;
         if values.len() % 2 == 1 { values[middle] } else { 0.5 * (values[middle - 1] + values[middle]) }
     };
-    let mut shifts: Vec<f64> = found.iter().map(|f| f.0).collect();
-    let mut ratios: Vec<f64> = found.drain(..).map(|f| f.1).collect();
     let time_a_s = 0.5 * (from_a_s + to_a_s);
-    Some(WindowLag { time_a_s, lag_s: line.lag_at(time_a_s) + median(&mut shifts), peak_ratio: median(&mut ratios) })
+    let shift_s = median(found.iter().map(|f| f.0).collect());
+    Some(WindowLag { time_a_s, lag_s: line.lag_at(time_a_s) + shift_s, peak_ratio: median(found.iter().map(|f| f.1).collect()) })
+}
+
+/// Of the envelopes' best lags, the one at which most short windows around the overlap's middle
+/// peak clearly: the lag at which the sound's fine structure agrees, not only a few onsets. On
+/// a short recording of a few alike sounds (a ball's knocks), one knock of a track matched with
+/// another knock of the other can correlate best in the envelopes; then few windows hold a
+/// clear peak there, where at the true lag nearly all do (the murmur, the other knocks). The
+/// envelopes' best wins ties. `None` without candidates.
+fn best_heard_lag(
+    fft: &mut FftWork,
+    pair: &PairInput<'_>,
+    candidates: &[envelope::CoarseLag],
+    (duration_a_s, duration_b_s): (f64, f64),
+    options: &AudioOptions,
+) -> Option<envelope::CoarseLag> {
+    if candidates.len() < 2 {
+        return candidates.first().copied();
+    }
+    let mut best: Option<(usize, envelope::CoarseLag)> = None;
+    for candidate in candidates {
+        let line = LagLine { time_a_s: 0.0, lag_s: candidate.lag_s, slope: 0.0 };
+        let (start_a_s, end_a_s) = overlap_in_a(&line, duration_a_s, duration_b_s);
+        let middle_s = 0.5 * (start_a_s + end_a_s);
+        let half_s = (0.5 * (end_a_s - start_a_s)).min(CHECK_SPAN_S);
+        let span = (middle_s - half_s, middle_s + half_s);
+        let radius_s = COARSE_TOLERANCE_S + options.max_rate_deviation * half_s;
+        let clear = short_windows(fft, pair, span, CHECK_WINDOWS, radius_s, &line).len();
+        if best.is_none_or(|(count, _)| clear > count) {
+            best = Some((clear, *candidate));
+        }
+    }
+    best.map(|(_, lag)| lag)
 }
 
 /// The stretch of track a's time (s) whose sound track b also holds under `line`.
