@@ -198,24 +198,18 @@ fn measure_windows_by_sounds(
     fft: &mut FftWork,
     pair: &PairInput<'_>,
     options: &AudioOptions,
-    (start_a_s, end_a_s): (f64, f64),
+    overlap: (f64, f64),
     radius_s: f64,
     line: &LagLine,
 ) -> Vec<WindowLag> {
-    let overlap_s = end_a_s - start_a_s;
-    if overlap_s < MIN_OVERLAP_S {
-        return Vec::new();
-    }
-    let count = windows_count(overlap_s, options.drift_window_s, options.max_windows_per_pair);
-    let length_s = options.drift_window_s.min(overlap_s);
-    let short_per_window = (MAX_SHORT_WINDOWS / count).max(MIN_SHORT_WINDOWS);
-    (0..count)
-        .filter_map(|k| {
-            let centre_a_s = start_a_s + (k as f64 + 0.5) * overlap_s / count as f64;
-            let span = (centre_a_s - 0.5 * length_s, centre_a_s + 0.5 * length_s);
+    let windows = spread_windows(overlap, options.drift_window_s, radius_s, options.max_windows_per_pair);
+    let short_per_window = (MAX_SHORT_WINDOWS / windows.len().max(1)).max(MIN_SHORT_WINDOWS);
+    windows
+        .iter()
+        .filter_map(|window| {
+            let span = (window.centre_a_s - 0.5 * window.length_s, window.centre_a_s + 0.5 * window.length_s);
             short_windows_median(fft, pair, span, short_per_window, line).or_else(|| {
-                let window = Window { centre_a_s, length_s, radius_s };
-                gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, &window, line)
+                gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, window, line)
                     .filter(|w| w.peak_ratio >= MIN_PEAK_RATIO)
             })
         })
@@ -321,28 +315,33 @@ fn windows_count(overlap_s: f64, length_s: f64, max_windows: usize) -> usize {
     ((overlap_s / length_s).floor().max(1.0) as usize).min(max_windows)
 }
 
-/// GCC-PHAT lags of windows of `length_s` (the overlap's length if shorter) spread evenly over
-/// `(start_a_s, end_a_s)`, searched within `radius_s` of `line`; only clear peaks.
-fn measure_windows(
-    fft: &mut FftWork,
-    pair: &PairInput<'_>,
-    options: &AudioOptions,
-    (start_a_s, end_a_s): (f64, f64),
-    length_s: f64,
-    radius_s: f64,
-    line: &LagLine,
-) -> Vec<WindowLag> {
+/// Windows of `length_s` (the overlap's length if shorter) spread evenly over `(start_a_s,
+/// end_a_s)` ([`windows_count`] of them), each searched within `radius_s`; none when the
+/// overlap is shorter than [`MIN_OVERLAP_S`].
+fn spread_windows((start_a_s, end_a_s): (f64, f64), length_s: f64, radius_s: f64, max_windows: usize) -> Vec<Window> {
     let overlap_s = end_a_s - start_a_s;
     if overlap_s < MIN_OVERLAP_S {
         return Vec::new();
     }
-    let count = windows_count(overlap_s, length_s, options.max_windows_per_pair);
+    let count = windows_count(overlap_s, length_s, max_windows);
     let length_s = length_s.min(overlap_s);
-    (0..count)
-        .filter_map(|k| {
-            let window = Window { centre_a_s: start_a_s + (k as f64 + 0.5) * overlap_s / count as f64, length_s, radius_s };
-            gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, &window, line)
-        })
+    (0..count).map(|k| Window { centre_a_s: start_a_s + (k as f64 + 0.5) * overlap_s / count as f64, length_s, radius_s }).collect()
+}
+
+/// GCC-PHAT lags of the [`spread_windows`] of `length_s` over `overlap`, searched within
+/// `radius_s` of `line`; only clear peaks.
+fn measure_windows(
+    fft: &mut FftWork,
+    pair: &PairInput<'_>,
+    options: &AudioOptions,
+    overlap: (f64, f64),
+    length_s: f64,
+    radius_s: f64,
+    line: &LagLine,
+) -> Vec<WindowLag> {
+    spread_windows(overlap, length_s, radius_s, options.max_windows_per_pair)
+        .iter()
+        .filter_map(|window| gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, window, line))
         .filter(|w| w.peak_ratio >= MIN_PEAK_RATIO)
         .collect()
 }
