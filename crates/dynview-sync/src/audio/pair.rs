@@ -185,8 +185,8 @@ pub(super) fn measure_pair(fft: &mut FftWork, pair: &PairInput<'_>, options: &Au
     }
 }
 
-/// The second pass's windows of [`AudioOptions::drift_window_s`] spread over `(start_a_s,
-/// end_a_s)` as [`measure_windows`] spreads them, each measured by its sounds: the median lag of
+/// The second pass's [`spread_windows`] of [`AudioOptions::drift_window_s`] over `overlap`,
+/// each measured by its sounds: the median lag of
 /// short windows inside it when at least [`MIN_SHORT_WINDOWS`] of them peak clearly (searched
 /// [`SHORT_RADIUS_S`] around `line`), by GCC-PHAT over the whole window (within `radius_s`)
 /// otherwise. A long window holds many sounds from several places, each heard with its own lag,
@@ -208,10 +208,7 @@ fn measure_windows_by_sounds(
         .iter()
         .filter_map(|window| {
             let span = (window.centre_a_s - 0.5 * window.length_s, window.centre_a_s + 0.5 * window.length_s);
-            short_windows_median(fft, pair, span, short_per_window, line).or_else(|| {
-                gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, window, line)
-                    .filter(|w| w.peak_ratio >= MIN_PEAK_RATIO)
-            })
+            short_windows_median(fft, pair, span, short_per_window, line).or_else(|| clear_lag(fft, pair, window, line))
         })
         .collect()
 }
@@ -235,10 +232,8 @@ fn short_windows(
     (0..count)
         .filter_map(|k| {
             let centre_a_s = from_a_s + 0.5 * SHORT_WINDOW_S + (k as f64 + 0.5) * usable_s / count as f64;
-            let window = Window { centre_a_s, length_s: SHORT_WINDOW_S, radius_s };
-            gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, &window, line)
+            clear_lag(fft, pair, &Window { centre_a_s, length_s: SHORT_WINDOW_S, radius_s }, line)
         })
-        .filter(|w| w.peak_ratio >= MIN_PEAK_RATIO)
         .map(|w| (w.lag_s - line.lag_at(w.time_a_s), w.peak_ratio))
         .collect()
 }
@@ -341,7 +336,12 @@ fn measure_windows(
 ) -> Vec<WindowLag> {
     spread_windows(overlap, length_s, radius_s, options.max_windows_per_pair)
         .iter()
-        .filter_map(|window| gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, window, line))
-        .filter(|w| w.peak_ratio >= MIN_PEAK_RATIO)
+        .filter_map(|window| clear_lag(fft, pair, window, line))
         .collect()
+}
+
+/// The pair's GCC-PHAT lag at `window` (searched around `line`) when its peak is clear
+/// ([`MIN_PEAK_RATIO`]).
+fn clear_lag(fft: &mut FftWork, pair: &PairInput<'_>, window: &Window, line: &LagLine) -> Option<WindowLag> {
+    gcc::window_lag(fft, pair.samples_a, pair.samples_b, pair.sample_rate_hz, window, line).filter(|w| w.peak_ratio >= MIN_PEAK_RATIO)
 }
