@@ -7,7 +7,7 @@
 //! of [`Rigid3`] give the same pose as nalgebra values; with `serde` it serializes as
 //! `{"rotation": [9 entries, column-major], "translation": [x, y, z]}`.
 
-use glam::{DMat3, DVec3};
+use glam::{DMat3, DQuat, DVec3};
 
 /// A rigid transform `p_to = rotation * p_from + translation`. Name values after the frames
 /// they connect, e.g. `camera_from_world: Rigid3`.
@@ -73,6 +73,15 @@ impl Rigid3 {
         -(self.rotation.transpose() * self.translation)
     }
 
+    /// For `camera_from_world` transforms: the camera a fraction `s` (0 at `self`, 1 at `other`)
+    /// of the way to `other`, its rotation slerped and its centre on the straight line between.
+    pub fn camera_between(&self, other: &Self, s: f64) -> Self {
+        let (a, b) = (DQuat::from_mat3(&self.rotation), DQuat::from_mat3(&other.rotation));
+        let rotation = DMat3::from_quat(a.slerp(b, s).normalize());
+        let centre = self.camera_center_world().lerp(other.camera_center_world(), s);
+        Self { rotation, translation: -(rotation * centre) }
+    }
+
     /// True when all entries are finite, `R R^T` is within `tolerance` of the identity
     /// (max abs entry) and `det R` within `tolerance` of +1.
     pub fn is_proper_rigid(&self, tolerance: f64) -> bool {
@@ -102,6 +111,20 @@ impl Rigid3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_camera_between_two_turns_and_moves_part_of_the_way() {
+        let a = Rigid3::camera_from_world_looking_at(DVec3::new(0.0, 0.0, -5.0), DVec3::ZERO, DVec3::Y);
+        let b = Rigid3::camera_from_world_looking_at(DVec3::new(5.0, 0.0, 0.0), DVec3::ZERO, DVec3::Y);
+        let half = a.camera_between(&b, 0.5);
+        // Half of a quarter turn about y, its centre midway (not on the circle).
+        let angle = DQuat::from_mat3(&(half.rotation * a.rotation.transpose())).angle_between(DQuat::IDENTITY);
+        assert!((angle - std::f64::consts::FRAC_PI_4).abs() < 1e-9, "{angle}");
+        assert!((half.camera_center_world() - DVec3::new(2.5, 0.0, -2.5)).length() < 1e-9);
+        assert!(half.is_proper_rigid(1e-9));
+        assert!((a.camera_between(&b, 0.0).translation - a.translation).length() < 1e-9);
+        assert!(a.camera_between(&b, 1.0).rotation.abs_diff_eq(b.rotation, 1e-9));
+    }
 
     fn approx(a: DVec3, b: DVec3, tol: f64) -> bool {
         (a - b).abs().max_element() <= tol

@@ -1,9 +1,10 @@
 //! Cameras placed from the static scene before they are put on one timeline, for `--sync
 //! visual` without a calibration: cameras on tripods see the same walls and floor whenever
 //! they film, so keyframes of each camera's own recording, not yet aligned in time, place them
-//! as the keyframe stage would. The visual alignment needs only each camera's intrinsics and
-//! one pose (its epipolar geometry with the others); the pose stages run again on the aligned
-//! frames afterwards.
+//! as the keyframe stage would. The visual alignment needs each camera's intrinsics and its
+//! keyframes' poses (one for a camera on a tripod; a hand-held camera's frames between its
+//! keyframes take the pose between theirs); the pose stages run again on the aligned frames
+//! afterwards.
 
 use std::sync::atomic::AtomicBool;
 
@@ -33,7 +34,7 @@ pub const PLACED_FILE: &str = "time/placed_poses.json";
 const MIN_KEYFRAMES: usize = 4;
 
 /// Every camera of `recorded` (each camera's own frames, in any time order) placed from its
-/// keyframes: per camera its intrinsics, distortion and one pose. An error when a camera cannot
+/// keyframes: per camera its intrinsics, distortion and its keyframes' poses. An error when a camera cannot
 /// be placed names it and says what to give instead.
 pub fn place_still_cameras(
     work: &WorkDir,
@@ -68,11 +69,23 @@ pub fn place_still_cameras(
     let mut placed = Vec::with_capacity(frames.cameras.len());
     let mut missing = Vec::new();
     for (c, camera) in frames.cameras.iter().enumerate() {
-        let pose = model.keyframes.iter().zip(&r.poses).find_map(|(k, p)| (k.camera == c).then_some(*p).flatten());
-        let Some(pose) = pose else {
+        // Every keyframe's pose for a hand-held camera; one for a camera on a tripod.
+        let mut poses: Vec<FramePose> = model
+            .keyframes
+            .iter()
+            .zip(&r.poses)
+            .filter(|(k, _)| k.camera == c)
+            .filter_map(|(k, p)| Some(FramePose { file: camera.file_name(k.frame), camera_from_world: Some(PoseEntry::from((*p)?)) }))
+            .collect();
+        if poses.is_empty() {
             missing.push(camera.name.clone());
             continue;
-        };
+        }
+        poses.sort_by(|a, b| a.file.cmp(&b.file));
+        if model.still_cameras.get(c) == Some(&true) {
+            // A camera found standing still keeps one pose, whether or not its keyframes were pooled.
+            poses.truncate(1);
+        }
         let opencv = r.intrinsics[c].to_opencv();
         placed.push(CameraPoses {
             name: camera.name.clone(),
@@ -80,7 +93,7 @@ pub fn place_still_cameras(
             height: camera.height,
             intrinsics: opencv.pinhole.into(),
             distortion: opencv.distortion.to_array(),
-            frames: vec![FramePose { file: camera.file_name(0), camera_from_world: Some(PoseEntry::from(pose)) }],
+            frames: poses,
         });
     }
     if !missing.is_empty() {

@@ -13,10 +13,11 @@
 
 use std::sync::atomic::AtomicBool;
 
+use std::collections::HashMap;
+
 use nalgebra::{Matrix3, Vector3};
-use opencv::core::{self, Mat, Point, Size};
+use opencv::core::{Mat, Size};
 use opencv::imgproc;
-use opencv::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -31,6 +32,7 @@ use crate::estimators::geometry::essential_between;
 use crate::features::guided::{guided_matches, squared_distance};
 use crate::features::sift::{DESCRIPTOR_LEN, FeatureOptions, Features, extract_gray_masked, read_gray};
 use crate::input::frames::RecordedCamera;
+use crate::input::timing::moving::{compensated_still, median_image, moving_mask};
 pub use crate::input::timing::solve::PairOffset;
 use crate::input::timing::solve::{groups, solve_offsets};
 
@@ -104,7 +106,15 @@ struct View {
     fps: Option<f64>,
     features: Vec<Features>,
     pinhole: Radial,
-    camera_from_world: Rigid3,
+    /// Per frame, its pose (a camera without one for a frame keeps its first).
+    camera_from_world: Vec<Rigid3>,
+}
+
+impl View {
+    /// The essential matrix from frame `i` of `self` to frame `j` of `other`.
+    fn essential_to(&self, i: usize, other: &View, j: usize) -> Matrix3<f64> {
+        essential_between(&self.camera_from_world[i], &other.camera_from_world[j])
+    }
 }
 
 /// Clocks of `recorded` against the first camera's video time from the pictures, each with a
@@ -173,11 +183,8 @@ pub fn visual_clocks(
 
 fn prepare_view(recorded: &RecordedCamera, times: &CameraTimes, calib: &CameraPoses, options: &VisualOptions) -> SfmResult<View> {
     let frames = &recorded.frames;
-    let pose = calib
-        .frames
-        .first()
-        .and_then(|f| f.camera_from_world)
-        .ok_or_else(|| SfmError::TimeAlignment(format!("--sync visual: camera {} has no pose in the calibration", frames.name)))?;
+    let poses = frame_poses(recorded, calib)?;
+    let moves = poses.windows(2).any(|w| w[0] != w[1]);
     let scale = (f64::from(options.max_side_px) / f64::from(frames.width.max(frames.height))).min(1.0);
     let size = Size::new((f64::from(frames.width) * scale).round() as i32, (f64::from(frames.height) * scale).round() as i32);
     let gray: Vec<Mat> = frames
@@ -190,14 +197,24 @@ fn prepare_view(recorded: &RecordedCamera, times: &CameraTimes, calib: &CameraPo
             Ok(small)
         })
         .collect::<SfmResult<_>>()?;
-    let still = median_image(&gray, options.median_frames)?;
+    // A camera on a tripod has one still image; a hand-held one, one per frame.
+    let still = if moves { None } else { Some(median_image(&gray, options.median_frames)?) };
     let pinhole_in = Pinhole::from(calib.intrinsics);
     let lens = OpenCv { pinhole: pinhole_in, distortion: OpenCvDistortion::from_array(calib.distortion) };
     let feature_options = FeatureOptions { max_features: options.max_features, max_image_size_px: u32::MAX, ..FeatureOptions::default() };
     let features: Vec<Features> = gray
         .par_iter()
-        .map(|g| {
-            let mask = moving_mask(g, &still, options.moving_threshold)?;
+        .enumerate()
+        .map(|(k, g)| {
+            let own;
+            let still = match &still {
+                Some(still) => still,
+                None => {
+                    own = compensated_still(&gray, k)?;
+                    &own
+                }
+            };
+            let mask = moving_mask(g, still, options.moving_threshold)?;
             let mut f = extract_gray_masked(g, &mask, &feature_options)?;
             for xy in &mut f.xy {
                 let full = [(f64::from(xy[0]) + 0.5) / scale - 0.5, (f64::from(xy[1]) + 0.5) / scale - 0.5];
@@ -213,54 +230,43 @@ fn prepare_view(recorded: &RecordedCamera, times: &CameraTimes, calib: &CameraPo
         fps: times.nominal_fps(),
         features,
         pinhole: Radial::from_pinhole(&pinhole_in),
-        camera_from_world: pose.camera_from_world(),
+        camera_from_world: poses,
     })
 }
 
-/// The per-pixel median of up to `count` frames spread over `gray`.
-fn median_image(gray: &[Mat], count: usize) -> SfmResult<Vec<u8>> {
-    let step = (gray.len() / count.max(1)).max(1);
-    let picked: Vec<&[u8]> =
-        gray.iter().step_by(step).map(|g| g.data_bytes().map_err(SfmError::cv("frame bytes"))).collect::<SfmResult<_>>()?;
-    let len = picked.first().map_or(0, |p| p.len());
-    let mut column = Vec::with_capacity(picked.len());
-    Ok((0..len)
-        .map(|i| {
-            column.clear();
-            column.extend(picked.iter().map(|p| p[i]));
-            column.sort_unstable();
-            column[column.len() / 2]
+/// Each recorded frame's pose in `calib`, found by the frame's file name. A frame without one
+/// takes the camera between the registered frames around it (a camera placed from its
+/// keyframes), or the nearest registered frame's at the ends (a calibration of cameras on
+/// tripods gives one pose for all).
+fn frame_poses(recorded: &RecordedCamera, calib: &CameraPoses) -> SfmResult<Vec<Rigid3>> {
+    let name = &recorded.frames.name;
+    let first = calib
+        .frames
+        .iter()
+        .find_map(|f| f.camera_from_world)
+        .ok_or_else(|| SfmError::TimeAlignment(format!("--sync visual: camera {name} has no pose in the calibration")))?
+        .camera_from_world();
+    let by_file: HashMap<&str, Rigid3> =
+        calib.frames.iter().filter_map(|f| Some((f.file.as_str(), f.camera_from_world?.camera_from_world()))).collect();
+    let registered: Vec<(usize, Rigid3)> = (0..recorded.frames.files.len())
+        .filter_map(|k| by_file.get(recorded.frames.file_name(k).as_str()).map(|pose| (k, *pose)))
+        .collect();
+    Ok((0..recorded.frames.files.len())
+        .map(|k| {
+            let after = registered.partition_point(|(f, _)| *f < k);
+            match (after.checked_sub(1).map(|b| &registered[b]), registered.get(after)) {
+                (_, Some((f, pose))) if *f == k => *pose,
+                (Some((fa, a)), Some((fb, b))) => a.camera_between(b, (k - fa) as f64 / (fb - fa) as f64),
+                (Some((_, pose)), None) | (None, Some((_, pose))) => *pose,
+                (None, None) => first,
+            }
         })
         .collect())
 }
 
-/// Where `gray` differs from the still image, grown by a few pixels (8-bit, 255 = moving).
-fn moving_mask(gray: &Mat, still: &[u8], threshold: f64) -> SfmResult<Mat> {
-    let bytes = gray.data_bytes().map_err(SfmError::cv("frame bytes"))?;
-    let moving: Vec<u8> = bytes.iter().zip(still).map(|(g, s)| if f64::from(g.abs_diff(*s)) > threshold { 255 } else { 0 }).collect();
-    let mask = Mat::new_rows_cols_with_data(gray.rows(), gray.cols(), &moving)
-        .map_err(SfmError::cv("moving mask"))?
-        .try_clone()
-        .map_err(SfmError::cv("moving mask"))?;
-    let kernel =
-        imgproc::get_structuring_element(imgproc::MORPH_ELLIPSE, Size::new(7, 7), Point::new(-1, -1)).map_err(SfmError::cv("kernel"))?;
-    let mut grown = Mat::default();
-    imgproc::dilate(
-        &mask,
-        &mut grown,
-        &kernel,
-        Point::new(-1, -1),
-        1,
-        core::BORDER_CONSTANT,
-        imgproc::morphology_default_border_value().map_err(SfmError::cv("border"))?,
-    )
-    .map_err(SfmError::cv("growing the moving mask"))?;
-    Ok(grown)
-}
-
 /// A camera's viewing direction in the world.
 fn axis(view: &View) -> Vector3<f64> {
-    view.camera_from_world.rotation_matrix().row(2).transpose()
+    view.camera_from_world[0].rotation_matrix().row(2).transpose()
 }
 
 /// Each camera with its `k` nearest in viewing direction (each pair once, first index lower).
@@ -303,7 +309,6 @@ fn pair_offset(views: &[View], a: usize, b: usize, options: &VisualOptions) -> O
 /// [`pair_offset`] with candidate offsets a frame of `b` apart.
 fn pair_offset_stepping_by_b(views: &[View], a: usize, b: usize, options: &VisualOptions) -> Option<(f64, usize, f64)> {
     let (va, vb) = (&views[a], &views[b]);
-    let e = essential_between(&va.camera_from_world, &vb.camera_from_world);
     let frame_b_s = 1.0 / vb.fps?;
     let bins = (options.max_offset_s / frame_b_s).ceil() as i64;
     let mut votes = vec![0usize; (2 * bins + 1) as usize];
@@ -318,6 +323,7 @@ fn pair_offset_stepping_by_b(views: &[View], a: usize, b: usize, options: &Visua
             if (vb.times_s[j] - (t + offset)).abs() > frame_b_s / 2.0 {
                 continue;
             }
+            let e = va.essential_to(i, vb, j);
             let matches = guided_matches((&va.features[i], &va.pinhole), (&vb.features[j], &vb.pinhole), &e, options.max_epipolar_px, 0.8);
             *slot += matches.len();
             best_pairs[bin].push((i, j, matches));
@@ -335,7 +341,7 @@ fn pair_offset_stepping_by_b(views: &[View], a: usize, b: usize, options: &Visua
     // Without a refinement, the frames actually matched (picked nearest to each coarse offset).
     let measured: Vec<f64> = best_pairs[winner].iter().map(|(i, j, _)| vb.times_s[*j] - va.times_s[*i]).collect();
     let coarse = if measured.is_empty() { (winner as i64 - bins) as f64 * frame_b_s } else { median(measured) };
-    let offset = refine_offset(va, vb, &e, &best_pairs[winner], frame_b_s).unwrap_or(coarse);
+    let offset = refine_offset(va, vb, &best_pairs[winner], frame_b_s).unwrap_or(coarse);
     Some((offset, count, confidence))
 }
 
@@ -358,7 +364,7 @@ fn median(mut values: Vec<f64>) -> f64 {
 /// their real time apart, so variable frame rates count), and the offset is the least-squares
 /// fit of `distance + (offset - base) * velocity = 0` over them, the worst fifth dropped once,
 /// kept within `max_shift_s` of the median base.
-fn refine_offset(a: &View, b: &View, e: &Matrix3<f64>, pairs: &[FrameMatches], max_shift_s: f64) -> Option<f64> {
+fn refine_offset(a: &View, b: &View, pairs: &[FrameMatches], max_shift_s: f64) -> Option<f64> {
     // Per match and neighbour frame: (base offset s, distance, velocity per s).
     let mut samples: Vec<(f64, f64, f64)> = Vec::new();
     for (i, j, matches) in pairs {
@@ -373,14 +379,16 @@ fn refine_offset(a: &View, b: &View, e: &Matrix3<f64>, pairs: &[FrameMatches], m
                 let Some(to) = same_feature(&b.features[*j], m[1] as usize, &b.features[next], MAX_MOTION_PX) else { continue };
                 let xa = a.features[*i].xy[m[0] as usize];
                 let ray_a = a.pinhole.normalized(nalgebra::Vector2::new(f64::from(xa[0]), f64::from(xa[1])));
-                let line = e * Vector3::new(ray_a.x, ray_a.y, 1.0);
-                let norm = line.x.hypot(line.y).max(1e-12);
-                let distance = |xy: [f32; 2]| {
+                let ray_a = Vector3::new(ray_a.x, ray_a.y, 1.0);
+                // The line in each of b's frames, from that frame's pose (a hand-held camera's
+                // own motion moves the line, not only what is filmed).
+                let distance = |frame: usize, xy: [f32; 2]| {
+                    let line = a.essential_to(*i, b, frame) * ray_a;
                     let n = b.pinhole.normalized(nalgebra::Vector2::new(f64::from(xy[0]), f64::from(xy[1])));
-                    line.dot(&Vector3::new(n.x, n.y, 1.0)) / norm
+                    line.dot(&Vector3::new(n.x, n.y, 1.0)) / line.x.hypot(line.y).max(1e-12)
                 };
-                let d0 = distance(from);
-                samples.push((base, d0, (distance(to) - d0) / dt));
+                let d0 = distance(*j, from);
+                samples.push((base, d0, (distance(next, to) - d0) / dt));
             }
         }
     }
