@@ -28,7 +28,7 @@ use crate::mapping::keyframes::{Keyframe, keyframe_features, keyframes, match_al
 use crate::mapping::refine::{CameraTrack, KeyframeView, RefineReport, refine_camera};
 use crate::mapping::step_adjust::{StepAdjustReport, StepCameras, adjust_with_steps};
 use crate::pipeline::options::{PrepOptions, PrepReport, Stage};
-use crate::pipeline::still_placement::{check_confidence, place_still_cameras};
+use crate::pipeline::still_placement::{check_confidence, hand_held_warnings, place_still_cameras};
 use crate::work::WorkDir;
 
 /// The revision of the pose stages' work files (`keyframes/model.json`, `refine/<camera>.json`,
@@ -81,8 +81,9 @@ pub(crate) fn pose_stages(
     let placed_refs: Option<Vec<&CameraPoses>> = placed.as_ref().map(|p| p.iter().collect());
     let sync_calibration = calibration.as_deref().or(placed_refs.as_deref());
     let (mut frames, alignment, warnings) = align_in_time(&recorded, &time, sync_calibration, work, progress, interrupt)?;
-    if placed.is_some() {
+    if let Some(placed) = &placed {
         check_confidence(&alignment)?;
+        report.warnings.extend(hand_held_warnings(placed));
     }
     report.warnings.extend(warnings);
     report.time_alignment = Some(alignment);

@@ -105,6 +105,24 @@ pub fn place_still_cameras(
     Ok(placed)
 }
 
+/// A warning per camera [`place_still_cameras`] found moving (hand-held): the visual alignment
+/// took its frames between keyframes at the poses between theirs, so its clock is less sure
+/// than its confidence says (on the synthetic phones hand-held: up to 19 ms off at confidences
+/// 0.56-0.65, against 7 ms with the true pose of every frame).
+pub fn hand_held_warnings(placed: &[CameraPoses]) -> Vec<String> {
+    placed
+        .iter()
+        .filter(|c| c.frames.len() > 1)
+        .map(|c| {
+            format!(
+                "camera {}: hand-held, placed for the time alignment from its keyframes only (the frames between take the poses \
+                 between), so its clock may be up to a frame off; give --poses or --offsets where that matters",
+                c.name
+            )
+        })
+        .collect()
+}
+
 /// An error unless every camera's clock found with cameras placed by [`place_still_cameras`] is
 /// at least [`MIN_CONFIDENCE`] sure; it names the unsure cameras.
 pub fn check_confidence(alignment: &TimeAlignment) -> SfmResult<()> {
@@ -121,4 +139,31 @@ pub fn check_confidence(alignment: &TimeAlignment) -> SfmResult<()> {
         "the clocks found from the pictures with the cameras placed from the static scene (see {PLACED_FILE} in the work folder) are unsure for {}: below {MIN_CONFIDENCE}, the placement is likely wrong; give --poses (a calibration) or --offsets",
         unsure.join(", ")
     )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dynview_camera::Rigid3;
+    use dynview_core::camera::Intrinsics;
+
+    fn placed(name: &str, poses: usize) -> CameraPoses {
+        CameraPoses {
+            name: name.into(),
+            width: 64,
+            height: 48,
+            intrinsics: Intrinsics { fx: 60.0, fy: 60.0, cx: 31.5, cy: 23.5 },
+            distortion: [0.0; 4],
+            frames: (0..poses)
+                .map(|k| FramePose { file: format!("{:05}.png", 20 * k), camera_from_world: Some(PoseEntry::from(Rigid3::IDENTITY)) })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn only_cameras_placed_with_a_pose_per_keyframe_are_warned_about() {
+        let warnings = hand_held_warnings(&[placed("tripod", 1), placed("phone", 4)]);
+        assert_eq!(warnings.len(), 1);
+        assert!(warnings[0].starts_with("camera phone: hand-held") && warnings[0].contains("--offsets"), "{}", warnings[0]);
+    }
 }

@@ -37,8 +37,9 @@ pub const DEFAULT_FPS: f64 = 30.0;
 /// The revision of the visual alignment, part of its work-folder key: a work folder aligned
 /// by an earlier revision aligns again. 2: the sub-frame refinement in seconds from the frames'
 /// real times (variable rates), both neighbour frames in one fit. 3: each frame's own pose
-/// (hand-held cameras), and a hand-held camera's moving pixels against its frames around.
-pub const VISUAL_SYNC_REVISION: u32 = 3;
+/// (hand-held cameras), and a hand-held camera's moving pixels against its frames around. 4:
+/// static matches dropped in pairs with a hand-held camera.
+pub const VISUAL_SYNC_REVISION: u32 = 4;
 /// Below this confidence a camera's clock is named in a warning.
 pub const LOW_CONFIDENCE: f64 = 0.3;
 

@@ -81,6 +81,21 @@ pub fn compensated_still(gray: &[Mat], index: usize) -> SfmResult<Vec<u8>> {
 /// `other` warped onto `frame` by the homography of `corners` (in `frame`) tracked into it, and
 /// where the warp covers `frame` (255); `None` when too few corners follow one homography.
 fn warp_onto(other: &Mat, frame: &Mat, corners: &Vector<Point2f>, size: Size) -> SfmResult<Option<(Mat, Mat)>> {
+    let Some(h) = tracked_homography(frame, other, corners)? else { return Ok(None) };
+    let warp = |src: &Mat, interpolation: i32| -> SfmResult<Mat> {
+        let mut out = Mat::default();
+        imgproc::warp_perspective(src, &mut out, &h, size, interpolation, core::BORDER_CONSTANT, Scalar::all(0.0))
+            .map_err(SfmError::cv("warping a frame"))?;
+        Ok(out)
+    };
+    let ones = Mat::new_size_with_default(other.size().map_err(SfmError::cv("frame size"))?, core::CV_8UC1, Scalar::all(255.0))
+        .map_err(SfmError::cv("coverage"))?;
+    Ok(Some((warp(other, imgproc::INTER_LINEAR)?, warp(&ones, imgproc::INTER_NEAREST)?)))
+}
+
+/// The homography taking `other`'s pixels onto `frame`'s, from `corners` (in `frame`) tracked
+/// into `other` (RANSAC: what moves is left out); `None` when too few corners follow one.
+fn tracked_homography(frame: &Mat, other: &Mat, corners: &Vector<Point2f>) -> SfmResult<Option<Mat>> {
     let (mut tracked, mut status, mut error) = (Vector::<Point2f>::new(), Vector::<u8>::new(), Vector::<f32>::new());
     let criteria = TermCriteria::new(core::TermCriteria_COUNT + core::TermCriteria_EPS, 30, 0.01).map_err(SfmError::cv("criteria"))?;
     video::calc_optical_flow_pyr_lk(frame, other, corners, &mut tracked, &mut status, &mut error, Size::new(21, 21), 3, criteria, 0, 1e-4)
@@ -99,18 +114,7 @@ fn warp_onto(other: &Mat, frame: &Mat, corners: &Vector<Point2f>, size: Size) ->
     let h = calib3d::find_homography_ext(&from, &to, calib3d::RANSAC, HOMOGRAPHY_PX, &mut inliers, 2000, 0.995)
         .map_err(SfmError::cv("background homography"))?;
     let kept = if inliers.empty() { 0 } else { core::count_non_zero(&inliers).map_err(SfmError::cv("homography inliers"))? as usize };
-    if h.rows() != 3 || kept < MIN_TRACKED {
-        return Ok(None);
-    }
-    let warp = |src: &Mat, interpolation: i32| -> SfmResult<Mat> {
-        let mut out = Mat::default();
-        imgproc::warp_perspective(src, &mut out, &h, size, interpolation, core::BORDER_CONSTANT, Scalar::all(0.0))
-            .map_err(SfmError::cv("warping a frame"))?;
-        Ok(out)
-    };
-    let ones = Mat::new_size_with_default(other.size().map_err(SfmError::cv("frame size"))?, core::CV_8UC1, Scalar::all(255.0))
-        .map_err(SfmError::cv("coverage"))?;
-    Ok(Some((warp(other, imgproc::INTER_LINEAR)?, warp(&ones, imgproc::INTER_NEAREST)?)))
+    Ok((h.rows() == 3 && h.cols() == 3 && kept >= MIN_TRACKED).then_some(h))
 }
 
 /// Per pixel, how many of `covers` hold it.
