@@ -268,7 +268,8 @@ fn synthetic_phones_are_aligned_within_a_quarter_frame_from_the_pictures() {
 /// The phones hand-held (a wobble of 4 cm and 0.8 degrees), aligned from the pictures with the
 /// true pose of every frame: each frame's own epipolar geometry, and what moves found against
 /// the frames around it warped onto it (against the median of the recording every edge of the
-/// wobbling background moved, and the clocks came out 97-361 ms off).
+/// wobbling background moved, and the clocks came out 97-361 ms off). The given poses then
+/// follow the alignment: a pose per time step (before, an error).
 #[test]
 fn hand_held_phones_are_aligned_within_a_quarter_frame_from_the_pictures() {
     skip_without_ffmpeg!();
@@ -286,7 +287,9 @@ fn hand_held_phones_are_aligned_within_a_quarter_frame_from_the_pictures() {
     phones.audio = false;
     config.unsync = Some(phones);
     let truth = film(&config, &event);
-    let options = PrepOptions { poses: Some(event.join("colmap")), sync: SyncMethod::Visual, ..frames_only() };
+    // Through the poses stage: the given poses, one per recorded frame, follow the alignment.
+    let options =
+        PrepOptions { poses: Some(event.join("colmap")), sync: SyncMethod::Visual, stop_after: Stage::Poses, ..PrepOptions::default() };
     let (report, _) = prep(&event.join("videos"), &options).expect("visual alignment");
     let time = report.time_alignment.expect("reported");
     for (name, error_s) in clock_errors_s(&time, &truth) {
@@ -294,6 +297,11 @@ fn hand_held_phones_are_aligned_within_a_quarter_frame_from_the_pictures() {
     }
     for (name, camera) in &time.cameras {
         assert!(camera.confidence >= 0.3, "{name}: confidence {:.2} ({:?})", camera.confidence, time.pairs);
+    }
+    let poses = dynview_interchange::poses::EventPoses::read(&report.poses_file.expect("poses written")).expect("poses.json");
+    for camera in &poses.cameras {
+        assert_eq!(camera.frames.len(), time.steps, "{}: a pose per time step", camera.name);
+        assert!(camera.frames.windows(2).any(|w| w[0].camera_from_world != w[1].camera_from_world), "{} moves", camera.name);
     }
 }
 

@@ -3,6 +3,7 @@
 //! camera and the adjustment over sampled time steps, each saved in the work folder and
 //! skipped on a re-run with the same inputs; then `poses.json`. Known poses skip them all.
 
+use std::collections::HashMap;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
@@ -18,8 +19,8 @@ use crate::error::{SfmError, SfmResult};
 use crate::estimators::focal::PRIOR_FOCAL_FACTOR;
 use crate::features::sift::Features;
 use crate::input::calibration::{KnownCameras, calibration_for, known_intrinsics, read_poses, undistort_frames};
-use crate::input::frames::{DiscoveredCamera, EventFrames, decode_frames};
-use crate::input::timing::{SyncMethod, TimeOptions, align_in_time};
+use crate::input::frames::{CameraFrames, DiscoveredCamera, EventFrames, decode_frames};
+use crate::input::timing::{RecordedAt, SyncMethod, TimeOptions, align_in_time};
 use crate::mapping::keyframe_model::{
     KeyframeModel, PRIOR_FOCAL_SOURCE, focal_std_fractions, intrinsics_groups, intrinsics_notes, per_group, reconstruct_keyframes,
     to_colmap, weak_focal_warnings, write_colmap_text,
@@ -102,7 +103,8 @@ pub(crate) fn pose_stages(
     }
 
     if let (Some(path), Some(given)) = (&options.poses, &given) {
-        let event = known_poses(given, path, &frames)?;
+        let sources = report.time_alignment.as_ref().map(|a| a.step_sources.as_slice()).unwrap_or_default();
+        let event = known_poses(given, path, &frames, Some((&recorded_frames, sources)))?;
         let poses_path = out.join(POSES_FILE);
         event.write(&poses_path)?;
         report.poses_file = Some(poses_path);
@@ -422,16 +424,31 @@ pub fn event_poses(frames: &EventFrames, model: &KeyframeModel, poses: &[Vec<Rig
 /// cameras and frames: every camera must be there with the input's image size, and either one
 /// pose per frame or a single pose (a camera on a tripod or a calibrated rig) for all frames.
 /// Frames were undistorted with the given distortion, so the result has none.
-pub fn known_poses(given: &EventPoses, path: &Path, frames: &EventFrames) -> SfmResult<EventPoses> {
+///
+/// `timeline` (the cameras' recorded frames and the alignment's
+/// [`step_sources`](crate::input::timing::TimeAlignment::step_sources)) lets a moving camera's
+/// poses, given per recorded frame by file name, follow a time alignment: each step takes the
+/// pose of the frame it was filmed at, or the camera between the two frames its frame was made
+/// between.
+pub fn known_poses(
+    given: &EventPoses,
+    path: &Path,
+    frames: &EventFrames,
+    timeline: Option<(&EventFrames, &[Vec<RecordedAt>])>,
+) -> SfmResult<EventPoses> {
     let bad = |problem: String| SfmError::Input { path: path.to_path_buf(), problem };
     let mut cameras = Vec::new();
-    for (camera, known) in frames.cameras.iter().zip(calibration_for(given, path, frames)?) {
+    for (c, (camera, known)) in frames.cameras.iter().zip(calibration_for(given, path, frames)?).enumerate() {
         let n = camera.files.len();
         // A camera on a tripod may list its one pose per frame: one for all, whatever the
         // timeline made of its frames.
         let constant = known.frames.windows(2).all(|w| w[0].camera_from_world == w[1].camera_from_world);
+        let followed = timeline.filter(|_| !constant).and_then(|(recorded, sources)| {
+            Some(poses_along_timeline(known, recorded.cameras.get(c)?, sources.get(c)?)).filter(|p| p.len() == n)
+        });
         let poses: Vec<Option<PoseEntry>> = match known.frames.len() {
             m if m >= 1 && (m == 1 || constant) => vec![known.frames[0].camera_from_world; n],
+            _ if followed.as_ref().is_some_and(|p| p.iter().all(Option::is_some)) => followed.unwrap_or_default(),
             m if m == n => known.frames.iter().map(|f| f.camera_from_world).collect(),
             m => {
                 return Err(bad(format!(
@@ -455,4 +472,59 @@ pub fn known_poses(given: &EventPoses, path: &Path, frames: &EventFrames) -> Sfm
     let event = EventPoses { cameras };
     event.validate()?;
     Ok(event)
+}
+
+/// Per time step, the pose of `known` (given per recorded frame, by file name) where `sources`
+/// says the step's frame lies in `recorded`: a frame's own, or the camera between two frames a
+/// fraction of the way; `None` where a frame needed has no pose.
+fn poses_along_timeline(known: &CameraPoses, recorded: &CameraFrames, sources: &[RecordedAt]) -> Vec<Option<PoseEntry>> {
+    let by_file: HashMap<&str, PoseEntry> = known.frames.iter().filter_map(|f| Some((f.file.as_str(), f.camera_from_world?))).collect();
+    let pose = |j: usize| (j < recorded.files.len()).then(|| by_file.get(recorded.file_name(j).as_str()).copied()).flatten();
+    sources
+        .iter()
+        .map(|&(j, fraction)| {
+            let before = pose(j)?;
+            if fraction <= 0.0 {
+                return Some(before);
+            }
+            let after = pose(j + 1)?;
+            Some(PoseEntry::from(before.camera_from_world().camera_between(&after.camera_from_world(), fraction)))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dynview_core::camera::Intrinsics;
+    use glam::DVec3;
+
+    #[test]
+    fn a_moving_cameras_poses_follow_the_frames_its_time_steps_were_made_from() {
+        let at = |x: f64| Rigid3::camera_from_world_looking_at(DVec3::new(x, 0.0, -5.0), DVec3::new(x, 0.0, 0.0), DVec3::Y);
+        let known = CameraPoses {
+            name: "phone".into(),
+            width: 64,
+            height: 48,
+            intrinsics: Intrinsics { fx: 60.0, fy: 60.0, cx: 31.5, cy: 23.5 },
+            distortion: [0.0; 4],
+            // Frame 2 has no pose.
+            frames: [0, 1, 3]
+                .iter()
+                .map(|&k| FramePose { file: format!("{k:05}.png"), camera_from_world: Some(PoseEntry::from(at(k as f64))) })
+                .collect(),
+        };
+        let recorded = CameraFrames {
+            name: "phone".into(),
+            width: 64,
+            height: 48,
+            files: (0..4).map(|k| std::path::PathBuf::from(format!("frames/phone/{k:05}.png"))).collect(),
+        };
+        let poses = poses_along_timeline(&known, &recorded, &[(0, 0.0), (3, 0.0), (0, 0.25), (1, 0.5)]);
+        let centre = |p: &Option<PoseEntry>| p.map(|p| p.camera_from_world().camera_center_world().x);
+        let centres: Vec<Option<f64>> = poses.iter().map(centre).collect();
+        assert!((centres[0].unwrap() - 0.0).abs() < 1e-9 && (centres[1].unwrap() - 3.0).abs() < 1e-9, "{centres:?}");
+        assert!((centres[2].unwrap() - 0.25).abs() < 1e-9, "a quarter of the way from frame 0 to 1: {centres:?}");
+        assert_eq!(centres[3], None, "made between frames 1 and 2, and frame 2 has no pose");
+    }
 }

@@ -140,7 +140,16 @@ pub struct TimeAlignment {
     /// b's clock rate against a's).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub pairs: Vec<String>,
+    /// Per camera (in the input's order), per time step, where in the camera's recording its
+    /// frame lies: the frame filmed (fraction 0), or the frame before the step's moment and
+    /// how far towards the next one the frame made for it is. Not in the report.
+    #[serde(skip)]
+    pub step_sources: Vec<Vec<RecordedAt>>,
 }
+
+/// Where a time step's frame lies in a camera's recording: the frame before (or at) its moment
+/// and how far towards the next one (0: the frame as filmed).
+pub type RecordedAt = (usize, f64);
 
 /// The event's frames, one per camera per time step, with the alignment and its warnings.
 /// `calibration` (in the order of `recorded`) is needed by the visual alignment; its result is
@@ -190,12 +199,22 @@ pub fn align_in_time(
     let built = timeline::build_from(&times, &clocks, options.fps, start_s).map_err(sync_error)?;
     let mut cameras = Vec::new();
     let mut report = BTreeMap::new();
+    let mut step_sources = Vec::new();
     for (i, r) in recorded.iter().enumerate() {
         let sources: Vec<StepSource> = built.frames[i]
             .iter()
             .zip(&built.moments[i])
             .map(|(nearest, moment)| StepSource::of(*nearest, *moment, options.retime))
             .collect();
+        step_sources.push(
+            sources
+                .iter()
+                .map(|s| match *s {
+                    StepSource::Frame(j) => (j, 0.0),
+                    StepSource::Between(j, fraction) => (j, fraction),
+                })
+                .collect(),
+        );
         let retimed = sources.iter().filter(|s| matches!(s, StepSource::Between(..))).count();
         let repeats = built.frames[i].windows(2).any(|w| w[0] == w[1]);
         let files = if retimed > 0 || repeats {
@@ -231,6 +250,7 @@ pub fn align_in_time(
         max_error_s: built.largest_error_s(),
         cameras: report,
         pairs,
+        step_sources,
     };
     Ok((EventFrames { cameras }, alignment, warnings))
 }
