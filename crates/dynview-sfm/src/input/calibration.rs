@@ -1,7 +1,7 @@
 //! Known calibration: intrinsics (and distortion) given by the user as a `poses.json` or a
 //! COLMAP model, and the undistortion of frames when a distortion is given.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -14,10 +14,11 @@ use dynview_ba::HeldIntrinsics;
 use dynview_camera::Radial;
 use dynview_core::StageProgress;
 use dynview_core::fsutil::write_atomic;
+use dynview_core::scene::manifest::PoseEntry;
 use dynview_interchange::poses::{CameraPoses, EventPoses};
 
 use crate::error::{SfmError, SfmResult};
-use crate::input::frames::{EventFrames, WORK_FRAME_EXTENSION, encode_work_frame, read_bgr};
+use crate::input::frames::{CameraFrames, EventFrames, WORK_FRAME_EXTENSION, encode_work_frame, read_bgr};
 
 /// Reads a `poses.json` file, a COLMAP model folder (text or binary), a Qualisys or a
 /// Middlebury calibration (detected: `dynview_interchange::import`).
@@ -45,6 +46,13 @@ pub fn calibration_for<'a>(given: &'a EventPoses, path: &Path, frames: &EventFra
             Ok(known)
         })
         .collect()
+}
+
+/// Each of `recorded`'s frames' pose in `known`, found by the frame's file name (`None` where
+/// `known` has none for it).
+pub fn recorded_frame_poses(known: &CameraPoses, recorded: &CameraFrames) -> Vec<Option<PoseEntry>> {
+    let by_file: HashMap<&str, PoseEntry> = known.frames.iter().filter_map(|f| Some((f.file.as_str(), f.camera_from_world?))).collect();
+    (0..recorded.files.len()).map(|k| by_file.get(recorded.file_name(k).as_str()).copied()).collect()
 }
 
 /// Intrinsics the user gave for one camera, which bundle adjustment keeps as given.

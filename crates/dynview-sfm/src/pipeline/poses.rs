@@ -3,7 +3,6 @@
 //! camera and the adjustment over sampled time steps, each saved in the work folder and
 //! skipped on a re-run with the same inputs; then `poses.json`. Known poses skip them all.
 
-use std::collections::HashMap;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
@@ -18,9 +17,9 @@ use dynview_interchange::poses::{CameraPoses, EventPoses, FramePose, POSES_FILE}
 use crate::error::{SfmError, SfmResult};
 use crate::estimators::focal::PRIOR_FOCAL_FACTOR;
 use crate::features::sift::Features;
-use crate::input::calibration::{KnownCameras, calibration_for, known_intrinsics, read_poses, undistort_frames};
+use crate::input::calibration::{KnownCameras, calibration_for, known_intrinsics, read_poses, recorded_frame_poses, undistort_frames};
 use crate::input::frames::{CameraFrames, DiscoveredCamera, EventFrames, decode_frames};
-use crate::input::timing::{RecordedAt, SyncMethod, TimeOptions, align_in_time};
+use crate::input::timing::{StepSource, SyncMethod, TimeOptions, align_in_time};
 use crate::mapping::keyframe_model::{
     KeyframeModel, PRIOR_FOCAL_SOURCE, focal_std_fractions, intrinsics_groups, intrinsics_notes, per_group, reconstruct_keyframes,
     to_colmap, weak_focal_warnings, write_colmap_text,
@@ -434,7 +433,7 @@ pub fn known_poses(
     given: &EventPoses,
     path: &Path,
     frames: &EventFrames,
-    timeline: Option<(&EventFrames, &[Vec<RecordedAt>])>,
+    timeline: Option<(&EventFrames, &[Vec<StepSource>])>,
 ) -> SfmResult<EventPoses> {
     let bad = |problem: String| SfmError::Input { path: path.to_path_buf(), problem };
     let mut cameras = Vec::new();
@@ -475,20 +474,19 @@ pub fn known_poses(
 }
 
 /// Per time step, the pose of `known` (given per recorded frame, by file name) where `sources`
-/// says the step's frame lies in `recorded`: a frame's own, or the camera between two frames a
-/// fraction of the way; `None` where a frame needed has no pose.
-fn poses_along_timeline(known: &CameraPoses, recorded: &CameraFrames, sources: &[RecordedAt]) -> Vec<Option<PoseEntry>> {
-    let by_file: HashMap<&str, PoseEntry> = known.frames.iter().filter_map(|f| Some((f.file.as_str(), f.camera_from_world?))).collect();
-    let pose = |j: usize| (j < recorded.files.len()).then(|| by_file.get(recorded.file_name(j).as_str()).copied()).flatten();
+/// says the step's frame comes from in `recorded`: a frame's own, or the camera between two
+/// frames a fraction of the way; `None` where a frame needed has no pose.
+fn poses_along_timeline(known: &CameraPoses, recorded: &CameraFrames, sources: &[StepSource]) -> Vec<Option<PoseEntry>> {
+    let by_frame = recorded_frame_poses(known, recorded);
+    let pose = |j: usize| by_frame.get(j).copied().flatten();
     sources
         .iter()
-        .map(|&(j, fraction)| {
-            let before = pose(j)?;
-            if fraction <= 0.0 {
-                return Some(before);
+        .map(|source| match *source {
+            StepSource::Frame(j) => pose(j),
+            StepSource::Between(j, fraction) => {
+                let (before, after) = (pose(j)?, pose(j + 1)?);
+                Some(PoseEntry::from(before.camera_from_world().camera_between(&after.camera_from_world(), fraction)))
             }
-            let after = pose(j + 1)?;
-            Some(PoseEntry::from(before.camera_from_world().camera_between(&after.camera_from_world(), fraction)))
         })
         .collect()
 }
@@ -520,7 +518,8 @@ mod tests {
             height: 48,
             files: (0..4).map(|k| std::path::PathBuf::from(format!("frames/phone/{k:05}.png"))).collect(),
         };
-        let poses = poses_along_timeline(&known, &recorded, &[(0, 0.0), (3, 0.0), (0, 0.25), (1, 0.5)]);
+        let sources = [StepSource::Frame(0), StepSource::Frame(3), StepSource::Between(0, 0.25), StepSource::Between(1, 0.5)];
+        let poses = poses_along_timeline(&known, &recorded, &sources);
         let centre = |p: &Option<PoseEntry>| p.map(|p| p.camera_from_world().camera_center_world().x);
         let centres: Vec<Option<f64>> = poses.iter().map(centre).collect();
         assert!((centres[0].unwrap() - 0.0).abs() < 1e-9 && (centres[1].unwrap() - 3.0).abs() < 1e-9, "{centres:?}");

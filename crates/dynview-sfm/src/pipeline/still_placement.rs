@@ -34,8 +34,8 @@ pub const PLACED_FILE: &str = "time/placed_poses.json";
 const MIN_KEYFRAMES: usize = 4;
 
 /// Every camera of `recorded` (each camera's own frames, in any time order) placed from its
-/// keyframes: per camera its intrinsics, distortion and its keyframes' poses. An error when a camera cannot
-/// be placed names it and says what to give instead.
+/// keyframes: per camera its intrinsics, distortion and its keyframes' poses. An error when a
+/// camera cannot be placed names it and says what to give instead.
 pub fn place_still_cameras(
     work: &WorkDir,
     recorded: &EventFrames,

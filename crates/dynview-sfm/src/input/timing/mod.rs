@@ -141,15 +141,10 @@ pub struct TimeAlignment {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub pairs: Vec<String>,
     /// Per camera (in the input's order), per time step, where in the camera's recording its
-    /// frame lies: the frame filmed (fraction 0), or the frame before the step's moment and
-    /// how far towards the next one the frame made for it is. Not in the report.
+    /// frame comes from. Not in the report.
     #[serde(skip)]
-    pub step_sources: Vec<Vec<RecordedAt>>,
+    pub step_sources: Vec<Vec<StepSource>>,
 }
-
-/// Where a time step's frame lies in a camera's recording: the frame before (or at) its moment
-/// and how far towards the next one (0: the frame as filmed).
-pub type RecordedAt = (usize, f64);
 
 /// The event's frames, one per camera per time step, with the alignment and its warnings.
 /// `calibration` (in the order of `recorded`) is needed by the visual alignment; its result is
@@ -206,15 +201,6 @@ pub fn align_in_time(
             .zip(&built.moments[i])
             .map(|(nearest, moment)| StepSource::of(*nearest, *moment, options.retime))
             .collect();
-        step_sources.push(
-            sources
-                .iter()
-                .map(|s| match *s {
-                    StepSource::Frame(j) => (j, 0.0),
-                    StepSource::Between(j, fraction) => (j, fraction),
-                })
-                .collect(),
-        );
         let retimed = sources.iter().filter(|s| matches!(s, StepSource::Between(..))).count();
         let repeats = built.frames[i].windows(2).any(|w| w[0] == w[1]);
         let files = if retimed > 0 || repeats {
@@ -223,6 +209,7 @@ pub fn align_in_time(
             built.frames[i].iter().map(|j| r.frames.files[*j].clone()).collect()
         };
         cameras.push(CameraFrames { files, ..r.frames.clone() });
+        step_sources.push(sources);
         let clock = built.clocks[i];
         report.insert(
             r.frames.name.clone(),
@@ -255,9 +242,9 @@ pub fn align_in_time(
     Ok((EventFrames { cameras }, alignment, warnings))
 }
 
-/// Where a time step's frame of one camera comes from.
+/// Where a time step's frame of one camera comes from, in the camera's recording.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum StepSource {
+pub enum StepSource {
     /// The camera's frame, as filmed.
     Frame(usize),
     /// Made a fraction of the way from the camera's frame to its next.

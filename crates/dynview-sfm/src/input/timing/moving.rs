@@ -39,7 +39,7 @@ pub fn median_image(gray: &[Mat], count: usize) -> SfmResult<Vec<u8>> {
     let step = (gray.len() / count.max(1)).max(1);
     let picked: Vec<&[u8]> =
         gray.iter().step_by(step).map(|g| g.data_bytes().map_err(SfmError::cv("frame bytes"))).collect::<SfmResult<_>>()?;
-    Ok(pixel_medians(&picked, None))
+    Ok(pixel_medians(&picked, None, None))
 }
 
 /// The still image of frame `index` of a camera that moves: its neighbours at
@@ -49,17 +49,17 @@ pub fn compensated_still(gray: &[Mat], index: usize) -> SfmResult<Vec<u8>> {
     let size = frame.size().map_err(SfmError::cv("frame size"))?;
     let mut corners: Vector<Point2f> = Vector::new();
     imgproc::good_features_to_track_def(frame, &mut corners, TRACKED_CORNERS, 0.01, 8.0).map_err(SfmError::cv("corners"))?;
+    let own = frame.data_bytes().map_err(SfmError::cv("frame bytes"))?;
+    if corners.len() < MIN_TRACKED {
+        return Ok(own.to_vec());
+    }
     let mut warped: Vec<(Mat, Mat)> = Vec::new();
     for step in COMPENSATED_STEPS {
         let Some(other) = index.checked_add_signed(step as isize).and_then(|k| gray.get(k)) else { continue };
-        if corners.len() < MIN_TRACKED {
-            break;
-        }
         if let Some(pair) = warp_onto(other, frame, &corners, size)? {
             warped.push(pair);
         }
     }
-    let own = frame.data_bytes().map_err(SfmError::cv("frame bytes"))?;
     if warped.len() < MIN_COVERING_FRAMES {
         return Ok(own.to_vec());
     }
@@ -69,13 +69,7 @@ pub fn compensated_still(gray: &[Mat], index: usize) -> SfmResult<Vec<u8>> {
         values.push(image.data_bytes().map_err(SfmError::cv("warped frame"))?);
         covers.push(valid.data_bytes().map_err(SfmError::cv("warped frame"))?);
     }
-    let mut still = pixel_medians(&values, Some(&covers));
-    for ((s, o), count) in still.iter_mut().zip(own).zip(covered(&covers, own.len())) {
-        if count < MIN_COVERING_FRAMES {
-            *s = *o;
-        }
-    }
-    Ok(still)
+    Ok(pixel_medians(&values, Some(&covers), Some(own)))
 }
 
 /// `other` warped onto `frame` by the homography of `corners` (in `frame`) tracked into it, and
@@ -117,19 +111,18 @@ fn tracked_homography(frame: &Mat, other: &Mat, corners: &Vector<Point2f>) -> Sf
     Ok((h.rows() == 3 && h.cols() == 3 && kept >= MIN_TRACKED).then_some(h))
 }
 
-/// Per pixel, how many of `covers` hold it.
-fn covered(covers: &[&[u8]], len: usize) -> Vec<usize> {
-    (0..len).map(|i| covers.iter().filter(|c| c[i] != 0).count()).collect()
-}
-
-/// Per pixel, the median of `images`' values (those `covers` marks, where given).
-fn pixel_medians(images: &[&[u8]], covers: Option<&[&[u8]]>) -> Vec<u8> {
+/// Per pixel, the median of `images`' values: of those `covers` marks where given, and
+/// `fallback`'s value where fewer than [`MIN_COVERING_FRAMES`] cover it.
+fn pixel_medians(images: &[&[u8]], covers: Option<&[&[u8]]>, fallback: Option<&[u8]>) -> Vec<u8> {
     let len = images.first().map_or(0, |p| p.len());
     let mut column = Vec::with_capacity(images.len());
     (0..len)
         .map(|i| {
             column.clear();
             column.extend(images.iter().enumerate().filter(|(k, _)| covers.is_none_or(|c| c[*k][i] != 0)).map(|(_, p)| p[i]));
+            if let Some(own) = fallback.filter(|_| column.len() < MIN_COVERING_FRAMES) {
+                return own[i];
+            }
             if column.is_empty() {
                 return 0;
             }

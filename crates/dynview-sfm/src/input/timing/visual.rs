@@ -31,6 +31,7 @@ use crate::error::{SfmError, SfmResult};
 use crate::estimators::geometry::essential_between;
 use crate::features::guided::{guided_matches, squared_distance};
 use crate::features::sift::{DESCRIPTOR_LEN, FeatureOptions, Features, extract_gray_masked, read_gray};
+use crate::input::calibration::recorded_frame_poses;
 use crate::input::frames::RecordedCamera;
 use crate::input::timing::moving::{compensated_still, median_image, moving_mask};
 pub use crate::input::timing::solve::PairOffset;
@@ -249,10 +250,10 @@ fn frame_poses(recorded: &RecordedCamera, calib: &CameraPoses) -> SfmResult<Vec<
         .find_map(|f| f.camera_from_world)
         .ok_or_else(|| SfmError::TimeAlignment(format!("--sync visual: camera {name} has no pose in the calibration")))?
         .camera_from_world();
-    let by_file: HashMap<&str, Rigid3> =
-        calib.frames.iter().filter_map(|f| Some((f.file.as_str(), f.camera_from_world?.camera_from_world()))).collect();
-    let registered: Vec<(usize, Rigid3)> = (0..recorded.frames.files.len())
-        .filter_map(|k| by_file.get(recorded.frames.file_name(k).as_str()).map(|pose| (k, *pose)))
+    let registered: Vec<(usize, Rigid3)> = recorded_frame_poses(calib, &recorded.frames)
+        .into_iter()
+        .enumerate()
+        .filter_map(|(k, pose)| Some((k, pose?.camera_from_world())))
         .collect();
     Ok((0..recorded.frames.files.len())
         .map(|k| {
