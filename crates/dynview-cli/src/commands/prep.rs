@@ -9,7 +9,7 @@ use anyhow::{Context, bail};
 use std::ops::Range;
 
 use dynview_sfm::dense::densify::DensifyOptions;
-use dynview_sfm::dense::hull::HullOptions;
+use dynview_sfm::dense::hull::{ForegroundModel, HullOptions};
 use dynview_sfm::dense::plate_cloud::PlateCloudOptions;
 use dynview_sfm::input::timing::SyncMethod;
 use dynview_sfm::input::timing::retime::Retime;
@@ -151,6 +151,12 @@ pub struct Args {
     /// enter the hull (docs/results/moving.md).
     #[arg(long, value_name = "CELLS", default_value_t = HullOptions::default().own_point_reach, conflicts_with = "no_hull")]
     hull_own_reach: usize,
+    /// How each still camera's foreground (what differs from its background plate) is found,
+    /// for the visual hull and for dropping points that float in free space: `difference` (a
+    /// colour difference above a tolerance) or `soft` (a probability from colour and texture;
+    /// a pixel it is unsure of does not carve the hull). See docs/results/moving.md.
+    #[arg(long, value_name = "MODEL", default_value_t = ForegroundModel::default())]
+    foreground: ForegroundModel,
     /// Keep the steps' own points that float in front of the static scene where two or more
     /// still cameras see their background plate (by default they are dropped: nothing stands
     /// where a camera looking through it sees the wall behind).
@@ -302,6 +308,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(hull) = options.package.hull.as_mut() {
         hull.min_region_rays = args.hull_region_rays;
         hull.own_point_reach = args.hull_own_reach;
+        hull.foreground_model = args.foreground;
     }
     if args.no_free_space {
         options.package.free_space = None;

@@ -7,7 +7,8 @@
 //! A point *floats* when at least [`FreeSpaceOptions::min_votes`] cameras with a plate, and more
 //! than call its pixel foreground, see it more than [`FreeSpaceOptions::margin`] (a share of the
 //! depth) in front of the static scene at a pixel their foreground (grown, as the hull carves:
-//! [`super::hull::Foreground::keeps`]) calls background.
+//! [`super::hull::Foreground::keeps`]) calls background. A pixel the soft foreground is unsure
+//! of (neither in [`super::hull::Foreground::grown`] nor carving) votes neither way.
 
 use dynview_core::Camera;
 use dynview_core::raster::ScalarRaster;
@@ -92,8 +93,12 @@ fn floats(p: [f32; 3], views: &[FreeSpaceView], options: &FreeSpaceOptions) -> b
             continue;
         }
         let i = y as usize * w + x as usize;
-        if view.foreground.keeps.data.get(i).is_some_and(|&k| k > 0.0) {
+        if view.foreground.grown.data.get(i).is_some_and(|&k| k > 0.0) {
             foreground += 1;
+            continue;
+        }
+        if view.foreground.keeps.data.get(i).is_some_and(|&k| k > 0.0) {
+            // Unsure (the soft foreground): this camera says nothing.
             continue;
         }
         let behind = f64::from(view.static_depth_m.data[i]);
@@ -144,7 +149,13 @@ mod tests {
                 }
             }
         }
-        Foreground { mask: keeps.clone(), unknown: ScalarRaster::filled(W as usize, H as usize, 0.0), keeps }
+        Foreground {
+            probability: keeps.clone(),
+            mask: keeps.clone(),
+            unknown: ScalarRaster::filled(W as usize, H as usize, 0.0),
+            grown: keeps.clone(),
+            keeps,
+        }
     }
 
     #[test]
@@ -174,6 +185,40 @@ mod tests {
         // One camera's vote is not enough.
         let (_, dropped) = drop_floaters(&own, &views[..1], &options);
         assert_eq!(dropped, 0);
+    }
+
+    #[test]
+    fn a_camera_unsure_of_its_foreground_votes_neither_way() {
+        let cameras = [camera(-0.5), camera(0.0), camera(0.5), camera(1.0)];
+        let depths: Vec<ScalarRaster> = cameras.iter().map(|c| static_depth_map(c, &wall(), 2)).collect();
+        let floater = [0.0, 0.0, 3.0];
+        let own = PointCloud { positions_world: vec![floater], colors: vec![[0; 3]] };
+        // Two cameras see the plate behind the point; the other two see something there, surely
+        // or (the soft foreground) unsurely: they keep their pixel from carving but are not in
+        // its grown mask.
+        let dropped_when = |sure: bool| {
+            let foregrounds: Vec<Foreground> = cameras
+                .iter()
+                .enumerate()
+                .map(|(c, camera)| {
+                    if c < 2 {
+                        return foreground(None);
+                    }
+                    let (pixel, _) = camera.project_world(DVec3::from_array(floater.map(f64::from))).unwrap();
+                    let (x, y) = (pixel.x.round() as usize, pixel.y.round() as usize);
+                    let mut f = foreground(Some((x - 1, x + 2, y - 1, y + 2)));
+                    if !sure {
+                        f.grown = ScalarRaster::filled(W as usize, H as usize, 0.0);
+                    }
+                    f
+                })
+                .collect();
+            let views: Vec<FreeSpaceView> =
+                (0..4).map(|c| FreeSpaceView { camera: &cameras[c], foreground: &foregrounds[c], static_depth_m: &depths[c] }).collect();
+            drop_floaters(&own, &views, &FreeSpaceOptions::default()).1
+        };
+        assert_eq!(dropped_when(true), 0, "two against, two for: it stays");
+        assert_eq!(dropped_when(false), 1, "two against, two unsure: it goes");
     }
 
     #[test]

@@ -3,7 +3,8 @@
 //! points (a plain shirt, a ball, a person near one camera that the others see at a wide angle).
 //!
 //! 1. A camera's foreground ([`foreground`]) is where its frame differs from its background
-//!    [plate](super::plates) by more than [`HullOptions::foreground_tolerance`], opened by
+//!    [plate](super::plates) by more than [`HullOptions::foreground_tolerance`] (or, with
+//!    [`ForegroundModel::Soft`], where colour and texture make that likely), opened by
 //!    [`HullOptions::open_px`] (compression noise and single pixels of flicker go) and closed by
 //!    [`HullOptions::close_px`] (small holes where it looks like the wall are filled); where the
 //!    plate is unsure ([`HullOptions::min_plate_confidence`]) nothing is known.
@@ -29,7 +30,7 @@
 //! whose image a sample falls says nothing about it.
 
 use dynview_core::Camera;
-use dynview_core::raster::{ScalarRaster, dilated};
+use dynview_core::raster::ScalarRaster;
 use dynview_core::scene::PointCloud;
 use glam::DVec2;
 use opencv::core::{CV_32S, Mat};
@@ -38,16 +39,19 @@ use opencv::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::plates::Plate;
-use super::static_cloud::difference;
 use crate::error::{SfmError, SfmResult};
+
+mod foreground;
+pub use foreground::{Foreground, ForegroundModel, foreground};
 
 /// How the visual hull is carved.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct HullOptions {
+    /// How a camera's foreground is told from its plate ([`ForegroundModel`]).
+    pub foreground_model: ForegroundModel,
     /// Mean absolute RGB difference (colours in `[0, 1]`) between frame and plate above which a
-    /// pixel is foreground.
+    /// pixel is foreground (with [`ForegroundModel::Soft`], where its colour cue is certain).
     pub foreground_tolerance: f32,
     /// Plate confidence below which a pixel's foreground is unknown (it neither carves nor
     /// witnesses).
@@ -92,6 +96,7 @@ pub struct HullOptions {
 impl Default for HullOptions {
     fn default() -> Self {
         Self {
+            foreground_model: ForegroundModel::Difference,
             foreground_tolerance: 0.15,
             min_plate_confidence: 0.5,
             open_px: 1,
@@ -143,63 +148,6 @@ impl HullOptions {
         }
         Ok(())
     }
-}
-
-/// A camera's foreground at one step: per pixel, row-major.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Foreground {
-    /// 1 where the frame differs from the plate (opened), else 0.
-    pub mask: ScalarRaster,
-    /// 1 where the plate is too unsure to tell, else 0.
-    pub unknown: ScalarRaster,
-    /// The mask and the unknown pixels, grown by [`HullOptions::carve_dilation_px`]: 0 carves.
-    pub keeps: ScalarRaster,
-}
-
-/// The foreground of `frame` against its camera's `plate` (same size).
-pub fn foreground(frame: &image::RgbImage, plate: &Plate, options: &HullOptions) -> SfmResult<Foreground> {
-    let (w, h) = (plate.image.width() as usize, plate.image.height() as usize);
-    if (frame.width() as usize, frame.height() as usize) != (w, h) || plate.confidence.len() != w * h {
-        return Err(SfmError::Reconstruction(format!(
-            "a frame of {}x{} px does not match its plate of {w}x{h} px",
-            frame.width(),
-            frame.height()
-        )));
-    }
-    let mut raw = ScalarRaster::filled(w, h, 0.0);
-    let mut unknown = ScalarRaster::filled(w, h, 0.0);
-    for (i, (a, b)) in frame.pixels().zip(plate.image.pixels()).enumerate() {
-        if plate.confidence[i] < options.min_plate_confidence {
-            unknown.data[i] = 1.0;
-            continue;
-        }
-        let unit = |p: &image::Rgb<u8>| p.0.map(|v| f32::from(v) / 255.0);
-        raw.data[i] = f32::from(u8::from(difference(unit(a), unit(b)) > options.foreground_tolerance));
-    }
-    let mask = closed(&opened(&raw, options.open_px), options.close_px);
-    let mut either = mask.clone();
-    either.data.iter_mut().zip(&unknown.data).for_each(|(m, u)| *m = m.max(*u));
-    let keeps = dilated(&either, options.carve_dilation_px);
-    Ok(Foreground { mask, unknown, keeps })
-}
-
-/// The minimum of a 0/1 `mask` over a square window of side `2 radius + 1`.
-fn eroded(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
-    let mut inverse = mask.clone();
-    inverse.data.iter_mut().for_each(|v| *v = 1.0 - *v);
-    let mut out = dilated(&inverse, radius);
-    out.data.iter_mut().for_each(|v| *v = 1.0 - *v);
-    out
-}
-
-/// `mask` eroded, then dilated, by `radius`.
-fn opened(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
-    dilated(&eroded(mask, radius), radius)
-}
-
-/// `mask` dilated, then eroded, by `radius`.
-fn closed(mask: &ScalarRaster, radius: usize) -> ScalarRaster {
-    eroded(&dilated(mask, radius), radius)
 }
 
 /// One camera of the hull at a step: where it stands, what it sees, its depth range.

@@ -1,4 +1,5 @@
 use super::*;
+use crate::dense::Plate;
 use dynview_core::{Intrinsics, Rigid3};
 use glam::DVec3;
 use image::RgbImage;
@@ -125,7 +126,13 @@ fn hull_of_object(hit: Hit, own: &PointCloud, options: &HullOptions) -> (Vec<Cam
 
 #[test]
 fn a_plain_sphere_without_texture_gets_points_on_its_front() {
-    let options = HullOptions { rays_across: 80, ..HullOptions::default() };
+    for model in [ForegroundModel::Difference, ForegroundModel::Soft] {
+        a_plain_sphere_gets_points_on_its_front(model);
+    }
+}
+
+fn a_plain_sphere_gets_points_on_its_front(model: ForegroundModel) {
+    let options = HullOptions { rays_across: 80, foreground_model: model, ..HullOptions::default() };
     let (cameras, hull) = hull_of(&PointCloud::default(), &options);
     assert!(hull.len() > 200, "{} hull points", hull.len());
     // Every point is on the sphere or just in front of it (a hull is never smaller than the
@@ -136,8 +143,8 @@ fn a_plain_sphere_without_texture_gets_points_on_its_front() {
         .map(|p| (DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) - SPHERE_CENTER).length() - SPHERE_RADIUS_M)
         .collect();
     let worst = distances.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    assert!(worst < 0.25, "a hull point {worst:.3} m off the sphere");
-    assert!(distances.iter().all(|d| *d > -0.02), "a point inside the sphere");
+    assert!(worst < 0.25, "{model}: a hull point {worst:.3} m off the sphere");
+    assert!(distances.iter().all(|d| *d > -0.02), "{model}: a point inside the sphere");
     // Seen from the middle camera, the hull's front is within 4.5% of the sphere's depth at the
     // median: cameras over 80 degrees bound the front to about r (1 / cos 40deg - 1) = 0.11 m
     // in front of the sphere (4% of its 2.65 m) at the centre, less towards the silhouette
@@ -153,8 +160,8 @@ fn a_plain_sphere_without_texture_gets_points_on_its_front() {
         })
         .collect();
     errors.sort_by(f64::total_cmp);
-    assert!(errors.len() > 50, "{} points on the middle camera's side", errors.len());
-    assert!(errors[errors.len() / 2] < 0.045, "median depth error {:.2}%", 100.0 * errors[errors.len() / 2]);
+    assert!(errors.len() > 50, "{model}: {} points on the middle camera's side", errors.len());
+    assert!(errors[errors.len() / 2] < 0.045, "{model}: median depth error {:.2}%", 100.0 * errors[errors.len() / 2]);
 }
 
 #[test]
@@ -178,20 +185,79 @@ fn own_points_on_the_object_stand_for_the_hull() {
 #[test]
 fn the_foreground_is_what_differs_from_the_plate_less_specks_and_unsure_pixels() {
     let camera = cameras()[2];
-    let options = HullOptions::default();
-    let background = plate(&camera);
-    let same = foreground(&background.image, &background, &options).expect("sizes match");
-    assert!(same.mask.data.iter().all(|v| *v == 0.0));
-    let mut frame = render(&camera, true);
-    frame.put_pixel(5, 5, image::Rgb([255, 255, 255]));
-    let mut unsure = plate(&camera);
-    unsure.confidence[(SIZE_PX.0 * 100 + 150) as usize] = 0.1;
-    let fg = foreground(&frame, &unsure, &options).expect("sizes match");
-    assert_eq!(fg.mask.get(5, 5), 0.0, "a single pixel is a speck");
-    assert_eq!(fg.mask.get(80, 60), 1.0, "the sphere is foreground");
-    assert_eq!((fg.unknown.get(150, 100), fg.keeps.get(150, 100)), (1.0, 1.0), "an unsure pixel does not carve");
-    let small = RgbImage::new(10, 10);
-    assert!(foreground(&small, &background, &options).is_err());
+    for model in [ForegroundModel::Difference, ForegroundModel::Soft] {
+        let options = HullOptions { foreground_model: model, ..HullOptions::default() };
+        let background = plate(&camera);
+        let same = foreground(&background.image, &background, &options).expect("sizes match");
+        assert!(same.mask.data.iter().all(|v| *v == 0.0), "{model}");
+        assert!(same.keeps.data.iter().all(|v| *v == 0.0), "{model}: the plate itself carves everywhere");
+        let mut frame = render(&camera, true);
+        frame.put_pixel(5, 5, image::Rgb([255, 255, 255]));
+        let mut unsure = plate(&camera);
+        unsure.confidence[(SIZE_PX.0 * 100 + 150) as usize] = 0.1;
+        let fg = foreground(&frame, &unsure, &options).expect("sizes match");
+        assert_eq!(fg.mask.get(5, 5), 0.0, "{model}: a single pixel is a speck");
+        assert_eq!(fg.mask.get(80, 60), 1.0, "{model}: the sphere is foreground");
+        assert_eq!(fg.probability.get(80, 60), 1.0, "{model}: the sphere is surely foreground");
+        assert_eq!((fg.unknown.get(150, 100), fg.keeps.get(150, 100)), (1.0, 1.0), "{model}: an unsure pixel does not carve");
+        assert_eq!(fg.probability.get(150, 100), 0.0, "{model}: nothing is known where the plate is unsure");
+        let small = RgbImage::new(10, 10);
+        assert!(foreground(&small, &background, &options).is_err());
+    }
+}
+
+/// The middle camera's plate with a square (side 40 px, centred at 80, 60) of stripes 2 px wide
+/// whose grey alternates `amplitude` above and below the wall's: on average the wall's colour.
+fn striped_shirt(amplitude: i16) -> (Plate, RgbImage) {
+    let background = plate(&cameras()[2]);
+    let mut frame = background.image.clone();
+    for y in 40..80 {
+        for x in 60..100 {
+            let sign = if (x / 2) % 2 == 0 { 1 } else { -1 };
+            let p = frame.get_pixel_mut(x, y);
+            p.0 = p.0.map(|v| (i16::from(v) + sign * amplitude).clamp(0, 255) as u8);
+        }
+    }
+    (background, frame)
+}
+
+#[test]
+fn a_striped_shirt_the_colour_of_the_wall_is_foreground_to_the_soft_model_and_carves_nothing() {
+    // Each pixel is 0.1 from the plate: under the tolerance (0.15).
+    let (background, frame) = striped_shirt(26);
+    let hard = foreground(&frame, &background, &HullOptions::default()).expect("sizes match");
+    let soft_options = HullOptions { foreground_model: ForegroundModel::Soft, ..HullOptions::default() };
+    let soft = foreground(&frame, &background, &soft_options).expect("sizes match");
+    let inside = |r: &ScalarRaster| (45..75).flat_map(|y| (65..95).map(move |x| (x, y))).map(|(x, y)| r.get(x, y)).sum::<f32>() / 900.0;
+    assert_eq!(inside(&hard.mask), 0.0, "the difference model sees a hole");
+    assert_eq!(inside(&hard.keeps), 0.0, "and the hole carves");
+    assert_eq!(inside(&soft.mask), 1.0, "the soft model sees the shirt");
+    assert_eq!(inside(&soft.keeps), 1.0);
+    // Not beyond it: the wall two pixels outside the shirt is no foreground.
+    assert_eq!((soft.mask.get(57, 60), soft.mask.get(80, 37)), (0.0, 0.0));
+}
+
+#[test]
+fn flicker_and_compression_noise_are_not_foreground_to_the_soft_model() {
+    let background = plate(&cameras()[2]);
+    // 4% brighter, and a deterministic noise of up to 3 code values.
+    let frame = RgbImage::from_fn(SIZE_PX.0, SIZE_PX.1, |x, y| {
+        let noise = ((x * 7 + y * 13) % 7) as f32 - 3.0;
+        image::Rgb(background.image.get_pixel(x, y).0.map(|v| (f32::from(v) * 1.04 + noise).round().clamp(0.0, 255.0) as u8))
+    });
+    let options = HullOptions { foreground_model: ForegroundModel::Soft, ..HullOptions::default() };
+    let fg = foreground(&frame, &background, &options).expect("sizes match");
+    assert!(fg.mask.data.iter().all(|v| *v == 0.0), "foreground in flicker");
+    let carving = fg.keeps.data.iter().filter(|k| **k == 0.0).count() as f64 / fg.keeps.len() as f64;
+    assert!(carving > 0.99, "only {:.1}% of the pixels carve", 100.0 * carving);
+}
+
+#[test]
+fn foreground_models_are_named() {
+    assert_eq!("soft".parse::<ForegroundModel>(), Ok(ForegroundModel::Soft));
+    assert_eq!("difference".parse::<ForegroundModel>(), Ok(ForegroundModel::Difference));
+    assert_eq!(ForegroundModel::Soft.to_string(), "soft");
+    assert!("otsu".parse::<ForegroundModel>().unwrap_err().contains("difference or soft"));
 }
 
 #[test]
