@@ -13,8 +13,9 @@
 //!   where the pixel's colour has changed at least a little ([`TEXTURE_GATE`]);
 //!
 //! their maximum, box-filtered over 3 x 3 pixels. A pixel is foreground (rays start there) where
-//! the probability is at least one half, and it carves only where it is below [`CARVE_BELOW`]:
-//! a pixel the cues are unsure of neither starts rays nor cuts the object. Both models then
+//! the probability is at least one half, and it carves only where it is below [`CARVE_BELOW`]
+//! (one half as well: a band below it that neither started rays nor carved measured no better,
+//! `docs/results/moving.md`), so a pixel the opening drops carves nothing. Both models then
 //! open and close the mask as [`HullOptions::open_px`] and [`HullOptions::close_px`] say.
 
 use dynview_core::raster::{ScalarRaster, box_filtered, dilated};
