@@ -42,7 +42,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{SfmError, SfmResult};
 
 mod foreground;
-pub use foreground::{Foreground, ForegroundModel, foreground};
+pub use foreground::{Foreground, ForegroundModel, ForegroundOptions, foreground_of};
 
 /// How the visual hull is carved.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -148,6 +148,20 @@ impl HullOptions {
         }
         Ok(())
     }
+}
+
+/// The foreground of `frame` against its camera's `plate` (same size), as `options` say
+/// ([`foreground_of`]).
+pub fn foreground(frame: &image::RgbImage, plate: &super::plates::Plate, options: &HullOptions) -> SfmResult<Foreground> {
+    let o = ForegroundOptions {
+        foreground_model: options.foreground_model,
+        foreground_tolerance: options.foreground_tolerance,
+        min_plate_confidence: options.min_plate_confidence,
+        open_px: options.open_px,
+        close_px: options.close_px,
+        carve_dilation_px: options.carve_dilation_px,
+    };
+    foreground_of(frame, plate, &o)
 }
 
 /// One camera of the hull at a step: where it stands, what it sees, its depth range.
