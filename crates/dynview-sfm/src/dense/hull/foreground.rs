@@ -2,11 +2,11 @@
 //! background [plate](crate::dense::plates).
 //!
 //! [`ForegroundModel::Difference`] calls a pixel foreground where its colour differs from the
-//! plate's by more than `HullOptions::foreground_tolerance`. A shirt the grey of the wall
+//! plate's by more than [`HullOptions::foreground_tolerance`]. A shirt the grey of the wall
 //! behind it then breaks into holes, and a hole carves the person's middle out of every other
 //! camera's hull. [`ForegroundModel::Soft`] gives each pixel a probability instead, from two
 //! cues:
-//! - colour: 0 below [`SOFT_FROM`], 1 at `HullOptions::foreground_tolerance`, linear between;
+//! - colour: 0 below [`SOFT_FROM`], 1 at [`HullOptions::foreground_tolerance`], linear between;
 //! - texture: where frame or plate has texture in the window around the pixel, how little the
 //!   two windows correlate (zero-mean normalized cross-correlation of their grey values, which
 //!   a change of brightness or contrast leaves alone: flicker, a camera's gain), counted only
@@ -16,46 +16,14 @@
 //! the probability is at least one half, and it carves only where it is below [`CARVE_BELOW`]
 //! (one half as well: a band below it that neither started rays nor carved measured no better,
 //! `docs/results/moving.md`), so a pixel the opening drops carves nothing. Both models then
-//! open and close the mask as `HullOptions::open_px` and `HullOptions::close_px` say.
+//! open and close the mask as [`HullOptions::open_px`] and [`HullOptions::close_px`] say.
 
 use dynview_core::raster::{ScalarRaster, box_filtered, dilated};
-use serde::{Deserialize, Serialize};
 
+use super::options::{ForegroundModel, HullOptions};
 use crate::dense::plates::Plate;
 use crate::dense::static_cloud::difference;
 use crate::error::{SfmError, SfmResult};
-
-/// How a camera's foreground is told from its plate.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ForegroundModel {
-    /// Foreground where the colour differs from the plate's by more than the tolerance; every
-    /// other pixel carves.
-    #[default]
-    Difference,
-    /// A probability per pixel from colour and texture (the module's comment).
-    Soft,
-}
-
-impl std::str::FromStr for ForegroundModel {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "difference" => Ok(Self::Difference),
-            "soft" => Ok(Self::Soft),
-            other => Err(format!("unknown foreground model {other:?} (expected difference or soft)")),
-        }
-    }
-}
-
-impl std::fmt::Display for ForegroundModel {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Self::Difference => "difference",
-            Self::Soft => "soft",
-        })
-    }
-}
 
 /// Mean absolute RGB difference (colours in `[0, 1]`) at which the soft colour cue begins.
 pub const SOFT_FROM: f32 = 0.05;
@@ -91,7 +59,7 @@ pub struct Foreground {
     /// 1 where the plate is too unsure to tell, else 0.
     pub unknown: ScalarRaster,
     /// What must not carve (the mask, the unknown pixels and, with the soft model, every pixel
-    /// at least [`CARVE_BELOW`] likely), grown by `HullOptions::carve_dilation_px`: 0 carves.
+    /// at least `CARVE_BELOW` likely), grown by [`HullOptions::carve_dilation_px`]: 0 carves.
     pub keeps: ScalarRaster,
     /// The mask and the unknown pixels alone, grown alike: 1 where the pixel surely shows
     /// something other than the plate, or may. With [`ForegroundModel::Difference`] the same
@@ -99,25 +67,8 @@ pub struct Foreground {
     pub grown: ScalarRaster,
 }
 
-/// What [`foreground`] reads of the hull's options (`HullOptions`' fields of the same names).
-#[derive(Clone, Copy, Debug)]
-pub struct ForegroundOptions {
-    /// See `HullOptions::foreground_model`.
-    pub foreground_model: ForegroundModel,
-    /// See `HullOptions::foreground_tolerance`.
-    pub foreground_tolerance: f32,
-    /// See `HullOptions::min_plate_confidence`.
-    pub min_plate_confidence: f32,
-    /// See `HullOptions::open_px`.
-    pub open_px: usize,
-    /// See `HullOptions::close_px`.
-    pub close_px: usize,
-    /// See `HullOptions::carve_dilation_px`.
-    pub carve_dilation_px: usize,
-}
-
 /// The foreground of `frame` against its camera's `plate` (same size).
-pub fn foreground_of(frame: &image::RgbImage, plate: &Plate, options: &ForegroundOptions) -> SfmResult<Foreground> {
+pub fn foreground(frame: &image::RgbImage, plate: &Plate, options: &HullOptions) -> SfmResult<Foreground> {
     let (w, h) = (plate.image.width() as usize, plate.image.height() as usize);
     if (frame.width() as usize, frame.height() as usize) != (w, h) || plate.confidence.len() != w * h {
         return Err(SfmError::Reconstruction(format!(
