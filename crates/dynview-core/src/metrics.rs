@@ -75,10 +75,17 @@ fn blur_1d(values: &[f64], w: usize, h: usize, kernel: &[f64], along_x: bool) ->
 /// Mean SSIM (Wang et al. 2004: 11x11 Gaussian window, sigma 1.5, K1 0.01, K2 0.03, peak 1),
 /// computed per channel and averaged over the three.
 pub fn ssim(a: &RgbRaster, b: &RgbRaster) -> f64 {
+    let map = ssim_map(a, b);
+    map.iter().sum::<f64>() / map.len().max(1) as f64
+}
+
+/// SSIM per pixel (row-major; the mean over the three channels of each channel's SSIM at the
+/// window centred there, as [`ssim`]): its mean over some pixels is SSIM over a region.
+pub fn ssim_map(a: &RgbRaster, b: &RgbRaster) -> Vec<f64> {
     assert_eq!((a.width, a.height), (b.width, b.height), "ssim of images of different sizes");
     let (w, h) = (a.width, a.height);
     let kernel = gaussian_kernel();
-    let mut total = 0.0;
+    let mut map = vec![0.0; w * h];
     for k in 0..3 {
         let x: Vec<f64> = a.data.iter().map(|p| f64::from(p[k])).collect();
         let y: Vec<f64> = b.data.iter().map(|p| f64::from(p[k])).collect();
@@ -87,15 +94,14 @@ pub fn ssim(a: &RgbRaster, b: &RgbRaster) -> f64 {
         let xy: Vec<f64> = x.iter().zip(&y).map(|(p, q)| p * q).collect();
         let (mx, my) = (blur(&x, w, h, &kernel), blur(&y, w, h, &kernel));
         let (sxx, syy, sxy) = (blur(&xx, w, h, &kernel), blur(&yy, w, h, &kernel), blur(&xy, w, h, &kernel));
-        let mut sum = 0.0;
-        for i in 0..w * h {
+        for (i, m) in map.iter_mut().enumerate() {
             let (vx, vy, cov) = (sxx[i] - mx[i] * mx[i], syy[i] - my[i] * my[i], sxy[i] - mx[i] * my[i]);
-            sum += ((2.0 * mx[i] * my[i] + SSIM_C1) * (2.0 * cov + SSIM_C2))
-                / ((mx[i] * mx[i] + my[i] * my[i] + SSIM_C1) * (vx + vy + SSIM_C2));
+            *m += ((2.0 * mx[i] * my[i] + SSIM_C1) * (2.0 * cov + SSIM_C2))
+                / ((mx[i] * mx[i] + my[i] * my[i] + SSIM_C1) * (vx + vy + SSIM_C2))
+                / 3.0;
         }
-        total += sum / (w * h) as f64;
     }
-    total / 3.0
+    map
 }
 
 /// Per-pixel threshold on the ground truth's frame-to-frame change (mean over RGB) below which a

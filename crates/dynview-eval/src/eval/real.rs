@@ -391,7 +391,7 @@ fn evaluate_camera(
     scores.push(sums[METHODS.len() + 1].score(FLOOR));
     for s in &scores {
         println!(
-            "{held_out} held out, {}: PSNR {:.2} dB (colour-corrected {:.2}), SSIM {:.4} ({:.4}), static / moving PSNR {:.2} / {:.2} dB ({:.2} / {:.2}), flicker {:.2}",
+            "{held_out} held out, {}: PSNR {:.2} dB (colour-corrected {:.2}), SSIM {:.4} ({:.4}), static / moving PSNR {:.2} / {:.2} dB ({:.2} / {:.2}), static / moving SSIM {:.4} / {:.4} ({:.4} / {:.4}), flicker {:.2}",
             s.label,
             s.psnr_db.raw,
             s.psnr_db.corrected,
@@ -401,6 +401,10 @@ fn evaluate_camera(
             s.moving_psnr_db.raw,
             s.static_psnr_db.corrected,
             s.moving_psnr_db.corrected,
+            s.static_ssim.raw,
+            s.moving_ssim.raw,
+            s.static_ssim.corrected,
+            s.moving_ssim.corrected,
             s.flicker * 1000.0
         );
     }

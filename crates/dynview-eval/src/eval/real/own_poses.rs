@@ -164,6 +164,8 @@ mod tests {
             ssim: both(0.8),
             static_psnr_db: both(psnr_db + 1.0),
             moving_psnr_db: both(psnr_db - 4.0),
+            static_ssim: both(0.85),
+            moving_ssim: both(0.6),
             flicker: 0.0,
         };
         CameraResult {

@@ -23,10 +23,10 @@ pub(super) fn header() -> String {
      Measures, averaged over the time steps: PSNR and SSIM on the whole frame, raw and colour-corrected (cc: per frame and per \
      channel, the affine map `a * render + b` that best fits the real frame by least squares is applied to the render first, \
      clamped to [0, 1], so that a camera whose response differs from its neighbours' does not decide the score; gsplat's \
-     `cc_psnr` fits a richer map); PSNR over the static and over the moving pixels, raw / cc (a pixel of a frame moves where the \
+     `cc_psnr` fits a richer map); PSNR and SSIM over the static and over the moving pixels, raw / cc (a pixel of a frame moves where the \
      real frame differs from the held-out camera's temporal median over the frames used by more than {MOVING_THRESHOLD} in some channel, \
-     dilated by {MOVING_DILATION_PX} pixels; PSNR from the mean squared error over the region's pixels, averaged over the frames where the region \
-     has pixels); flicker, the mean frame-to-frame change of the output where the real frame does not change, minus the real \
+     dilated by {MOVING_DILATION_PX} pixels; PSNR from the mean squared error over the region's pixels, SSIM the mean of the frame's SSIM \
+     map over them, each averaged over the frames where the region has pixels); flicker, the mean frame-to-frame change of the output where the real frame does not change, minus the real \
      frame's own (x1000, lower is steadier). The floor is the nearest input camera's frame shown as is, as filmed (ranked as the \
      renderer ranks views): a rendering worse than it is worse than showing no synthesis at all. The plane view is an \
      experiment: that same input warped with one plane fitted to the sparse depth and nothing else (the full method pulls its \
@@ -36,7 +36,10 @@ pub(super) fn header() -> String {
 }
 
 /// The columns of the score tables after the row's names.
-const SCORE_COLUMNS: &str = "PSNR (dB) | SSIM | cc PSNR (dB) | cc SSIM | static PSNR (dB), raw / cc | moving PSNR (dB), raw / cc | flicker";
+const SCORE_COLUMNS: &str = "PSNR (dB) | SSIM | cc PSNR (dB) | cc SSIM | static PSNR (dB), raw / cc | moving PSNR (dB), raw / cc | \
+     static SSIM, raw / cc | moving SSIM, raw / cc | flicker";
+/// How many columns [`SCORE_COLUMNS`] names.
+const SCORE_COLUMN_COUNT: usize = 9;
 
 /// The section of `capture`: `results` of its held-out cameras on the first `frames` frames,
 /// prepared at `size_px` (width, height); the reference package took `reference_secs` of prep.
@@ -76,7 +79,11 @@ pub(super) fn markdown(
         mean_table(&mut s, &group);
         s.push('\n');
     }
-    let _ = writeln!(s, "Per held-out camera:\n\n| held-out camera | method | {SCORE_COLUMNS} |\n| --- | --- |{}", " ---: |".repeat(7));
+    let _ = writeln!(
+        s,
+        "Per held-out camera:\n\n| held-out camera | method | {SCORE_COLUMNS} |\n| --- | --- |{}",
+        " ---: |".repeat(SCORE_COLUMN_COUNT)
+    );
     for r in results {
         for score in &r.scores {
             let _ = writeln!(s, "| {} | {} | {} |", r.name, score.label, cells(score));
@@ -131,7 +138,7 @@ pub(super) fn markdown(
 /// The table of each method's mean score over `results`.
 fn mean_table(s: &mut String, results: &[&CameraResult]) {
     let methods = results.first().map_or(0, |r| r.scores.len());
-    let _ = writeln!(s, "| method | {SCORE_COLUMNS} |\n| --- |{}", " ---: |".repeat(7));
+    let _ = writeln!(s, "| method | {SCORE_COLUMNS} |\n| --- |{}", " ---: |".repeat(SCORE_COLUMN_COUNT));
     for i in 0..methods {
         let scores: Vec<&Score> = results.iter().map(|r| &r.scores[i]).collect();
         let _ = writeln!(s, "| {} | {} |", scores[0].label, cells(&mean_score(&scores)));
@@ -141,6 +148,7 @@ fn mean_table(s: &mut String, results: &[&CameraResult]) {
 /// The score columns of one row ([`SCORE_COLUMNS`]).
 fn cells(x: &Score) -> String {
     let pair = |p: RawAndCorrected| format!("{} / {}", number(p.raw, 2), number(p.corrected, 2));
+    let pair4 = |p: RawAndCorrected| format!("{} / {}", number(p.raw, 4), number(p.corrected, 4));
     [
         number(x.psnr_db.raw, 2),
         number(x.ssim.raw, 4),
@@ -148,6 +156,8 @@ fn cells(x: &Score) -> String {
         number(x.ssim.corrected, 4),
         pair(x.static_psnr_db),
         pair(x.moving_psnr_db),
+        pair4(x.static_ssim),
+        pair4(x.moving_ssim),
         number(x.flicker * 1000.0, 2),
     ]
     .join(" | ")
@@ -172,6 +182,8 @@ fn mean_score(scores: &[&Score]) -> Score {
         ssim: pair(&|s| s.ssim),
         static_psnr_db: pair(&|s| s.static_psnr_db),
         moving_psnr_db: pair(&|s| s.moving_psnr_db),
+        static_ssim: pair(&|s| s.static_ssim),
+        moving_ssim: pair(&|s| s.moving_ssim),
         flicker: mean(&|s| s.flicker),
     }
 }
@@ -197,6 +209,8 @@ mod tests {
             ssim: RawAndCorrected { raw: 0.5, corrected: 0.6 },
             static_psnr_db: pair(psnr_db + 2.0),
             moving_psnr_db: pair(moving_psnr_db),
+            static_ssim: RawAndCorrected { raw: 0.7, corrected: 0.75 },
+            moving_ssim: if moving_psnr_db.is_nan() { pair(f64::NAN) } else { RawAndCorrected { raw: 0.4, corrected: 0.45 } },
             flicker: 0.01,
         }
     }
@@ -212,6 +226,12 @@ mod tests {
             depth_error_pct: [0.3, 0.4],
             moving_pct: 12.5,
         }
+    }
+
+    #[test]
+    fn the_column_count_matches_the_columns_named() {
+        assert_eq!(SCORE_COLUMNS.matches('|').count() + 1, SCORE_COLUMN_COUNT);
+        assert_eq!(cells(&score("x", 20.0, 15.0)).matches('|').count() + 1, SCORE_COLUMN_COUNT);
     }
 
     #[test]
@@ -241,8 +261,16 @@ mod tests {
         assert!(text.starts_with("## panoptic-arc2\n"), "{text}");
         assert!(text.contains("First 75 of its 75 frames, prepared at 640x360"), "{text}");
         // The mean skips the camera without moving pixels; a measure without any value is a dash.
-        assert!(text.contains("| full | 21.00 | 0.5000 | 22.00 | 0.6000 | 23.00 / 24.00 | 15.00 / 16.00 | 10.00 |"), "{text}");
-        assert!(text.contains("| blend | 17.00 | 0.5000 | 18.00 | 0.6000 | 19.00 / 20.00 | – / – | 10.00 |"), "{text}");
+        assert!(
+            text.contains(
+                "| full | 21.00 | 0.5000 | 22.00 | 0.6000 | 23.00 / 24.00 | 15.00 / 16.00 | 0.7000 / 0.7500 | 0.4000 / 0.4500 | 10.00 |"
+            ),
+            "{text}"
+        );
+        assert!(
+            text.contains("| blend | 17.00 | 0.5000 | 18.00 | 0.6000 | 19.00 / 20.00 | – / – | 0.7000 / 0.7500 | – / – | 10.00 |"),
+            "{text}"
+        );
         assert!(text.contains("| cam04 | blend | 16.00 |"), "{text}");
         assert!(text.contains("| cam09 | cam02 | 12.5 | 1000 | 0.3 / 0.4 | 10 | 100 |"), "{text}");
         assert!(text.contains("![cam04](real_strip_panoptic-arc2_cam04.png)"), "{text}");

@@ -9,11 +9,11 @@
 //! - static and moving regions: a pixel of a frame is moving where the real frame differs from
 //!   the held-out camera's temporal median ([`temporal_median`]) by more than
 //!   [`MOVING_THRESHOLD`] in some channel, dilated by [`MOVING_DILATION_PX`] ([`moving_mask`]);
-//!   PSNR is reported over each region ([`region_psnr`]).
+//!   PSNR and SSIM are reported over each region ([`region_psnr`], [`region_ssim`]).
 //!
 //! [`Sums`] gathers all of them, and the flicker, for one way of showing a held-out camera.
 
-use dynview_core::metrics::{FlickerSum, psnr, psnr_masked, ssim};
+use dynview_core::metrics::{FlickerSum, psnr, psnr_masked, ssim_map};
 use dynview_core::raster::{dilated, unit_from_u8};
 use dynview_core::{RgbRaster, ScalarRaster};
 
@@ -102,6 +102,18 @@ pub fn region_psnr(shown: &RgbRaster, truth: &RgbRaster, moving: &ScalarRaster, 
     selected.data.iter().any(|&s| s > 0.0).then(|| psnr_masked(shown, truth, Some(&selected)))
 }
 
+/// The mean of `ssim_map` (per pixel, [`ssim_map`]) over the pixels of `region` of `moving`;
+/// `None` when the region has no pixel.
+pub fn region_ssim(ssim_map: &[f64], moving: &ScalarRaster, region: Region) -> Option<f64> {
+    assert_eq!(ssim_map.len(), moving.data.len(), "an SSIM map and a mask of different sizes");
+    let (sum, count) = ssim_map
+        .iter()
+        .zip(&moving.data)
+        .filter(|(_, m)| (**m > 0.0) == (region == Region::Moving))
+        .fold((0.0, 0usize), |(sum, count), (s, _)| (sum + s, count + 1));
+    (count > 0).then(|| sum / count as f64)
+}
+
 /// A running mean that skips the frames where a measure has no value.
 #[derive(Clone, Copy, Debug, Default)]
 struct Mean {
@@ -147,6 +159,10 @@ pub struct Score {
     /// PSNR over the moving pixels ([`Region::Moving`]), dB; averaged over the time steps with
     /// moving pixels.
     pub moving_psnr_db: RawAndCorrected,
+    /// SSIM over the static pixels ([`region_ssim`]).
+    pub static_ssim: RawAndCorrected,
+    /// SSIM over the moving pixels; averaged over the time steps with moving pixels.
+    pub moving_ssim: RawAndCorrected,
     /// Mean frame-to-frame change where the real frame does not change, minus the real frame's
     /// own ([`FlickerSum`]; colours in [0, 1]).
     pub flicker: f64,
@@ -159,6 +175,8 @@ pub struct Sums {
     ssim: [Mean; 2],
     static_psnr_db: [Mean; 2],
     moving_psnr_db: [Mean; 2],
+    static_ssim: [Mean; 2],
+    moving_ssim: [Mean; 2],
     flicker: FlickerSum,
     previous: Option<RgbRaster>,
 }
@@ -170,9 +188,12 @@ impl Sums {
         let corrected = color_corrected(&shown, truth);
         for (k, image) in [&shown, &corrected].into_iter().enumerate() {
             self.psnr_db[k].add(Some(psnr(image, truth)));
-            self.ssim[k].add(Some(ssim(image, truth)));
+            let map = ssim_map(image, truth);
+            self.ssim[k].add(Some(map.iter().sum::<f64>() / map.len().max(1) as f64));
             self.static_psnr_db[k].add(region_psnr(image, truth, moving, Region::Static));
             self.moving_psnr_db[k].add(region_psnr(image, truth, moving, Region::Moving));
+            self.static_ssim[k].add(region_ssim(&map, moving, Region::Static));
+            self.moving_ssim[k].add(region_ssim(&map, moving, Region::Moving));
         }
         if let (Some(before), Some(truth_before)) = (&self.previous, truth_before) {
             self.flicker.add(before, &shown, truth_before, truth);
@@ -189,6 +210,8 @@ impl Sums {
             ssim: pair(&self.ssim),
             static_psnr_db: pair(&self.static_psnr_db),
             moving_psnr_db: pair(&self.moving_psnr_db),
+            static_ssim: pair(&self.static_ssim),
+            moving_ssim: pair(&self.moving_ssim),
             flicker: self.flicker.value().unwrap_or(f64::NAN),
         }
     }
@@ -197,6 +220,7 @@ impl Sums {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use dynview_core::metrics::ssim;
 
     /// A textured image with different content per channel, colours within [0.1, 0.9].
     fn texture(w: usize, h: usize) -> RgbRaster {
@@ -310,6 +334,26 @@ mod tests {
     }
 
     #[test]
+    fn region_ssim_is_the_maps_mean_over_the_regions_pixels() {
+        let truth = texture(40, 20);
+        // Noise on the right half only: that half moves.
+        let mut shown = truth.clone();
+        let right = noisy(&truth, 0.8);
+        for y in 0..20 {
+            for x in 20..40 {
+                shown.set(x, y, right.get(x, y));
+            }
+        }
+        let moving = ScalarRaster::from_vec(40, 20, (0..800).map(|i| if i % 40 >= 20 { 1.0 } else { 0.0 }).collect()).unwrap();
+        let map = ssim_map(&shown, &truth);
+        let (still, moved) = (region_ssim(&map, &moving, Region::Static).unwrap(), region_ssim(&map, &moving, Region::Moving).unwrap());
+        assert!(moved < 0.9 && still > moved + 0.05, "static {still}, moving {moved}");
+        // The halves hold as many pixels: their mean is the whole frame's SSIM.
+        assert!((0.5 * (still + moved) - ssim(&shown, &truth)).abs() < 1e-9);
+        assert_eq!(region_ssim(&map, &ScalarRaster::filled(40, 20, 0.0), Region::Moving), None);
+    }
+
+    #[test]
     fn sums_average_over_the_steps_with_a_value() {
         let truth = texture(16, 12);
         let still = ScalarRaster::filled(16, 12, 0.0);
@@ -322,6 +366,7 @@ mod tests {
         assert_eq!(score.label, "x");
         assert!(score.psnr_db.corrected >= score.psnr_db.raw);
         assert!(score.moving_psnr_db.raw.is_finite() && score.static_psnr_db.raw.is_finite());
+        assert!(score.moving_ssim.corrected.is_finite() && score.static_ssim.corrected <= 1.0);
         assert!(score.flicker.is_finite());
         assert!(Sums::default().score("empty").moving_psnr_db.raw.is_nan());
     }
