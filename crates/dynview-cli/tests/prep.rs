@@ -70,4 +70,9 @@ fn bad_inputs_fail_with_the_file_named() {
         let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap(), &option]);
         assert!(!ok && log.contains("--plate-repair-min-share must be between 0 and 1"), "{share}: {log}");
     }
+    for tolerance in ["0", "1", "NaN"] {
+        let option = format!("--foreground-tolerance={tolerance}");
+        let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap(), &option]);
+        assert!(!ok && log.contains("--foreground-tolerance must lie between 0 and 1"), "{tolerance}: {log}");
+    }
 }

@@ -157,6 +157,11 @@ pub struct Args {
     /// a pixel it is unsure of does not carve the hull). See docs/results/moving.md.
     #[arg(long, value_name = "MODEL", default_value_t = ForegroundModel::default())]
     foreground: ForegroundModel,
+    /// Mean absolute RGB difference from the plate (colours 0 to 1) above which a pixel is
+    /// foreground; with `--foreground soft`, where its colour cue is certain (the cue starts at
+    /// 0.05, and a pixel is foreground from half way).
+    #[arg(long, value_name = "DIFFERENCE", default_value_t = HullOptions::default().foreground_tolerance, conflicts_with = "no_hull")]
+    foreground_tolerance: f32,
     /// Keep the steps' own points that float in front of the static scene where two or more
     /// still cameras see their background plate (by default they are dropped: nothing stands
     /// where a camera looking through it sees the wall behind).
@@ -302,6 +307,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(plates) = options.package.plates.as_mut() {
         plates.repair_min_share = if args.no_plate_repair { 0.0 } else { args.plate_repair_min_share };
     }
+    if !(args.foreground_tolerance > 0.0 && args.foreground_tolerance < 1.0) {
+        bail!("--foreground-tolerance must lie between 0 and 1 (exclusive), found {}", args.foreground_tolerance);
+    }
     if args.no_hull {
         options.package.hull = None;
     }
@@ -309,6 +317,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         hull.min_region_rays = args.hull_region_rays;
         hull.own_point_reach = args.hull_own_reach;
         hull.foreground_model = args.foreground;
+        hull.foreground_tolerance = args.foreground_tolerance;
     }
     if args.no_free_space {
         options.package.free_space = None;
