@@ -152,9 +152,9 @@ pub struct Args {
     #[arg(long, value_name = "CELLS", default_value_t = HullOptions::default().own_point_reach, conflicts_with = "no_hull")]
     hull_own_reach: usize,
     /// How each still camera's foreground (what differs from its background plate) is found,
-    /// for the visual hull and for dropping points that float in free space: `difference` (a
-    /// colour difference above a tolerance) or `soft` (a probability from colour and texture;
-    /// a pixel it is unsure of does not carve the hull). See docs/results/moving.md.
+    /// for the visual hull and for dropping points that float in free space: `soft` (a
+    /// probability from colour and texture; a pixel it is unsure of does not carve the hull) or
+    /// `difference` (a colour difference above a tolerance). See docs/results/moving.md.
     #[arg(long, value_name = "MODEL", default_value_t = ForegroundModel::default())]
     foreground: ForegroundModel,
     /// Mean absolute RGB difference from the plate (colours 0 to 1) above which a pixel is
