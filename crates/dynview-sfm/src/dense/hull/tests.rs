@@ -225,7 +225,8 @@ fn striped_shirt(amplitude: i16) -> (Plate, RgbImage) {
 fn a_striped_shirt_the_colour_of_the_wall_is_foreground_to_the_soft_model_and_carves_nothing() {
     // Each pixel is 0.1 from the plate: under the tolerance (0.15).
     let (background, frame) = striped_shirt(26);
-    let hard = foreground(&frame, &background, &HullOptions::default()).expect("sizes match");
+    let hard_options = HullOptions { foreground_model: ForegroundModel::Difference, ..HullOptions::default() };
+    let hard = foreground(&frame, &background, &hard_options).expect("sizes match");
     let soft_options = HullOptions { foreground_model: ForegroundModel::Soft, ..HullOptions::default() };
     let soft = foreground(&frame, &background, &soft_options).expect("sizes match");
     let inside = |r: &ScalarRaster| (45..75).flat_map(|y| (65..95).map(move |x| (x, y))).map(|(x, y)| r.get(x, y)).sum::<f32>() / 900.0;
