@@ -75,7 +75,11 @@ fn blur_1d(values: &[f64], w: usize, h: usize, kernel: &[f64], along_x: bool) ->
 /// Mean SSIM (Wang et al. 2004: 11x11 Gaussian window, sigma 1.5, K1 0.01, K2 0.03, peak 1),
 /// computed per channel and averaged over the three.
 pub fn ssim(a: &RgbRaster, b: &RgbRaster) -> f64 {
-    let map = ssim_map(a, b);
+    ssim_mean(&ssim_map(a, b))
+}
+
+/// The mean SSIM of an [`ssim_map`] (what [`ssim`] gives for the two images); 0 for no pixel.
+pub fn ssim_mean(map: &[f64]) -> f64 {
     map.iter().sum::<f64>() / map.len().max(1) as f64
 }
 

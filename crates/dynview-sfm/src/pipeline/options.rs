@@ -154,6 +154,14 @@ impl PrepOptions {
     /// Checks ranges.
     pub fn validate(&self) -> SfmResult<()> {
         self.visual_sync.validate()?;
+        // Checked here too, not only where the package is written: a bad value must not cost
+        // the stages before it.
+        if let Some(hull) = &self.package.hull {
+            hull.validate()?;
+        }
+        if let Some(free_space) = &self.package.free_space {
+            free_space.validate()?;
+        }
         let bad = |option, problem: String| Err(SfmError::Option { option, problem });
         if !(1..=10_000).contains(&self.keyframe_interval) {
             return bad("keyframe-interval", format!("must be in 1..=10000, found {}", self.keyframe_interval));

@@ -13,7 +13,7 @@
 //!
 //! [`Sums`] gathers all of them, and the flicker, for one way of showing a held-out camera.
 
-use dynview_core::metrics::{FlickerSum, psnr, psnr_masked, ssim_map};
+use dynview_core::metrics::{FlickerSum, psnr, psnr_masked, ssim_map, ssim_mean};
 use dynview_core::raster::{dilated, unit_from_u8};
 use dynview_core::{RgbRaster, ScalarRaster};
 
@@ -95,10 +95,17 @@ pub enum Region {
     Moving,
 }
 
+impl Region {
+    /// Whether a pixel whose moving mask is `mask` belongs to this region.
+    fn holds(self, mask: f32) -> bool {
+        (mask > 0.0) == (self == Region::Moving)
+    }
+}
+
 /// PSNR (dB, peak 1) from the mean squared error over the pixels of `region` of `moving`;
 /// `None` when the region has no pixel.
 pub fn region_psnr(shown: &RgbRaster, truth: &RgbRaster, moving: &ScalarRaster, region: Region) -> Option<f64> {
-    let selected = moving.map(|m| if (m > 0.0) == (region == Region::Moving) { 1.0 } else { 0.0 });
+    let selected = moving.map(|m| if region.holds(m) { 1.0 } else { 0.0 });
     selected.data.iter().any(|&s| s > 0.0).then(|| psnr_masked(shown, truth, Some(&selected)))
 }
 
@@ -109,7 +116,7 @@ pub fn region_ssim(ssim_map: &[f64], moving: &ScalarRaster, region: Region) -> O
     let (sum, count) = ssim_map
         .iter()
         .zip(&moving.data)
-        .filter(|(_, m)| (**m > 0.0) == (region == Region::Moving))
+        .filter(|(_, m)| region.holds(**m))
         .fold((0.0, 0usize), |(sum, count), (s, _)| (sum + s, count + 1));
     (count > 0).then(|| sum / count as f64)
 }
@@ -189,7 +196,7 @@ impl Sums {
         for (k, image) in [&shown, &corrected].into_iter().enumerate() {
             self.psnr_db[k].add(Some(psnr(image, truth)));
             let map = ssim_map(image, truth);
-            self.ssim[k].add(Some(map.iter().sum::<f64>() / map.len().max(1) as f64));
+            self.ssim[k].add(Some(ssim_mean(&map)));
             self.static_psnr_db[k].add(region_psnr(image, truth, moving, Region::Static));
             self.moving_psnr_db[k].add(region_psnr(image, truth, moving, Region::Moving));
             self.static_ssim[k].add(region_ssim(&map, moving, Region::Static));
