@@ -85,6 +85,11 @@ pub struct RefineReport {
     /// interpolation between their placed neighbours instead of being kept.
     #[serde(default)]
     pub frames_repaired: usize,
+    /// Frames the last solve misplaced (as [`Self::frames_repaired`]) whose own pose before the
+    /// solves (PnP on the model's points) was within the limit: that pose was kept instead,
+    /// unsmoothed.
+    #[serde(default)]
+    pub frames_kept_from_pnp: usize,
     /// RMS reprojection error (px) over the observations within `max_reprojection_px` after the
     /// repair: what the kept poses explain.
     #[serde(default)]
@@ -147,6 +152,30 @@ pub fn repair_misplaced(poses: &mut [Rigid3], median_errors_px: &[Option<f64>], 
         }
     }
     count
+}
+
+/// Puts back the pose a frame had before the solve (`before`, with its median errors
+/// `errors_before_px`) where the solve misplaced it (median error above `limit_px` or NaN) and
+/// the pose before was within the limit; never a keyframe. Updates `errors_px` alike and
+/// returns how many frames were put back.
+pub fn keep_poses_before(
+    poses: &mut [Rigid3],
+    errors_px: &mut [Option<f64>],
+    before: &[Rigid3],
+    errors_before_px: &[Option<f64>],
+    is_keyframe: &[bool],
+    limit_px: f64,
+) -> usize {
+    let mut kept = 0;
+    for t in 0..poses.len() {
+        let misplaced = errors_px[t].is_some_and(|e| e > limit_px || e.is_nan());
+        if !is_keyframe[t] && misplaced && errors_before_px[t].is_some_and(|e| e <= limit_px) {
+            poses[t] = before[t];
+            errors_px[t] = errors_before_px[t];
+            kept += 1;
+        }
+    }
+    kept
 }
 
 /// Carries point ids along the consecutive-frame `matches`, forward then backward, never
@@ -345,6 +374,12 @@ pub fn refine_camera(
     let observations_per_frame = point_at.iter().map(|v| v.iter().flatten().count()).sum::<usize>() as f64 / n as f64;
     let focal = camera.intrinsics.f;
     let scale = options.smoothness * observations_per_frame.max(1.0);
+    // A solve that explodes at a frame (the smoothness priors drag its neighbours along) gives
+    // that frame back its own pose, which the next round starts from.
+    let limit_px = MISPLACED_FRAME_FACTOR * options.max_reprojection_px;
+    let errors_of = |poses: &[Rigid3]| median_frame_errors_px(&camera.intrinsics, poses, &features, &point_at, camera.points_world);
+    let before = poses.clone();
+    let errors_before = errors_of(&before);
 
     for round in 0..2 {
         let mut used_points: Vec<u32> = point_at.iter().flatten().flatten().copied().collect();
@@ -409,11 +444,13 @@ pub fn refine_camera(
         for (t, p) in problem.images.iter().enumerate() {
             poses[t] = *p;
         }
+        let mut errors = errors_of(&poses);
+        report.frames_kept_from_pnp = keep_poses_before(&mut poses, &mut errors, &before, &errors_before, &is_keyframe, limit_px);
     }
-    // A solve that exploded somewhere is not kept there: those frames are placed between their
-    // neighbours instead.
-    let errors = median_frame_errors_px(&camera.intrinsics, &poses, &features, &point_at, camera.points_world);
-    report.frames_repaired = repair_misplaced(&mut poses, &errors, &is_keyframe, MISPLACED_FRAME_FACTOR * options.max_reprojection_px);
+    // Where neither the solve nor the frame's own pose explains it, the frame is placed between
+    // its neighbours instead.
+    let errors = errors_of(&poses);
+    report.frames_repaired = repair_misplaced(&mut poses, &errors, &is_keyframe, limit_px);
     report.inlier_rms_px =
         inlier_rms_px(&camera.intrinsics, &poses, &features, &point_at, camera.points_world, options.max_reprojection_px);
     Ok((poses, report))
@@ -425,6 +462,20 @@ mod tests {
 
     fn at(x: f64) -> Rigid3 {
         Rigid3::from_angle_axis_center(Vector3::new(0.0, 0.01 * x, 0.0), Vector3::new(x, 0.0, 0.0))
+    }
+
+    #[test]
+    fn a_frame_the_solve_misplaced_gets_its_own_pose_back_where_that_one_was_within_the_limit() {
+        let before: Vec<Rigid3> = (0..5).map(|t| at(t as f64)).collect();
+        let exploded = Rigid3::from_angle_axis_center(Vector3::new(2.0, 0.0, 0.0), Vector3::new(1e4, -3e3, 7.0));
+        let mut poses = vec![before[0], exploded, exploded, before[3], exploded];
+        let errors_before = [Some(0.2), Some(0.8), Some(40.0), Some(0.3), Some(0.5)];
+        let mut errors = [Some(900.0), Some(500.0), Some(700.0), Some(0.4), Some(f64::NAN)];
+        // Frame 0 is a keyframe; frame 2 was misplaced before the solve too.
+        let is_keyframe = [true, false, false, false, false];
+        assert_eq!(keep_poses_before(&mut poses, &mut errors, &before, &errors_before, &is_keyframe, 16.0), 2);
+        assert_eq!(poses, vec![before[0], before[1], exploded, before[3], before[4]]);
+        assert_eq!(errors, [Some(900.0), Some(0.8), Some(700.0), Some(0.4), Some(0.5)]);
     }
 
     #[test]

@@ -380,7 +380,8 @@ fn refine_all<K: Serialize>(
     Ok(out)
 }
 
-/// A warning naming the camera when its refinement misplaced frames (repaired, not kept).
+/// A warning naming the camera when its refinement misplaced frames (repaired, or kept as
+/// placed before the solve).
 fn warn_repaired(report: &mut PrepReport, camera: &str, refined: &RefineReport, limit_px: f64) {
     if refined.frames_repaired > 0 {
         report.warnings.push(format!(
@@ -388,6 +389,12 @@ fn warn_repaired(report: &mut PrepReport, camera: &str, refined: &RefineReport, 
             refined.frames_repaired,
             crate::mapping::refine::MISPLACED_FRAME_FACTOR,
             limit_px,
+        ));
+    }
+    if refined.frames_kept_from_pnp > 0 {
+        report.warnings.push(format!(
+            "camera {camera}: the smoothing solve misplaced {} of its frames; each keeps its own pose (PnP on the keyframe model), unsmoothed",
+            refined.frames_kept_from_pnp,
         ));
     }
 }
