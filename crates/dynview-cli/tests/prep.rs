@@ -76,3 +76,30 @@ fn bad_inputs_fail_with_the_file_named() {
         assert!(!ok && log.contains("--foreground-tolerance must lie between 0 and 1"), "{tolerance}: {log}");
     }
 }
+
+/// The visual hull's points of a prep of the hand-held event in `event` (`None` when the
+/// package stage carved no hull), with `extra` arguments.
+fn hull_points_of_hand_held_prep(event: &Path, out: &Path, extra: &[&str]) -> Option<u64> {
+    let (input, model) = (event.join("input"), event.join("colmap"));
+    let mut args = vec!["prep", "--input", input.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    args.extend(["--poses", model.to_str().unwrap(), "--no-densify"]);
+    args.extend(extra);
+    let (ok, log) = dynview(&args);
+    assert!(ok, "{log}");
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    report["package"]["hull_points"].as_u64()
+}
+
+#[test]
+fn hand_held_cameras_carve_the_hull_from_plates_made_per_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let event = dir.path().join("event");
+    let size = ["--cameras", "5", "--frames", "16", "--width", "160", "--height", "90"];
+    let (ok, log) = dynview(&[&["synth", "--out", event.to_str().unwrap(), "--handheld", "--no-video"][..], &size[..]].concat());
+    assert!(ok, "{log}");
+    // No camera stands still, so none has a plate of the whole event.
+    let with = hull_points_of_hand_held_prep(&event, &dir.path().join("with"), &[]);
+    assert!(with.is_some_and(|n| n > 0), "hull points with plates per step: {with:?}");
+    let without = hull_points_of_hand_held_prep(&event, &dir.path().join("without"), &["--no-moving-plates"]);
+    assert_eq!(without, None, "without plates per step no camera has a plate, so no hull");
+}

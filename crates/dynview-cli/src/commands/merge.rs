@@ -32,6 +32,11 @@ pub struct MergeArgs {
     /// a depth where they enter the space every other camera's foreground allows).
     #[arg(long)]
     no_hull: bool,
+    /// No plates made per step for the cameras without one of their own (hand-held ones): by
+    /// default their frames a few steps around each step, carried through the static cloud,
+    /// give them a plate, and their foregrounds join the visual hull (docs/results/moving.md).
+    #[arg(long, conflicts_with = "no_hull")]
+    no_moving_plates: bool,
     /// Keep the steps' own points that float in front of the static scene where two or more
     /// still cameras see their background plate (by default they are dropped: nothing stands
     /// where a camera looking through it sees the wall behind).
@@ -55,6 +60,7 @@ pub fn run_merge(args: MergeArgs) -> anyhow::Result<()> {
         plates: (!args.no_plates).then(dynview_sfm::dense::plate_cloud::PlateCloudOptions::default),
         hull: (!args.no_hull).then(dynview_sfm::dense::hull::HullOptions::default),
         free_space: (!args.no_free_space).then(dynview_sfm::dense::free_space::FreeSpaceOptions::default),
+        moving_plates: !args.no_moving_plates,
         video: args.frames_as.video(),
         format_v1: args.frames_as.format_v1(),
         color_balance: !args.no_color_balance,

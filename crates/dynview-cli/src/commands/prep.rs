@@ -138,6 +138,11 @@ pub struct Args {
     /// a depth where they enter the space every other camera's foreground allows).
     #[arg(long)]
     no_hull: bool,
+    /// No plates made per step for the cameras without one of their own (hand-held ones): by
+    /// default their frames a few steps around each step, carried through the static cloud,
+    /// give them a plate, and their foregrounds join the visual hull (docs/results/moving.md).
+    #[arg(long, conflicts_with = "no_hull")]
+    no_moving_plates: bool,
     /// Fewest rays of the visual hull a connected region of a camera's foreground gets: small
     /// ones (a ball far from the cameras) are sampled more finely, down to every pixel. Off (0)
     /// by default: on the synthetic event it brings a plain 30 cm ball's depth error from 22.5%
@@ -322,6 +327,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.no_free_space {
         options.package.free_space = None;
     }
+    options.package.moving_plates = !args.no_moving_plates;
     options.package.video = args.frames_as.video();
     options.package.format_v1 = args.frames_as.format_v1();
     options.package.color_balance = !args.no_color_balance;

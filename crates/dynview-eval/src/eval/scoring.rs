@@ -49,8 +49,9 @@ pub struct Options {
     pub layout: Option<String>,
     /// Evaluate the default event with a small, fast, untextured ball and a plain-coloured box
     /// added (`dynview synth --plain-movers`) instead; its event, prep runs and tables go to
-    /// `target/eval/plain-movers/`.
-    #[arg(long, conflicts_with = "layout")]
+    /// `target/eval/plain-movers/`. With `--layout`, the layout's hand-held event with them
+    /// (`target/eval/<layout>-plain-movers/`).
+    #[arg(long)]
     pub plain_movers: bool,
     /// An extra argument for the pipeline's `dynview prep` runs on our own poses (repeatable;
     /// e.g. `--prep-arg=--centred-principal-point`). Those runs then work in folders of their
@@ -69,6 +70,7 @@ impl Options {
     pub fn work_dir(&self) -> PathBuf {
         let root = workspace_root().join("target/eval");
         match &self.layout {
+            Some(layout) if self.plain_movers => root.join(format!("{layout}-{PLAIN_MOVERS_DIR}")),
             Some(layout) => root.join(layout),
             None if self.plain_movers => root.join(PLAIN_MOVERS_DIR),
             None => root,

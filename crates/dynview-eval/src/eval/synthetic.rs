@@ -39,7 +39,7 @@ pub fn run(mut options: Options) -> anyhow::Result<()> {
             let (_, config) =
                 layout_config(name).with_context(|| format!("unknown layout {name:?} (known: arc5x40, arc8x90, arc12x60)"))?;
             options.out = options.work_dir();
-            (options.work_dir().join("event"), SynthConfig { videos: true, ..config })
+            (options.work_dir().join("event"), SynthConfig { videos: true, plain_movers: options.plain_movers, ..config })
         }
     };
     // The full pipeline starts from the videos: an event made without them is made again

@@ -207,17 +207,8 @@ impl PlateEstimator {
         let pixels = self.modes.len() / k;
         let mut confidence = vec![0.0; pixels];
         let mut others = vec![PlateMode::default(); pixels * (k - 1)];
-        let share = |count: u32| if self.frames > 0 { (f64::from(count) / self.frames as f64) as f32 } else { 0.0 };
-        let color = |m: &Mode| m.mean.map(|v| v.round().clamp(0.0, 255.0) as u8);
         for (p, (modes, out)) in self.modes.chunks_exact(k).zip(image.pixels_mut()).enumerate() {
-            let lead = leading_index(modes);
-            out.0 = color(&modes[lead]);
-            confidence[p] = share(modes[lead].count);
-            let mut rest: Vec<&Mode> = modes.iter().enumerate().filter(|&(i, m)| i != lead && m.count > 0).map(|(_, m)| m).collect();
-            rest.sort_by_key(|m| std::cmp::Reverse(m.count));
-            for (slot, m) in others[p * (k - 1)..(p + 1) * (k - 1)].iter_mut().zip(rest) {
-                *slot = PlateMode { color: color(m), share: share(m.count) };
-            }
+            (out.0, confidence[p]) = summary(modes, self.frames, &mut others[p * (k - 1)..(p + 1) * (k - 1)]);
         }
         Plate { image, confidence, frames: self.frames, others }
     }
@@ -234,6 +225,34 @@ impl PlateEstimator {
 
 /// Index of the mode with the highest count; among equal counts the one seen most recently
 /// (the first: modes are kept most recently seen first).
+/// The plate of one pixel from its `values` (8-bit levels, in the order seen), as
+/// [`PlateEstimator`] finds it from the same values pushed one frame at a time: the leading
+/// colour and its share of the values; its other colours, most seen first, go to `others` (as
+/// many as fit, `options.modes - 1` in a [`Plate`]; empty slots get share 0).
+pub fn pixel_plate(values: &[[f32; CHANNELS]], options: &PlateOptions, others: &mut [PlateMode]) -> ([u8; CHANNELS], f32) {
+    let mut modes = [Mode::default(); MAX_MODES];
+    let modes = &mut modes[..options.modes.clamp(1, MAX_MODES)];
+    for value in values {
+        update(modes, *value, options.tolerance_levels);
+    }
+    summary(modes, values.len() as u64, others)
+}
+
+/// The plate colour of a pixel whose `modes` saw `frames` values and its share; its other
+/// modes, most seen first, go to `others` (empty slots get share 0).
+fn summary(modes: &[Mode], frames: u64, others: &mut [PlateMode]) -> ([u8; CHANNELS], f32) {
+    let share = |count: u32| if frames > 0 { (f64::from(count) / frames as f64) as f32 } else { 0.0 };
+    let color = |m: &Mode| m.mean.map(|v| v.round().clamp(0.0, 255.0) as u8);
+    let lead = leading_index(modes);
+    let mut rest: Vec<&Mode> = modes.iter().enumerate().filter(|&(i, m)| i != lead && m.count > 0).map(|(_, m)| m).collect();
+    rest.sort_by_key(|m| std::cmp::Reverse(m.count));
+    others.fill(PlateMode::default());
+    for (slot, m) in others.iter_mut().zip(rest) {
+        *slot = PlateMode { color: color(m), share: share(m.count) };
+    }
+    (color(&modes[lead]), share(modes[lead].count))
+}
+
 fn leading_index(modes: &[Mode]) -> usize {
     (0..modes.len()).fold(0, |best, i| if modes[i].count > modes[best].count { i } else { best })
 }
@@ -338,6 +357,20 @@ mod tests {
         let mut values = run(&[(BG, 40)]);
         values.extend((0..60).map(|i| [(i % 4 * 60) as u8, 255, 0]));
         assert_eq!(one_pixel(&values, PlateOptions::default()).0, BG);
+    }
+
+    #[test]
+    fn one_pixels_plate_is_the_estimators() {
+        let values = run(&[([10; 3], 12), (BG, 30), ([200, 30, 30], 25), ([90; 3], 3)]);
+        let mut e = PlateEstimator::new(1, 1, PlateOptions::default()).expect("estimator");
+        values.iter().for_each(|v| e.push_rgb8(v).expect("push"));
+        let plate = e.plate();
+        let floats: Vec<[f32; 3]> = values.iter().map(|v| v.map(f32::from)).collect();
+        let mut others = [PlateMode::default(); DEFAULT_MODES - 1];
+        let (color, share) = pixel_plate(&floats, &PlateOptions::default(), &mut others);
+        assert_eq!((color, share), (plate.image.get_pixel(0, 0).0, plate.confidence[0]));
+        assert_eq!(color, BG);
+        assert_eq!(&others[..], plate.others_at(0));
     }
 
     #[test]

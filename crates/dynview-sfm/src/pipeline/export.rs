@@ -13,7 +13,7 @@ use dynview_interchange::poses::{EventPoses, POSES_FILE};
 
 use crate::dense::free_space::{FreeSpaceOptions, FreeSpaceView, drop_floaters, static_depth_map};
 use crate::dense::hull::{Foreground, HullOptions, HullView, foreground, hull_points, static_depths};
-use crate::dense::plate_cloud::{PlateCloudOptions, estimate_plates, plate_cloud};
+use crate::dense::plate_cloud::{PlateCloudOptions, estimate_plates, plate_cloud, stands_still};
 use crate::dense::static_cloud::{StaticCloud, StaticOptions, build_static_cloud, candidate_steps};
 use crate::error::{SfmError, SfmResult};
 use crate::pipeline::timesteps::{
@@ -21,6 +21,9 @@ use crate::pipeline::timesteps::{
 };
 use crate::work::WorkDir;
 use dynview_core::raster::ScalarRaster;
+
+mod step_plates;
+use step_plates::StepPlates;
 
 /// Share of points cut at each end of each axis when the quantisation box is chosen, so that a
 /// few stray points do not coarsen the 16-bit grid of all the others.
@@ -57,6 +60,12 @@ pub struct PackageOptions {
     /// them, or its defaults). Needs plates of two cameras or more (`None`: own points kept).
     #[serde(default = "default_free_space")]
     pub free_space: Option<FreeSpaceOptions>,
+    /// Give each camera without a plate of its own (a hand-held one) a plate per step, made of
+    /// its frames around the step carried through the static cloud
+    /// ([`crate::dense::moving_plates`]), so that its foregrounds join the visual hull. Needs
+    /// `hull` and `static_cloud`.
+    #[serde(default = "yes")]
+    pub moving_plates: bool,
     /// The frames as one VP9 video per camera (format v2), or as JPEG files when `None`.
     pub video: Option<VideoSettings>,
     /// Write format v1 (JPEG frames, every step's points in full, static points lent to each),
@@ -92,6 +101,7 @@ impl Default for PackageOptions {
             plates: default_plates(),
             hull: default_hull(),
             free_space: default_free_space(),
+            moving_plates: true,
             video: Some(VideoSettings::default()),
             format_v1: false,
             color_balance: true,
@@ -299,15 +309,27 @@ pub fn export_package(
         repaired_plate_pixels,
         ..ExportReport::default()
     };
+    // The cameras that move (hand-held ones) get a plate per step.
+    let cameras = event.cameras.len();
+    let moves = |c: usize| !stands_still(&(0..steps).map(|t| writer.manifest().camera_at(c, t as u32)).collect::<Vec<_>>());
+    let without_plate: Vec<usize> = match &static_cloud {
+        Some(_) if options.moving_plates => (0..cameras).filter(|&c| plates.get(c).is_none_or(Option::is_none) && moves(c)).collect(),
+        _ => Vec::new(),
+    };
     // A hull point needs the camera it is seen from and `min_witnesses` others with a plate.
-    let hull = options.hull.as_ref().filter(|h| plates.iter().flatten().count() > h.min_witnesses);
+    let hull = options.hull.as_ref().filter(|h| plates.iter().flatten().count() + without_plate.len() > h.min_witnesses);
     if let Some(hull) = hull {
         hull.validate()?;
         report.hull_points = Some(0);
     }
+    let plate_options = options.plates.as_ref().map(|p| p.plates.clone()).unwrap_or_default();
+    let mut step_plates = match (hull, &static_cloud) {
+        (Some(_), Some(statics)) if !without_plate.is_empty() => Some(StepPlates::new(without_plate, &statics.points, plate_options)),
+        _ => None,
+    };
     let static_depth_of: Vec<Option<(f64, f64)>> = match (hull, &static_cloud) {
-        (Some(_), Some(statics)) => (0..plates.len())
-            .map(|c| plates[c].as_ref().and_then(|_| static_depths(&writer.manifest().camera_at(c, 0), &statics.points)))
+        (Some(_), Some(statics)) => (0..cameras)
+            .map(|c| plates.get(c)?.as_ref().and_then(|_| static_depths(&writer.manifest().camera_at(c, 0), &statics.points)))
             .collect(),
         _ => Vec::new(),
     };
@@ -358,11 +380,27 @@ pub fn export_package(
             writer.write_frame(c, t as u32, frame)?;
         }
         let mut cloud = read_cloud(&cloud_path(&s.work, t))?;
-        let foregrounds = if hull.is_some() || !static_depth_maps.is_empty() {
+        let mut foregrounds = if hull.is_some() || !static_depth_maps.is_empty() {
             step_foregrounds(&frames, &plates, &foreground_options)?
         } else {
             Vec::new()
         };
+        let mut depth_of = static_depth_of.clone();
+        if let Some(step_plates) = step_plates.as_mut() {
+            let manifest = writer.manifest();
+            let made = step_plates.at(
+                t,
+                steps,
+                &cloud,
+                |c, s| work_frame(source_of[s], &manifest.cameras[c].name, s),
+                |c, s| manifest.camera_at(c, s as u32),
+            )?;
+            depth_of.resize(cameras, None);
+            for (&c, (plate, range)) in step_plates.cameras().iter().zip(made) {
+                foregrounds[c] = Some(foreground(&frames[c], &plate, &foreground_options)?);
+                depth_of[c] = range;
+            }
+        }
         if let Some(free_space) = free_space.filter(|_| !static_depth_maps.is_empty()) {
             let (kept, dropped) = step_floaters_dropped(writer.manifest(), t, &foregrounds, &static_depth_maps, &cloud, free_space);
             cloud = kept;
@@ -370,7 +408,7 @@ pub fn export_package(
         }
         // Hull points are judged against the step's own points, before static points stand in.
         let moving = match hull {
-            Some(hull) => Some(step_hull(writer.manifest(), t, &frames, &foregrounds, &static_depth_of, &cloud, hull)?),
+            Some(hull) => Some(step_hull(writer.manifest(), t, &frames, &foregrounds, &depth_of, &cloud, hull)?),
             None => None,
         };
         let mut borrowed_indices = Vec::new();
@@ -442,26 +480,30 @@ fn balance_colors(source_of: &[&Source], manifest: &mut Manifest, warnings: &mut
 
 /// The working frames of step `t` from its prep output, one per camera of `manifest`.
 fn work_frames(source: &Source, manifest: &Manifest, t: usize) -> SfmResult<Vec<image::RgbImage>> {
-    manifest
-        .cameras
-        .iter()
-        .map(|entry| {
-            let path = frame_path(&source.work, &entry.name, t);
-            let bytes = std::fs::read(&path).map_err(SfmError::io(&path))?;
-            Ok(image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
-                .map_err(|e| SfmError::WorkFile { path: path.clone(), problem: format!("cannot decode the frame: {e}") })?
-                .to_rgb8())
-        })
-        .collect()
+    manifest.cameras.iter().map(|entry| work_frame(source, &entry.name, t)).collect()
 }
 
-/// The foreground of each camera's frame of a step against its plate (`None` without a plate).
+/// The working frame of camera `name` at step `t` from its prep output.
+fn work_frame(source: &Source, name: &str, t: usize) -> SfmResult<image::RgbImage> {
+    let path = frame_path(&source.work, name, t);
+    let bytes = std::fs::read(&path).map_err(SfmError::io(&path))?;
+    Ok(image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
+        .map_err(|e| SfmError::WorkFile { path: path.clone(), problem: format!("cannot decode the frame: {e}") })?
+        .to_rgb8())
+}
+
+/// The foreground of each camera's frame of a step against its plate (`None` without a plate,
+/// one per frame).
 fn step_foregrounds(
     frames: &[image::RgbImage],
     plates: &[Option<crate::dense::Plate>],
     options: &HullOptions,
 ) -> SfmResult<Vec<Option<Foreground>>> {
-    frames.iter().zip(plates).map(|(frame, plate)| plate.as_ref().map(|plate| foreground(frame, plate, options)).transpose()).collect()
+    frames
+        .iter()
+        .enumerate()
+        .map(|(c, frame)| plates.get(c).and_then(Option::as_ref).map(|plate| foreground(frame, plate, options)).transpose())
+        .collect()
 }
 
 /// The own points of step `t` (`own`) less those that float in front of the static scene of the
