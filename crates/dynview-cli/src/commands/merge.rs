@@ -33,7 +33,7 @@ pub struct MergeArgs {
     #[arg(long)]
     no_hull: bool,
     /// No plates made per step for the cameras without one of their own (hand-held ones): by
-    /// default their frames a few steps around each step, carried through the static cloud,
+    /// default their frames a few steps around each step, carried through the scene's depth,
     /// give them a plate, and their foregrounds join the visual hull (docs/results/moving.md).
     #[arg(long, conflicts_with = "no_hull")]
     no_moving_plates: bool,

@@ -71,11 +71,17 @@ pub fn static_depths(camera: &Camera, static_points: &PointCloud) -> Option<(f64
         .filter(|(px, z)| *z > 0.0 && camera.contains(*px))
         .map(|(_, z)| z)
         .collect();
-    if depths.len() < 16 {
+    depth_range(&mut depths)
+}
+
+/// The median and the 95th percentile of `depths_m` (sorted in place): a camera's depth range
+/// for the hull; `None` with fewer than 16 of them.
+pub fn depth_range(depths_m: &mut [f64]) -> Option<(f64, f64)> {
+    if depths_m.len() < 16 {
         return None;
     }
-    depths.sort_by(f64::total_cmp);
-    Some((depths[depths.len() / 2], depths[depths.len() * 95 / 100]))
+    depths_m.sort_by(f64::total_cmp);
+    Some((depths_m[depths_m.len() / 2], depths_m[depths_m.len() * 95 / 100]))
 }
 
 /// The hull's front points seen from every view of `views` (see the module's comment), less

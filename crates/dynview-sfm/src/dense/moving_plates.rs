@@ -3,14 +3,13 @@
 //! A camera that stands still gets one plate for the whole event ([`super::plates`]). A
 //! hand-held camera's view changes from step to step, so each of its steps gets its own: the
 //! same camera's frames of a few steps before and after ([`STEP_OFFSETS`]) are carried onto the
-//! step's frame through the static scene (the static cloud's nearest depth at each pixel of the
-//! camera at that step, [`super::free_space::static_depth_map`], with each frame's own pose),
-//! and each pixel's plate colour is the most stable of the colours they bring, found by the
+//! step's frame through the scene's depth at that step (prep gives the nearest of the static
+//! points and the step's own points), each with its own pose, and each pixel's plate colour is the most stable of the colours they bring, found by the
 //! plates' colour modes ([`super::plates::pixel_plate`]). What moves has moved on in most of
 //! those frames; the static scene lies where its depth puts it, parallax included (a homography
 //! between the frames would leave the parallax of a few centimetres of hand shake).
 //!
-//! Where the static cloud leaves a pixel without depth, or fewer than [`MIN_SAMPLES`] of the
+//! Where a pixel has no depth, or fewer than [`MIN_SAMPLES`] of the
 //! frames see its point, the pixel's confidence is 0: its foreground is unknown, and it neither
 //! starts hull rays nor carves. The step's own frame is not among the samples: its foreground
 //! is what differs from the others.
@@ -30,8 +29,8 @@ pub const STEP_OFFSETS: [i64; 8] = [-12, -9, -6, -3, 3, 6, 9, 12];
 /// Fewest frames that must see a pixel's static point for its plate to count.
 pub const MIN_SAMPLES: usize = 3;
 
-/// Radius (px) each static point covers in the depth map the frames are carried through: the
-/// static cloud is sparser than the pixels.
+/// Radius (px) each point covers in the depth map the frames are carried through: the points
+/// are sparser than the pixels.
 pub const DEPTH_FOOTPRINT_PX: usize = 3;
 
 /// One row of a plate being made: colours, confidences and other modes.
@@ -108,15 +107,11 @@ fn sample_at(sample: &PlateSample, point_world: DVec3) -> Option<[f32; 3]> {
 }
 
 /// The median and the 95th percentile of the finite depths of `static_depth_m`; `None` with
-/// fewer than 16 of them (the hull's depth range of a camera, as
+/// fewer than 16 of them (the hull's depth range of a camera, [`super::hull::depth_range`], as
 /// [`super::hull::static_depths`] gives a still camera's).
 pub fn depth_range(static_depth_m: &ScalarRaster) -> Option<(f64, f64)> {
-    let mut depths: Vec<f32> = static_depth_m.data.iter().copied().filter(|d| d.is_finite() && *d > 0.0).collect();
-    if depths.len() < 16 {
-        return None;
-    }
-    depths.sort_by(f32::total_cmp);
-    Some((f64::from(depths[depths.len() / 2]), f64::from(depths[depths.len() * 95 / 100])))
+    let mut depths: Vec<f64> = static_depth_m.data.iter().filter(|d| d.is_finite() && **d > 0.0).map(|&d| f64::from(d)).collect();
+    super::hull::depth_range(&mut depths)
 }
 
 #[cfg(test)]

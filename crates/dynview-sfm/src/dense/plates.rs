@@ -244,10 +244,17 @@ fn summary(modes: &[Mode], frames: u64, others: &mut [PlateMode]) -> ([u8; CHANN
     let share = |count: u32| if frames > 0 { (f64::from(count) / frames as f64) as f32 } else { 0.0 };
     let color = |m: &Mode| m.mean.map(|v| v.round().clamp(0.0, 255.0) as u8);
     let lead = leading_index(modes);
-    let mut rest: Vec<&Mode> = modes.iter().enumerate().filter(|&(i, m)| i != lead && m.count > 0).map(|(_, m)| m).collect();
-    rest.sort_by_key(|m| std::cmp::Reverse(m.count));
+    // The other modes, most seen first (a stable sort, on the stack: this runs per pixel).
+    let empty = Mode::default();
+    let mut rest = [&empty; MAX_MODES];
+    let mut n = 0;
+    for m in modes.iter().enumerate().filter(|&(i, m)| i != lead && m.count > 0).map(|(_, m)| m) {
+        rest[n] = m;
+        n += 1;
+    }
+    rest[..n].sort_by_key(|m| std::cmp::Reverse(m.count));
     others.fill(PlateMode::default());
-    for (slot, m) in others.iter_mut().zip(rest) {
+    for (slot, m) in others.iter_mut().zip(&rest[..n]) {
         *slot = PlateMode { color: color(m), share: share(m.count) };
     }
     (color(&modes[lead]), share(modes[lead].count))

@@ -380,6 +380,7 @@ pub fn refine_camera(
     let errors_of = |poses: &[Rigid3]| median_frame_errors_px(&camera.intrinsics, poses, &features, &point_at, camera.points_world);
     let before = poses.clone();
     let errors_before = errors_of(&before);
+    let mut errors = errors_before.clone();
 
     for round in 0..2 {
         let mut used_points: Vec<u32> = point_at.iter().flatten().flatten().copied().collect();
@@ -444,12 +445,11 @@ pub fn refine_camera(
         for (t, p) in problem.images.iter().enumerate() {
             poses[t] = *p;
         }
-        let mut errors = errors_of(&poses);
+        errors = errors_of(&poses);
         report.frames_kept_from_pnp = keep_poses_before(&mut poses, &mut errors, &before, &errors_before, &is_keyframe, limit_px);
     }
     // Where neither the solve nor the frame's own pose explains it, the frame is placed between
     // its neighbours instead.
-    let errors = errors_of(&poses);
     report.frames_repaired = repair_misplaced(&mut poses, &errors, &is_keyframe, limit_px);
     report.inlier_rms_px =
         inlier_rms_px(&camera.intrinsics, &poses, &features, &point_at, camera.points_world, options.max_reprojection_px);

@@ -61,7 +61,7 @@ pub struct PackageOptions {
     #[serde(default = "default_free_space")]
     pub free_space: Option<FreeSpaceOptions>,
     /// Give each camera without a plate of its own (a hand-held one) a plate per step, made of
-    /// its frames around the step carried through the static cloud
+    /// its frames around the step carried through the step's depth
     /// ([`crate::dense::moving_plates`]), so that its foregrounds join the visual hull. Needs
     /// `hull` and `static_cloud`.
     #[serde(default = "yes")]
