@@ -17,6 +17,7 @@ use std::collections::BTreeMap;
 use glam::{DMat3, DVec3};
 
 use dynview_core::Rigid3;
+use dynview_core::camera::Intrinsics;
 use dynview_core::rotation::angle_axis_from_matrix;
 
 /// Errors of alignment and pose evaluation.
@@ -143,6 +144,38 @@ pub fn similarity_from_point_pairs(source: &[DVec3], target: &[DVec3]) -> Result
         return Err(AlignError::Degenerate);
     }
     Ok(Similarity3 { scale, rotation, translation: mean_target - scale * (rotation * mean_source) })
+}
+
+/// Pixels per side of the grid whose rays [`view_rotation`] matches.
+const VIEW_GRID_SIDE: usize = 9;
+
+/// The rotation `Q` (camera frame to camera frame) under which a camera with `estimated`
+/// intrinsics sees through each pixel the ray that one with `reference` intrinsics sees through
+/// it: `Q d_estimated ≈ d_reference` for the unit rays of a 9 x 9 grid of pixels spread over a
+/// `width_px x height_px` image, in the least-squares sense (Wahba's problem).
+///
+/// A principal point `u` px off turns into a rotation of about `u / f`; a focal error alone into
+/// none. Structure from motion trades the two along an arc of cameras (a weakly fixed mode):
+/// a camera whose principal point is off, turned by the same angle, sees the world as the true
+/// camera does. `Q R_est` is then the orientation of what the estimated camera sees, as a camera
+/// with the reference intrinsics.
+pub fn view_rotation(reference: &Intrinsics, estimated: &Intrinsics, width_px: u32, height_px: u32) -> DMat3 {
+    let mut cross = [[0.0; 3]; 3];
+    let last = (VIEW_GRID_SIDE - 1) as f64;
+    for i in 0..VIEW_GRID_SIDE {
+        for j in 0..VIEW_GRID_SIDE {
+            let pixel =
+                glam::DVec2::new(i as f64 / last * f64::from(width_px.max(1) - 1), j as f64 / last * f64::from(height_px.max(1) - 1));
+            let seen = estimated.unproject(pixel, 1.0).normalize().to_array();
+            let wanted = reference.unproject(pixel, 1.0).normalize().to_array();
+            for r in 0..3 {
+                for c in 0..3 {
+                    cross[r][c] += wanted[r] * seen[c];
+                }
+            }
+        }
+    }
+    rotation_maximising_trace(&cross)
 }
 
 /// The proper rotation `R` maximising `tr(R^T Σ)` for the cross-covariance `Σ[r][c] =

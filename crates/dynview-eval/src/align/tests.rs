@@ -196,3 +196,43 @@ fn coincident_truth_is_an_error() {
     let truth: BTreeMap<String, Rigid3> = (0..4).map(|i| (format!("{i}"), pose)).collect();
     assert!(matches!(evaluate_poses(&truth, &truth, PoseEvalOptions::default()), Err(AlignError::ZeroSceneSize)));
 }
+
+#[test]
+fn view_rotation_is_identity_for_the_same_intrinsics_and_for_a_focal_change() {
+    // The principal point in the middle of the 640 x 360 grid of pixel centres.
+    let reference = Intrinsics { fx: 600.0, fy: 600.0, cx: 319.5, cy: 179.5 };
+    assert!(max_abs_diff(view_rotation(&reference, &reference, 640, 360), DMat3::IDENTITY) < 1e-12);
+    let longer = Intrinsics { fx: 612.0, fy: 612.0, ..reference };
+    let angle = angle_axis_from_matrix(view_rotation(&reference, &longer, 640, 360)).length();
+    assert!(angle < 1e-9, "a focal change alone turns the view by {angle} rad");
+}
+
+#[test]
+fn a_principal_point_off_turns_into_the_rotation_that_sees_the_same_world() {
+    // The estimated camera's principal point is 6 px left and 4 px below the reference's; turned
+    // by the view rotation's inverse, it projects the world about where the reference camera does.
+    let reference = Intrinsics { fx: 700.0, fy: 700.0, cx: 320.0, cy: 180.0 };
+    let estimated = Intrinsics { cx: 314.0, cy: 184.0, ..reference };
+    let q = view_rotation(&reference, &estimated, 640, 360);
+    let expected = (6.0_f64.hypot(4.0) / 700.0).atan();
+    let angle = angle_axis_from_matrix(q).length();
+    assert!((angle - expected).abs() < 0.1 * expected, "{angle} rad against {expected}");
+    let truth = Rigid3::camera_from_world_looking_at(DVec3::new(0.0, 1.0, -5.0), DVec3::ZERO, DVec3::Y);
+    let turned = Rigid3::new(q.transpose() * truth.rotation, q.transpose() * truth.translation);
+    let mut worst_px: f64 = 0.0;
+    for (x, y) in [(-1.5, -0.8), (0.0, 0.0), (1.4, 0.9), (-1.2, 1.0), (1.3, -1.1)] {
+        let point = DVec3::new(x, y, 0.3 * x);
+        let want = reference.project(truth.transform_point(point)).unwrap();
+        let got = estimated.project(turned.transform_point(point)).unwrap();
+        worst_px = worst_px.max((want - got).length());
+    }
+    let untouched =
+        estimated.project(truth.transform_point(DVec3::ZERO)).unwrap() - reference.project(truth.transform_point(DVec3::ZERO)).unwrap();
+    // Turned, it lands within a tenth of the untouched camera's 7.2 px (what remains is the
+    // difference between a shifted image and a turned one away from the centre).
+    assert!(
+        worst_px < 0.1 * untouched.length() && untouched.length() > 7.0,
+        "turned: {worst_px} px off; not turned: {} px",
+        untouched.length()
+    );
+}

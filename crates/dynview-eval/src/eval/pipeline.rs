@@ -5,7 +5,10 @@
 //! The estimated world differs from the true one by a similarity (SfM fixes neither origin,
 //! orientation nor scale). It is fitted on every camera at every time step of the estimated
 //! `scene.json` against the ground-truth package's (`align_packages`): the rotation from the
-//! cameras' orientations, scale and translation from their centres. (Until 2026-11-27 the
+//! orientations of what the cameras see (each pose turned by its camera's `view_rotation`
+//! against the true intrinsics, so that a principal point traded for a rotation does not tilt
+//! the world; before 2026-11-29 the bare orientations, which charged that trade, up to 1.6 dB
+//! on the hand-held layouts), scale and translation from their centres. (Until 2026-11-27 the
 //! rotation came from the centres too, which an arc of cameras fixes poorly about its own line:
 //! that alignment alone was 0.07 degrees off on the default event and 0.2 with plain movers,
 //! worth 2.2 and 4.5 dB, where our keyframe model is within 0.02 degrees of the truth.)
@@ -165,7 +168,7 @@ pub fn markdown_section(variants: &[Variant], truth_rows: &[Row], frames: usize)
         s,
         "`dynview prep` on the same event's videos ({frames} frames, default options: working width 960), then the same held-out paths rendered from \
          the estimated package. The estimated world is aligned to the truth by a similarity fitted on every camera and time step (rotation from \
-         their orientations, scale and translation from their centres); the held-out cameras are mapped into it (intrinsics unchanged). The sparse rows use `--no-densify` on the densified run's poses, so \
+         the orientations of what they see, each turned by the rotation that its principal point and focal length trade against the true ones, scale and translation from their centres); the held-out cameras are mapped into it (intrinsics unchanged). The sparse rows use `--no-densify` on the densified run's poses, so \
          the two differ by their clouds alone. Δ: PSNR minus the ground-truth package's row of the same method.\n"
     );
     let _ = writeln!(

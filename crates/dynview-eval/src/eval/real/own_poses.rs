@@ -6,8 +6,11 @@
 //! package. Results in `docs/results/own_poses.md`.
 //!
 //! Our world differs from the calibration's by a similarity. It is fitted on the input cameras
-//! at every time step (the held-out camera plays no part): rotation from their orientations,
-//! scale and translation from their centres, as `cargo xtask bench sfm` aligns; the held-out
+//! at every time step (the held-out camera plays no part): rotation from the orientations of
+//! what they see (each pose turned by its camera's `view_rotation` against the calibration's
+//! intrinsics: our principal points stay at the image centre, the calibration's lie 3-10 px
+//! off, which SfM turns into rotations), scale and translation from their centres (`cargo
+//! xtask bench sfm` aligns the bare orientations: it scores poses, not views); the held-out
 //! camera's calibrated pose is mapped into our world through it
 //! ([`Similarity3::transform_camera_from_world`]); its intrinsics stay the calibration's.
 
@@ -108,7 +111,8 @@ fn own_result(
 
 const HEADER: &str = "For each interior camera left out, `dynview prep` runs on the other cameras twice: with their \
 calibration (`--poses`, as in `real.md`) and without it, from our own structure from motion. Our world is aligned to the \
-calibration's by a similarity fitted on the input cameras at every time step (rotation from their orientations, scale and \
+calibration's by a similarity fitted on the input cameras at every time step (rotation from the orientations of what they \
+see: each pose turned by the rotation that its principal point and focal length trade against the calibration's; scale and \
 translation from their centres); the held-out camera's calibrated pose \
 is mapped through it and rendered from each package with the full method. Rotation and centre errors are medians over the \
 input cameras and time steps after that alignment (centre errors in % of the diagonal of the calibrated centres' box). PSNR \
