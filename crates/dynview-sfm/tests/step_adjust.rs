@@ -98,13 +98,13 @@ fn a_still_rig_is_adjusted_over_points_three_cameras_see_then_over_every_point()
     let (dir, input, truth) = arc_event(6, false);
     let out = dir.path().join("prep");
     let stop = AtomicBool::new(false);
-    let off = StepAdjustOptions::default();
+    let off = StepAdjustOptions { still_rig_min_cameras: 0, ..StepAdjustOptions::default() };
     let keyframes_only = PrepOptions { keyframe_interval: 12, stop_after: Stage::Poses, step_adjust: off, ..PrepOptions::default() };
     let report = run(&input, &out, &keyframes_only, &|_, _, _| {}, &stop).expect("prep, still rig not adjusted");
-    assert!(report.step_adjustment.is_none(), "still rigs are not adjusted by default: {:?}", report.step_adjustment);
+    assert!(report.step_adjustment.is_none(), "0 cameras a point: still rigs are not adjusted: {:?}", report.step_adjustment);
     let before = errors(&EventPoses::read(&out.join("poses.json")).expect("poses.json"), &truth);
-    let on = StepAdjustOptions { still_rig_min_cameras: 3, settle: true, ..StepAdjustOptions::default() };
-    let adjusted = PrepOptions { step_adjust: on, ..keyframes_only };
+    // The default: three cameras a point, then settled over every point.
+    let adjusted = PrepOptions { step_adjust: StepAdjustOptions::default(), ..keyframes_only };
     let report = run(&input, &out, &adjusted, &|_, _, _| {}, &stop).expect("prep, still rig adjusted");
     let step = report.step_adjustment.as_ref().expect("the still rig's adjustment ran");
     let after = errors(&EventPoses::read(&out.join("poses.json")).expect("poses.json"), &truth);
