@@ -11,14 +11,17 @@ use dynview_core::StageProgress;
 use dynview_core::fsutil::write_atomic;
 use dynview_interchange::colmap::{ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, Point2D};
 
+use nalgebra::Vector3;
+
 use crate::error::{SfmError, SfmResult};
 use crate::estimators::focal::{PRIOR_FOCAL_FACTOR, PairGeometry, estimate_focal_factor};
 use crate::features::matching::{MatchOptions, TwoView};
 use crate::features::sift::Features;
 use crate::input::calibration::{KnownCameras, held_intrinsics};
-use crate::input::frames::EventFrames;
+use crate::input::frames::{CameraFrames, EventFrames};
 use crate::mapping::incremental::{MapImage, MapperOptions, PRINCIPAL_POINT_PRIOR_FRACTION, Reconstruction, reconstruct};
 use crate::mapping::keyframes::Keyframe;
+use crate::mapping::refine::{CameraTrack, KeyframeView};
 use crate::mapping::still::{cameras_to_pool, pool, still_cameras, unpool};
 
 /// The keyframe stage's result.
@@ -325,6 +328,39 @@ pub fn write_colmap_text(model: &ColmapModel, dir: &std::path::Path) -> SfmResul
         write_atomic(&path, text.as_bytes()).map_err(SfmError::io(&path))?;
     }
     Ok(())
+}
+
+impl KeyframeModel {
+    /// Camera `c` (`camera`, its frames) as the frame-to-frame refinement takes it: its frames,
+    /// its keyframe model intrinsics, and each registered keyframe's pose, features and points
+    /// (`point_of[i]`: keyframe `i`'s features' points, `Reconstruction::point_of_feature`).
+    /// `None` when none of its keyframes is registered.
+    pub fn camera_track<'a>(
+        &self,
+        camera: &'a CameraFrames,
+        c: usize,
+        features: &'a [Features],
+        point_of: &[Vec<Option<u32>>],
+        points_world: &'a [Vector3<f64>],
+    ) -> Option<CameraTrack<'a>> {
+        let r = &self.reconstruction;
+        let mut keyframes = vec![None; camera.files.len()];
+        for (i, k) in self.keyframes.iter().enumerate() {
+            if k.camera == c
+                && k.frame < keyframes.len()
+                && let Some(pose) = r.poses[i]
+            {
+                keyframes[k.frame] = Some(KeyframeView { pose, features: &features[i], point_of_feature: point_of[i].clone() });
+            }
+        }
+        keyframes.iter().any(Option::is_some).then(|| CameraTrack {
+            name: &camera.name,
+            files: &camera.files,
+            intrinsics: r.intrinsics[c],
+            keyframes,
+            points_world,
+        })
+    }
 }
 
 #[cfg(test)]

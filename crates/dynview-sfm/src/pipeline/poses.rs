@@ -25,7 +25,7 @@ use crate::mapping::keyframe_model::{
     to_colmap, weak_focal_warnings, write_colmap_text,
 };
 use crate::mapping::keyframes::{Keyframe, keyframe_features, keyframes, match_all_pairs};
-use crate::mapping::refine::{CameraTrack, KeyframeView, RefineReport, refine_camera};
+use crate::mapping::refine::{RefineReport, refine_camera};
 use crate::mapping::step_adjust::{StepAdjustReport, StepCameras, adjust_with_steps};
 use crate::pipeline::options::{PrepOptions, PrepReport, Stage};
 use crate::pipeline::still_placement::{check_confidence, hand_held_warnings, place_still_cameras};
@@ -352,7 +352,7 @@ fn refine_all<K: Serialize>(
             out.push(poses);
             continue;
         }
-        let Some(track) = camera_track(camera, c, model, features, &point_of, &points_world) else {
+        let Some(track) = model.camera_track(camera, c, features, &point_of, &points_world) else {
             report.warnings.push(format!(
                 "camera {}: none of its keyframes could be registered (it shares too few features with the other cameras)",
                 camera.name
@@ -368,37 +368,6 @@ fn refine_all<K: Serialize>(
         out.push(poses);
     }
     Ok(out)
-}
-
-/// Camera `c` of `frames` as the frame-to-frame refinement takes it: its frames, its keyframe
-/// model intrinsics, and each registered keyframe's pose, features and points
-/// (`point_of[i]`: keyframe `i`'s features' points, `Reconstruction::point_of_feature`).
-/// `None` when none of its keyframes is registered.
-pub(crate) fn camera_track<'a>(
-    camera: &'a CameraFrames,
-    c: usize,
-    model: &KeyframeModel,
-    features: &'a [Features],
-    point_of: &[Vec<Option<u32>>],
-    points_world: &'a [Vector3<f64>],
-) -> Option<CameraTrack<'a>> {
-    let r = &model.reconstruction;
-    let mut keyframes = vec![None; camera.files.len()];
-    for (i, k) in model.keyframes.iter().enumerate() {
-        if k.camera == c
-            && k.frame < keyframes.len()
-            && let Some(pose) = r.poses[i]
-        {
-            keyframes[k.frame] = Some(KeyframeView { pose, features: &features[i], point_of_feature: point_of[i].clone() });
-        }
-    }
-    keyframes.iter().any(Option::is_some).then(|| CameraTrack {
-        name: &camera.name,
-        files: &camera.files,
-        intrinsics: r.intrinsics[c],
-        keyframes,
-        points_world,
-    })
 }
 
 /// A warning naming the camera when its refinement misplaced frames (repaired, or kept as

@@ -25,7 +25,6 @@ use crate::mapping::keyframe_model::reconstruct_keyframes;
 use crate::mapping::keyframes::{keyframe_features, keyframes, match_all_pairs};
 use crate::mapping::refine::refine_camera;
 use crate::pipeline::options::PrepOptions;
-use crate::pipeline::poses::camera_track;
 use crate::work::WorkDir;
 
 /// With cameras placed by our own SfM, every clock must be at least this sure, else the
@@ -95,7 +94,7 @@ pub fn place_still_cameras(
         if model.still_cameras.get(c) == Some(&true) {
             // A camera found standing still keeps one pose, whether or not its keyframes were pooled.
             poses.truncate(1);
-        } else if let Some(track) = camera_track(camera, c, &model, &features, &point_of, &points_world) {
+        } else if let Some(track) = model.camera_track(camera, c, &features, &point_of, &points_world) {
             // A hand-held camera: every frame posed by the frame-to-frame refinement (its own
             // recording, in its own time order), not only its keyframes.
             let (refined, _) = refine_camera(&track, &options.features, &options.matching, &options.refine, progress, interrupt)?;
