@@ -282,8 +282,7 @@ pub fn to_colmap(model: &KeyframeModel, frames: &EventFrames, features: &[Featur
             ColmapCamera { model: Radial::MODEL, width: camera.width, height: camera.height, params: colmap.params() },
         );
     }
-    let counts: Vec<usize> = features.iter().map(Features::len).collect();
-    let point_of = r.point_of_feature(&counts);
+    let point_of = model.feature_points(features);
     for (i, key) in model.keyframes.iter().enumerate() {
         let Some(pose) = &r.poses[i] else { continue };
         let camera = &frames.cameras[key.camera];
@@ -331,9 +330,21 @@ pub fn write_colmap_text(model: &ColmapModel, dir: &std::path::Path) -> SfmResul
 }
 
 impl KeyframeModel {
+    /// Per keyframe, the model point each of its `features` sees, if any
+    /// (`Reconstruction::point_of_feature`).
+    pub fn feature_points(&self, features: &[Features]) -> Vec<Vec<Option<u32>>> {
+        let counts: Vec<usize> = features.iter().map(Features::len).collect();
+        self.reconstruction.point_of_feature(&counts)
+    }
+
+    /// The model's points, in the world.
+    pub fn points_world(&self) -> Vec<Vector3<f64>> {
+        self.reconstruction.points.iter().map(|p| p.xyz).collect()
+    }
+
     /// Camera `c` (`camera`, its frames) as the frame-to-frame refinement takes it: its frames,
     /// its keyframe model intrinsics, and each registered keyframe's pose, features and points
-    /// (`point_of[i]`: keyframe `i`'s features' points, `Reconstruction::point_of_feature`).
+    /// (`point_of`: [`Self::feature_points`]; `points_world`: [`Self::points_world`]).
     /// `None` when none of its keyframes is registered.
     pub fn camera_track<'a>(
         &self,

@@ -31,7 +31,7 @@ pub const DEFAULT_SAMPLES: usize = 24;
 /// Default for [`StepAdjustOptions::still_rig_min_cameras`]: a still rig is adjusted over the
 /// time steps' points three cameras or more see, then settled over every point. On both
 /// Panoptic arcs, every interior camera left out, it brings our poses nearer the calibration
-/// (rotation medians 0.25-0.88 -> 0.07-0.24 degrees) and renders the held-out camera better on
+/// (rotation medians 0.22-0.88 -> 0.07-0.24 degrees) and renders the held-out camera better on
 /// five of six (arc means +0.53 and +0.38 dB colour-corrected, `docs/results/sfm.md`, "Still
 /// rigs adjusted over points three cameras see, with the views aligned"). (Measured with the
 /// bare orientations aligned, it had seemed to render four of six worse: that alignment charged

@@ -6,7 +6,6 @@
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-use nalgebra::Vector3;
 use serde::Serialize;
 
 use dynview_camera::{Radial, Rigid3};
@@ -329,9 +328,8 @@ fn refine_all<K: Serialize>(
     interrupt: &AtomicBool,
 ) -> SfmResult<Vec<Vec<Rigid3>>> {
     let r = &model.reconstruction;
-    let counts: Vec<usize> = features.iter().map(Features::len).collect();
-    let point_of = r.point_of_feature(&counts);
-    let points_world: Vec<Vector3<f64>> = r.points.iter().map(|p| p.xyz).collect();
+    let point_of = model.feature_points(features);
+    let points_world = model.points_world();
     let mut out = Vec::new();
     for (c, camera) in frames.cameras.iter().enumerate() {
         if model.still_cameras.get(c) == Some(&true)

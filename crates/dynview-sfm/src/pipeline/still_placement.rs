@@ -14,10 +14,8 @@ use std::sync::atomic::AtomicBool;
 use dynview_core::StageProgress;
 use dynview_core::scene::manifest::PoseEntry;
 use dynview_interchange::poses::{CameraPoses, FramePose};
-use nalgebra::Vector3;
 
 use crate::error::{SfmError, SfmResult};
-use crate::features::sift::Features;
 use crate::input::calibration::KnownCameras;
 use crate::input::frames::{CameraFrames, EventFrames};
 use crate::input::timing::TimeAlignment;
@@ -72,9 +70,8 @@ pub fn place_still_cameras(
     let model = reconstruct_keyframes(&frames, &keys, &features, &pairs, &known, &options.matching, &options.mapper, progress, interrupt)
         .map_err(|e| failed(format!("the reconstruction failed: {e}")))?;
     let r = &model.reconstruction;
-    let counts: Vec<usize> = features.iter().map(Features::len).collect();
-    let point_of = r.point_of_feature(&counts);
-    let points_world: Vec<Vector3<f64>> = r.points.iter().map(|p| p.xyz).collect();
+    let point_of = model.feature_points(&features);
+    let points_world = model.points_world();
     let mut placed = Vec::with_capacity(frames.cameras.len());
     let mut missing = Vec::new();
     for (c, camera) in frames.cameras.iter().enumerate() {
@@ -98,12 +95,10 @@ pub fn place_still_cameras(
             // A hand-held camera: every frame posed by the frame-to-frame refinement (its own
             // recording, in its own time order), not only its keyframes.
             let (refined, _) = refine_camera(&track, &options.features, &options.matching, &options.refine, progress, interrupt)?;
-            poses = camera
-                .files
+            poses = refined
                 .iter()
-                .zip(&refined)
                 .enumerate()
-                .map(|(k, (_, pose))| FramePose { file: camera.file_name(k), camera_from_world: Some(PoseEntry::from(*pose)) })
+                .map(|(k, pose)| FramePose { file: camera.file_name(k), camera_from_world: Some(PoseEntry::from(*pose)) })
                 .collect();
         }
         let opencv = r.intrinsics[c].to_opencv();
