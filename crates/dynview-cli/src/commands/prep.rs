@@ -14,6 +14,7 @@ use dynview_sfm::dense::plate_cloud::PlateCloudOptions;
 use dynview_sfm::input::timing::SyncMethod;
 use dynview_sfm::input::timing::retime::Retime;
 use dynview_sfm::mapping::step_adjust::StepAdjustOptions;
+use dynview_sfm::mapping::step_placement::StepPlacementOptions;
 use dynview_sfm::pipeline::timesteps::StepOptions;
 use dynview_sfm::{PrepOptions, Stage};
 
@@ -98,6 +99,11 @@ pub struct Args {
     /// cameras or more see) without the settling pass over every point.
     #[arg(long)]
     no_adjust_settle: bool,
+    /// Time steps, spread over the capture, whose points place the still cameras the keyframes
+    /// left out (their matches with the placed cameras, pooled; a pose kept only where what
+    /// moves supports it). 0: such cameras are left out.
+    #[arg(long, value_name = "N", default_value_t = StepPlacementOptions::default().samples)]
+    place_steps: usize,
     /// The last stage to run: frames, keyframes, poses, points or package.
     #[arg(long, default_value = "package")]
     stop_after: Stage,
@@ -349,6 +355,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     options.step_adjust.samples = args.adjust_steps;
     options.step_adjust.still_rig_min_cameras = args.adjust_still_min_cameras;
     options.step_adjust.settle = !args.no_adjust_settle;
+    options.step_placement.samples = args.place_steps;
     options.features.max_features = args.max_features;
     let interrupt = Arc::new(AtomicBool::new(false));
     let flag = interrupt.clone();

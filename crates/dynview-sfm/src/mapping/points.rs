@@ -79,21 +79,40 @@ fn color_at(image: &Mat, pixel: Vector2<f64>) -> Option<[f64; 3]> {
 /// One point of a time step and the pixels that saw it: `(view, pixel)`.
 pub type StepTrack = (Vector3<f64>, Vec<(usize, Vector2<f64>)>);
 
-/// Matches the views of one time step across cameras only (guided by their poses) and
-/// triangulates the tracks; each point comes with the observations kept.
-pub fn timestep_tracks(views: &[TimestepView], features: &FeatureOptions, options: &PointOptions) -> SfmResult<Vec<StepTrack>> {
-    let extracted: Vec<Features> = views
+/// One point of a time step and the features that saw it: `(view, feature of that view)`.
+pub type FeatureTrack = (Vector3<f64>, Vec<(usize, u32)>);
+
+/// The SIFT features of every view of a time step.
+pub fn view_features(views: &[TimestepView], features: &FeatureOptions) -> SfmResult<Vec<Features>> {
+    views
         .par_iter()
         .map(|v| {
             let mut gray = Mat::default();
             opencv::imgproc::cvt_color(v.image_bgr, &mut gray, opencv::imgproc::COLOR_BGR2GRAY, 0).map_err(SfmError::cv("grayscale"))?;
             extract_gray(&gray, features)
         })
-        .collect::<SfmResult<_>>()?;
-    let pixel = |v: usize, f: u32| {
-        let xy = extracted[v].xy[f as usize];
-        Vector2::new(f64::from(xy[0]), f64::from(xy[1]))
-    };
+        .collect()
+}
+
+/// Matches the views of one time step across cameras only (guided by their poses) and
+/// triangulates the tracks; each point comes with the observations kept.
+pub fn timestep_tracks(views: &[TimestepView], features: &FeatureOptions, options: &PointOptions) -> SfmResult<Vec<StepTrack>> {
+    let extracted = view_features(views, features)?;
+    Ok(feature_tracks(views, &extracted, options)
+        .into_iter()
+        .map(|(xyz, seen)| (xyz, seen.into_iter().map(|(v, f)| (v, pixel_of(&extracted[v], f))).collect()))
+        .collect())
+}
+
+fn pixel_of(features: &Features, feature: u32) -> Vector2<f64> {
+    let xy = features.xy[feature as usize];
+    Vector2::new(f64::from(xy[0]), f64::from(xy[1]))
+}
+
+/// [`timestep_tracks`] over features already extracted (`extracted[v]` is view `v`'s), each
+/// point with the features that saw it.
+pub fn feature_tracks(views: &[TimestepView], extracted: &[Features], options: &PointOptions) -> Vec<FeatureTrack> {
+    let pixel = |v: usize, f: u32| pixel_of(&extracted[v], f);
     let mut pairs = Vec::new();
     for a in 0..views.len() {
         for b in a + 1..views.len() {
@@ -112,15 +131,15 @@ pub fn timestep_tracks(views: &[TimestepView], features: &FeatureOptions, option
     }
     let counts: Vec<usize> = extracted.iter().map(Features::len).collect();
     let tracks = Tracks::build(&counts, &pairs);
-    Ok(tracks
+    tracks
         .tracks
         .iter()
         .filter_map(|track| {
             let rays: Vec<Ray> = track.iter().map(|&(v, f)| (views[v].intrinsics, views[v].pose, pixel(v, f))).collect();
             let (xyz, kept) = triangulate_robust(&rays, options.max_reprojection_px, options.min_triangulation_angle_deg)?;
-            Some((xyz, kept.iter().map(|&k| (track[k].0, rays[k].2)).collect()))
+            Some((xyz, kept.iter().map(|&k| track[k]).collect()))
         })
-        .collect())
+        .collect()
 }
 
 /// Triangulates the points of one time step from its views, coloured by the mean of the pixels

@@ -18,6 +18,7 @@ use crate::input::timing::{SyncMethod, TimeAlignment};
 use crate::mapping::incremental::MapperOptions;
 use crate::mapping::refine::{RefineOptions, RefineReport};
 use crate::mapping::step_adjust::{StepAdjustOptions, StepAdjustReport};
+use crate::mapping::step_placement::{StepPlacement, StepPlacementOptions};
 use crate::pipeline::export::{ExportReport, PackageOptions};
 use crate::pipeline::timesteps::{StepOptions, StepsReport};
 
@@ -84,6 +85,10 @@ pub struct PrepOptions {
     /// refinement.
     #[serde(default)]
     pub step_adjust: StepAdjustOptions,
+    /// Still cameras the keyframes left out, placed from the time steps before their
+    /// adjustment.
+    #[serde(default)]
+    pub step_placement: StepPlacementOptions,
     /// What the package holds and how: the static cloud, video or JPEG frames.
     #[serde(default)]
     pub package: PackageOptions,
@@ -126,6 +131,7 @@ impl Default for PrepOptions {
             intrinsics: None,
             steps: StepOptions::default(),
             step_adjust: StepAdjustOptions::default(),
+            step_placement: StepPlacementOptions::default(),
             package: PackageOptions::default(),
             frames: None,
             fps: None,
@@ -236,6 +242,9 @@ pub struct PrepReport {
     /// The adjustment over sampled time steps, when it ran.
     #[serde(default)]
     pub step_adjustment: Option<StepAdjustReport>,
+    /// Still cameras the keyframes left out, and how the time steps placed them (or did not).
+    #[serde(default)]
+    pub step_placement: Vec<StepPlacement>,
     /// Stages skipped because an earlier run had finished them.
     pub skipped: Vec<String>,
     /// Seconds per stage run.

@@ -26,6 +26,7 @@ use crate::mapping::keyframe_model::{
 use crate::mapping::keyframes::{Keyframe, keyframe_features, keyframes, match_all_pairs};
 use crate::mapping::refine::{RefineReport, refine_camera};
 use crate::mapping::step_adjust::{StepAdjustReport, StepCameras, adjust_with_steps};
+use crate::mapping::step_placement::{StepPlacement, place_left_out};
 use crate::pipeline::options::{PrepOptions, PrepReport, Stage};
 use crate::pipeline::still_placement::{check_confidence, hand_held_warnings, place_still_cameras};
 use crate::work::WorkDir;
@@ -178,6 +179,15 @@ pub(crate) fn pose_stages(
     let mut poses = refine_all(work, &frames, &model, &features, options, &key_stage, report, progress, interrupt)?;
     lap(report, "poses");
     let mut model = model;
+    if place_left_out_cameras(work, &frames, &mut model, &mut poses, options, &key_stage, report, progress, interrupt)? {
+        lap(report, "placing left-out cameras");
+    }
+    for (camera, _) in frames.cameras.iter().zip(&poses).filter(|(_, p)| p.is_empty()) {
+        report.warnings.push(format!(
+            "camera {}: none of its keyframes could be registered (it shares too few features with the other cameras)",
+            camera.name
+        ));
+    }
     adjust_steps(work, &frames, &mut model, &known, &mut poses, options, &key_stage, report, progress, interrupt)?;
     report.warnings.extend(weak_focal_warnings(&frames, &model.reconstruction.intrinsics, &report.focal_std_percent));
     let event = event_poses(&frames, &model, &poses);
@@ -187,6 +197,56 @@ pub(crate) fn pose_stages(
     report.poses_file = Some(path);
     lap(report, "time-step adjustment");
     Ok(Some((frames, event)))
+}
+
+/// Places the still cameras the keyframes left out from the time steps' points
+/// (`step_placement`), or reads what an earlier run found: a placed camera gets its pose for
+/// every frame in `poses` and its focal length in `model`. Whether a camera was left out.
+#[allow(clippy::too_many_arguments)]
+fn place_left_out_cameras<K: Serialize>(
+    work: &WorkDir,
+    frames: &EventFrames,
+    model: &mut KeyframeModel,
+    poses: &mut [Vec<Rigid3>],
+    options: &PrepOptions,
+    key_stage: &K,
+    report: &mut PrepReport,
+    progress: StageProgress,
+    interrupt: &AtomicBool,
+) -> SfmResult<bool> {
+    const STAGE: &str = "step_placement";
+    if poses.iter().all(|p| !p.is_empty()) {
+        return Ok(false);
+    }
+    let key = (key_stage, &options.refine, &options.step_placement);
+    let placed: Vec<(usize, StepPlacement)> = if work.is_done(STAGE, &key) {
+        report.skipped.push(STAGE.into());
+        work.read_json(&format!("{STAGE}.json"))?
+    } else {
+        let r = &model.reconstruction;
+        let placed = place_left_out(
+            frames,
+            &r.intrinsics,
+            poses,
+            &model.still_cameras,
+            &options.step_placement,
+            &options.features,
+            &options.matching,
+            progress,
+            interrupt,
+        )?;
+        work.write_json(&format!("{STAGE}.json"), &placed)?;
+        work.mark_done(STAGE, &key)?;
+        placed
+    };
+    for (c, placement) in placed {
+        if let Some(pose) = placement.camera_from_world {
+            model.reconstruction.intrinsics[c].f = placement.focal_px;
+            poses[c] = vec![pose; frames.cameras[c].files.len()];
+        }
+        report.step_placement.push(placement);
+    }
+    Ok(true)
 }
 
 /// Adjusts the intrinsics and `poses` over sampled time steps (`step_adjust`), or reads what an
@@ -205,7 +265,7 @@ fn adjust_steps<K: Serialize>(
     interrupt: &AtomicBool,
 ) -> SfmResult<()> {
     const STAGE: &str = "step_adjust";
-    let key = (key_stage, &options.refine, &options.step_adjust);
+    let key = (key_stage, &options.refine, &options.step_placement, &options.step_adjust);
     let adjusted: Option<(Vec<Vec<Rigid3>>, Vec<Radial>, StepAdjustReport)> = if work.is_done(STAGE, &key) {
         report.skipped.push(STAGE.into());
         work.read_json(&format!("{STAGE}.json"))?
@@ -351,10 +411,7 @@ fn refine_all<K: Serialize>(
             continue;
         }
         let Some(track) = model.camera_track(camera, c, features, &point_of, &points_world) else {
-            report.warnings.push(format!(
-                "camera {}: none of its keyframes could be registered (it shares too few features with the other cameras)",
-                camera.name
-            ));
+            // Not registered: placed from the time steps if it stands still, else left out.
             out.push(Vec::new());
             continue;
         };
