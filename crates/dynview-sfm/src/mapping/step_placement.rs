@@ -127,12 +127,9 @@ pub fn place_left_out(
             .map(|(&c, image)| TimestepView { intrinsics: intrinsics[c], pose: poses[c][t], image_bgr: image })
             .collect();
         let extracted = view_features(&views, features)?;
-        let mut point_of: HashMap<(usize, u32), Vector3<f64>> = HashMap::new();
-        for (xyz, seen) in feature_tracks(&views, &extracted, &point_options) {
-            for key in seen {
-                point_of.insert(key, xyz);
-            }
-        }
+        let tracks = feature_tracks(&views, &extracted, &point_options);
+        let point_of: HashMap<(usize, u32), usize> =
+            tracks.iter().enumerate().flat_map(|(p, (_, seen))| seen.iter().map(move |&key| (key, p))).collect();
         let mats = extracted.iter().map(Features::descriptor_mat).collect::<SfmResult<Vec<_>>>()?;
         for (m, &c) in missing.iter().enumerate() {
             let Some(file) = frames.cameras[c].files.get(t) else {
@@ -142,13 +139,14 @@ pub fn place_left_out(
             let gray = read_gray(file)?;
             let mine = extract_gray(&gray, features)?;
             let mine_mat = mine.descriptor_mat()?;
-            let mut seen: HashSet<(u32, [u64; 3])> = HashSet::new();
+            // One correspondence per feature and point, however many placed views matched it.
+            let mut seen: HashSet<(u32, usize)> = HashSet::new();
             for (v, mat) in mats.iter().enumerate() {
                 for [f, g] in mutual_matches(&mine_mat, mat, matching)? {
-                    let Some(xyz) = point_of.get(&(v, g)) else { continue };
-                    if seen.insert((f, [xyz.x.to_bits(), xyz.y.to_bits(), xyz.z.to_bits()])) {
+                    let Some(&p) = point_of.get(&(v, g)) else { continue };
+                    if seen.insert((f, p)) {
                         let xy = mine.xy[f as usize];
-                        found[m].push((s, Vector2::new(f64::from(xy[0]), f64::from(xy[1])), *xyz));
+                        found[m].push((s, Vector2::new(f64::from(xy[0]), f64::from(xy[1])), tracks[p].0));
                     }
                 }
             }
@@ -184,8 +182,9 @@ fn label_moving(own: &[Vec<[f32; 2]>], found: &[Found]) -> Vec<Correspondence> {
         .collect()
 }
 
-/// The pose and focal length with the most inliers on what moves (then the most inliers), over
-/// the focal lengths tried around `focal_px`.
+/// The pose and focal length, over the focal lengths tried around `focal_px`: hypotheses from
+/// the correspondences on what moves; among those with enough inliers on what moves, the most
+/// inliers overall; then refined over its inliers.
 fn solve(
     name: &str,
     correspondences: &[Correspondence],
@@ -236,11 +235,7 @@ fn solve(
     // Refined over every inlier, static ones included, the focal length too: the pose refined
     // at focal lengths within a step of the scan, the one that explains the inliers best kept.
     let k = Radial { f: best.focal_px, ..*start };
-    let matrices = pose.matrices();
-    let inliers: Vec<&Correspondence> = correspondences
-        .iter()
-        .filter(|c| reprojection_error_px(&k, &matrices, &c.point_world, &c.pixel) <= options.max_reprojection_px)
-        .collect();
+    let inliers = inliers_of(correspondences, &k, &pose, options.max_reprojection_px);
     let (object, image) = to_cv(&inliers);
     let mut refined = (f64::INFINITY, k, pose);
     for j in -FINE_STEPS..=FINE_STEPS {
@@ -262,11 +257,14 @@ fn solve(
 /// The correspondences within `max_px` of their projection under `pose`: all, and those on
 /// what moves.
 fn count_inliers(correspondences: &[Correspondence], k: &Radial, pose: &Rigid3, max_px: f64) -> (usize, usize) {
+    let inliers = inliers_of(correspondences, k, pose, max_px);
+    (inliers.len(), inliers.iter().filter(|c| c.moving).count())
+}
+
+/// The correspondences within `max_px` of their projection under `pose`.
+fn inliers_of<'a>(correspondences: &'a [Correspondence], k: &Radial, pose: &Rigid3, max_px: f64) -> Vec<&'a Correspondence> {
     let matrices = pose.matrices();
-    let inlier = |c: &&Correspondence| reprojection_error_px(k, &matrices, &c.point_world, &c.pixel) <= max_px;
-    let all = correspondences.iter().filter(inlier).count();
-    let moving = correspondences.iter().filter(|c| c.moving).filter(inlier).count();
-    (all, moving)
+    correspondences.iter().filter(|c| reprojection_error_px(k, &matrices, &c.point_world, &c.pixel) <= max_px).collect()
 }
 
 fn median(mut values: Vec<f64>) -> f64 {
