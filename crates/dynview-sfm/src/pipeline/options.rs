@@ -55,6 +55,8 @@ impl std::str::FromStr for Stage {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PrepOptions {
     /// Every `keyframe_interval`-th frame of every camera is a keyframe (the paper's kappa).
+    /// 10 since 2026-11-29 (was 20): every Panoptic camera left out renders better from our own
+    /// poses, the synthetic event and layouts within 0.03 dB or better (`docs/results/sfm.md`).
     pub keyframe_interval: usize,
     /// Keep the first N frames of every camera when counts differ, N the shortest (with a
     /// warning); `false` makes differing counts an error.
@@ -118,7 +120,7 @@ pub struct PrepOptions {
 impl Default for PrepOptions {
     fn default() -> Self {
         Self {
-            keyframe_interval: 20,
+            keyframe_interval: 10,
             trim: true,
             focal_px: BTreeMap::new(),
             focal_px_all: None,
