@@ -321,9 +321,9 @@ fn hand_held_phones_are_aligned_within_a_quarter_frame_from_the_pictures() {
 /// synth --unsync --seed 2` at 640x360). Where the placement is wrong (here a focal length given
 /// 30% short), the unsure clocks are an error, not a guess.
 ///
-/// Seeds measured with the default keyframes every 10 frames (worst clock, ms; every 20 in
-/// brackets): 1 (the default) 11.1 (5.1), 2 1.8 (1.6), 3 1.0 (an error: unsure), 4 3.2 (3.1),
-/// 7 1.2 (1.3): `docs/results/handheld_sync.md`, "Phones on tripods".
+/// Seeds measured (worst clock, ms, keyframes every 20 frames, the default; every 10 in
+/// brackets): 1 (the default seed) 5.1 (11.1), 2 1.6 (1.8), 3 an error: unsure (1.0), 4 3.1
+/// (3.2), 7 1.3 (1.2): `docs/results/handheld_sync.md`, "Phones on tripods".
 #[test]
 fn synthetic_phones_are_aligned_from_the_pictures_without_a_calibration() {
     skip_without_ffmpeg!();

@@ -55,8 +55,10 @@ impl std::str::FromStr for Stage {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PrepOptions {
     /// Every `keyframe_interval`-th frame of every camera is a keyframe (the paper's kappa).
-    /// 10 since 2026-11-29 (was 20): every Panoptic camera left out renders better from our own
-    /// poses, the synthetic event and layouts within 0.03 dB or better (`docs/results/sfm.md`).
+    /// 20: every 10 renders every Panoptic camera left out better from our own poses (mean
+    /// own - calibrated -1.16 -> -0.85 dB) but takes `cargo xtask bench prep` from 495 to 788 s,
+    /// past its 10 minutes (keyframe matching 36 -> 186 s, reconstruction 6 -> 44 s;
+    /// `docs/results/sfm.md`).
     pub keyframe_interval: usize,
     /// Keep the first N frames of every camera when counts differ, N the shortest (with a
     /// warning); `false` makes differing counts an error.
@@ -120,7 +122,7 @@ pub struct PrepOptions {
 impl Default for PrepOptions {
     fn default() -> Self {
         Self {
-            keyframe_interval: 10,
+            keyframe_interval: 20,
             trim: true,
             focal_px: BTreeMap::new(),
             focal_px_all: None,
