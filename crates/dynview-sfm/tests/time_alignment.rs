@@ -265,22 +265,35 @@ fn synthetic_phones_are_aligned_within_a_quarter_frame_from_the_pictures() {
     assert_eq!((portrait.width, portrait.height), (180, 320));
 }
 
-/// Five phones hand-held (`dynview synth --unsync --handheld`, 45 frames, no sound) filmed into
-/// `event` at `width x height`, their starts drawn with `phones_seed`: the event's
-/// configuration and its true clocks.
-fn film_hand_held_phones(
+/// Five phones (`dynview synth --unsync [--handheld]`, 45 frames, no sound) filmed into `event`
+/// at `width x height`, the scene drawn with `scene_seed` and their starts with `phones_seed`:
+/// the event's configuration and its true clocks.
+fn film_phones(
     width: u32,
     height: u32,
-    phones_seed: u64,
+    handheld: bool,
+    (scene_seed, phones_seed): (u64, u64),
     event: &Path,
 ) -> (dynview_synth::SynthConfig, dynview_synth::unsync::TimeAlignment) {
-    let mut config =
-        dynview_synth::SynthConfig { cameras: 5, frames: 45, width, height, handheld: true, ..dynview_synth::SynthConfig::default() };
+    let mut config = dynview_synth::SynthConfig {
+        cameras: 5,
+        frames: 45,
+        width,
+        height,
+        handheld,
+        seed: scene_seed,
+        ..dynview_synth::SynthConfig::default()
+    };
     let mut phones = dynview_synth::unsync::UnsyncConfig::phones(config.cameras, config.fps, phones_seed);
     phones.audio = false;
     config.unsync = Some(phones);
     let truth = film(&config, event);
     (config, truth)
+}
+
+/// The seed `dynview synth` draws with unless told.
+fn default_seed() -> u64 {
+    dynview_synth::SynthConfig::default().seed
 }
 
 /// The phones hand-held (a wobble of 4 cm and 0.8 degrees), aligned from the pictures with the
@@ -293,7 +306,7 @@ fn hand_held_phones_are_aligned_within_a_quarter_frame_from_the_pictures() {
     skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
     let event = dir.path().join("event");
-    let (config, truth) = film_hand_held_phones(320, 180, 7, &event);
+    let (config, truth) = film_phones(320, 180, true, (default_seed(), 7), &event);
     // Through the poses stage: the given poses, one per recorded frame, follow the alignment.
     let options =
         PrepOptions { poses: Some(event.join("colmap")), sync: SyncMethod::Visual, stop_after: Stage::Poses, ..PrepOptions::default() };
@@ -328,14 +341,8 @@ fn hand_held_phones_are_aligned_within_a_quarter_frame_from_the_pictures() {
 fn synthetic_phones_are_aligned_from_the_pictures_without_a_calibration() {
     skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
-    let seed = 2;
-    let config =
-        dynview_synth::SynthConfig { cameras: 5, frames: 45, width: 640, height: 360, seed, ..dynview_synth::SynthConfig::default() };
-    let mut phones = dynview_synth::unsync::UnsyncConfig::phones(config.cameras, config.fps, seed);
-    phones.audio = false;
     let event = dir.path().join("event");
-    let unsync = dynview_synth::SynthConfig { unsync: Some(phones), ..config.clone() };
-    let truth = film(&unsync, &event);
+    let (config, truth) = film_phones(640, 360, false, (2, 2), &event);
     let options = PrepOptions { sync: SyncMethod::Visual, ..frames_only() };
     let (report, _) = prep(&event.join("videos"), &options).expect("visual alignment without a calibration");
     let time = report.time_alignment.expect("reported");
@@ -358,11 +365,8 @@ fn synthetic_phones_are_aligned_from_the_pictures_without_a_calibration() {
 fn a_wrong_self_calibration_is_solved_again_from_the_prior() {
     skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
-    let config = dynview_synth::SynthConfig { cameras: 5, frames: 45, width: 640, height: 360, ..dynview_synth::SynthConfig::default() };
-    let mut phones = dynview_synth::unsync::UnsyncConfig::phones(config.cameras, config.fps, config.seed);
-    phones.audio = false;
     let event = dir.path().join("event");
-    film(&dynview_synth::SynthConfig { unsync: Some(phones), ..config.clone() }, &event);
+    let (config, _) = film_phones(640, 360, false, (default_seed(), default_seed()), &event);
     let out = dir.path().join("out");
     let options = PrepOptions { keyframe_interval: 10, stop_after: Stage::Keyframes, ..PrepOptions::default() };
     let report = run(&event.join("videos"), &out, &options, &|_, _, _| {}, &AtomicBool::new(false)).expect("keyframes");
@@ -373,10 +377,10 @@ fn a_wrong_self_calibration_is_solved_again_from_the_prior() {
         report.focal_source
     );
     let true_focal_px = config.layout.intrinsics(0, config.cameras, config.width, config.height).fx;
-    let cameras = std::fs::read_to_string(out.join("work/keyframes/model/cameras.txt")).expect("cameras.txt");
-    for line in cameras.lines().filter(|l| !l.starts_with('#')) {
-        let focal_px: f64 = line.split_whitespace().nth(4).expect("focal").parse().expect("a number");
-        assert!((focal_px / true_focal_px - 1.0).abs() < 0.02, "{line}: against {true_focal_px:.1} px");
+    let model = dynview_interchange::colmap::ColmapModel::read_dir(&out.join("work/keyframes/model")).expect("keyframe model");
+    for camera in model.cameras.values() {
+        let focal_px = camera.intrinsics().0.fx;
+        assert!((focal_px / true_focal_px - 1.0).abs() < 0.02, "{focal_px:.1} px against {true_focal_px:.1} px");
     }
 }
 
@@ -389,7 +393,7 @@ fn hand_held_phones_are_aligned_from_the_pictures_without_a_calibration() {
     skip_without_ffmpeg!();
     let dir = tempfile::tempdir().expect("temp dir");
     let event = dir.path().join("event");
-    let (config, truth) = film_hand_held_phones(640, 360, dynview_synth::SynthConfig::default().seed, &event);
+    let (config, truth) = film_phones(640, 360, true, (default_seed(), default_seed()), &event);
     let options = PrepOptions { sync: SyncMethod::Visual, ..frames_only() };
     let (report, _) = prep(&event.join("videos"), &options).expect("visual alignment without a calibration");
     let time = report.time_alignment.expect("reported");

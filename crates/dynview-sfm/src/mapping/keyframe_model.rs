@@ -137,42 +137,8 @@ pub fn reconstruct_keyframes(
         let (group_intrinsics, group_held) = per_group(frames, known, &group, intrinsics);
         reconstruct(&images, &pooled.pairs, group_intrinsics, group_held, match_options, mapper_options, progress, interrupt)
     };
-    let self_calibrated = focal_source.iter().any(|s| s.starts_with(SELF_CALIBRATED_SOURCE));
-    let mut solved = solve(&intrinsics);
-    if self_calibrated {
-        // A second start from the prior: self-calibration can settle on a wrong focal length
-        // whose basin the reconstruction keeps (see `SELF_CALIBRATED_SOURCE`).
-        let prior: Vec<Radial> = frames
-            .cameras
-            .iter()
-            .zip(&intrinsics)
-            .zip(&focal_source)
-            .map(|((c, k), source)| if source.starts_with(SELF_CALIBRATED_SOURCE) { prior_intrinsics(c) } else { *k })
-            .collect();
-        if let Ok(from_prior) = solve(&prior) {
-            let better = match &solved {
-                Ok(from_self) => fit_rank(&from_prior) > fit_rank(from_self),
-                Err(_) => true,
-            };
-            if better {
-                let (registered, observations) = fit_rank(&from_prior);
-                let against = match &solved {
-                    Ok(from_self) => {
-                        let (self_registered, self_observations) = fit_rank(from_self);
-                        format!("{self_registered} and {self_observations}")
-                    }
-                    Err(e) => format!("a failure: {e}"),
-                };
-                for source in focal_source.iter_mut().filter(|s| s.starts_with(SELF_CALIBRATED_SOURCE)) {
-                    *source = format!(
-                        "{PRIOR_FOCAL_SOURCE}, where the {source} start fit the keyframes worse ({registered} keyframe images \
-                         registered and {observations} observations explained from the prior, against {against})"
-                    );
-                }
-                solved = Ok(from_prior);
-            }
-        }
-    }
+    let solved = solve(&intrinsics);
+    let solved = again_from_the_prior(frames, &intrinsics, &mut focal_source, solved, solve);
     let reconstruction = solved.map_err(|e| match e {
         SfmError::Reconstruction(message) if pooled.untrusted_pairs > 0 => SfmError::Reconstruction(format!(
             "{message}; {} pairs of cameras that stand still were matched on their static background alone, which repeated structure \
@@ -206,6 +172,46 @@ pub fn reconstruct_keyframes(
         });
     }
     Ok(KeyframeModel { keyframes: keys.to_vec(), reconstruction, focal_source, still_cameras: still })
+}
+
+/// Where self-calibration started some focal lengths, solves again with those at the prior and
+/// keeps the reconstruction that fits the keyframes better ([`fit_rank`]; see
+/// `SELF_CALIBRATED_SOURCE`), noting a switch in their `focal_source`.
+fn again_from_the_prior(
+    frames: &EventFrames,
+    intrinsics: &[Radial],
+    focal_source: &mut [String],
+    solved: SfmResult<Reconstruction>,
+    solve: impl Fn(&[Radial]) -> SfmResult<Reconstruction>,
+) -> SfmResult<Reconstruction> {
+    let self_calibrated = |source: &String| source.starts_with(SELF_CALIBRATED_SOURCE);
+    if !focal_source.iter().any(self_calibrated) {
+        return solved;
+    }
+    let prior: Vec<Radial> = frames
+        .cameras
+        .iter()
+        .zip(intrinsics)
+        .zip(focal_source.iter())
+        .map(|((c, k), source)| if self_calibrated(source) { prior_intrinsics(c) } else { *k })
+        .collect();
+    let Ok(from_prior) = solve(&prior) else { return solved };
+    let (registered, observations) = fit_rank(&from_prior);
+    let against = match &solved {
+        Ok(from_self) if fit_rank(from_self) >= (registered, observations) => return solved,
+        Ok(from_self) => {
+            let (self_registered, self_observations) = fit_rank(from_self);
+            format!("{self_registered} and {self_observations}")
+        }
+        Err(e) => format!("a failure: {e}"),
+    };
+    for source in focal_source.iter_mut().filter(|s| self_calibrated(s)) {
+        *source = format!(
+            "{PRIOR_FOCAL_SOURCE}, where the {source} start fit the keyframes worse ({registered} keyframe images \
+             registered and {observations} observations explained from the prior, against {against})"
+        );
+    }
+    Ok(from_prior)
 }
 
 /// Standard deviation of a refined focal length, as a share of it, above which prep warns that
