@@ -164,6 +164,13 @@ impl SynthConfig {
         if !(dx.is_finite() && dy.is_finite() && dx.abs() <= f64::from(self.width) / 4.0 && dy.abs() <= f64::from(self.height) / 4.0) {
             return bad("layout.principal_offset_px", format!("must be within a quarter of the image, found [{dx}, {dy}]"));
         }
+        if !(layout.height_spread_m.is_finite() && (0.0..=rig::CAMERA_HEIGHT_M).contains(&layout.height_spread_m)) {
+            let most = rig::CAMERA_HEIGHT_M;
+            return bad(
+                "layout.height_spread_m",
+                format!("must be in [0, {most}] m (no camera below the floor), found {}", layout.height_spread_m),
+            );
+        }
         if let Some(unsync) = &self.unsync {
             unsync.validate(self.cameras)?;
         }
@@ -201,4 +208,20 @@ pub struct SynthReport {
     /// time alignment).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time_alignment: Option<unsync::TimeAlignment>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_height_spread_that_would_put_a_camera_below_the_floor_is_refused_by_name() {
+        let with_spread =
+            |height_spread_m| SynthConfig { layout: rig::Layout { height_spread_m, ..rig::Layout::default() }, ..SynthConfig::default() };
+        assert!(with_spread(1.0).validate().is_ok());
+        for spread in [rig::CAMERA_HEIGHT_M + 0.1, -0.5, f64::NAN] {
+            let error = with_spread(spread).validate().expect_err("refused").to_string();
+            assert!(error.contains("layout.height_spread_m"), "{error}");
+        }
+    }
 }

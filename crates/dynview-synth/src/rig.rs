@@ -40,11 +40,14 @@ pub struct Layout {
     /// Offset of the true principal point from the image centre (px); the sign alternates from
     /// camera to camera, so no two neighbours share it.
     pub principal_offset_px: [f64; 2],
+    /// How far the input cameras stand above and below [`CAMERA_HEIGHT_M`] (m), alternately from
+    /// camera to camera as on a studio's dome (0: all at one height).
+    pub height_spread_m: f64,
 }
 
 impl Default for Layout {
     fn default() -> Self {
-        Self { arc_deg: ARC_DEG, focal_range: None, principal_offset_px: [0.0, 0.0] }
+        Self { arc_deg: ARC_DEG, focal_range: None, principal_offset_px: [0.0, 0.0], height_spread_m: 0.0 }
     }
 }
 
@@ -56,7 +59,7 @@ impl Layout {
             let s = if n <= 1 { 0.0 } else { i as f64 / (n - 1) as f64 };
             f64::from(width.max(height)) * (first + (last - first) * s)
         });
-        let sign = if i.is_multiple_of(2) { 1.0 } else { -1.0 };
+        let sign = alternate_sign(i);
         Intrinsics {
             fx: focal,
             fy: focal,
@@ -64,6 +67,11 @@ impl Layout {
             cy: base.cy + sign * self.principal_offset_px[1],
         }
     }
+}
+
+/// +1 for even cameras, -1 for odd ones.
+fn alternate_sign(i: usize) -> f64 {
+    if i.is_multiple_of(2) { 1.0 } else { -1.0 }
 }
 
 /// Angle of input camera `i` of `n` on the default arc (radians), centred on the z axis.
@@ -104,9 +112,18 @@ impl Wobble {
     }
 }
 
-/// An input camera: its angle on the arc, its lens, and its wobble (position, rotation) when
-/// hand-held.
-type InputCamera = (f64, Intrinsics, Option<(Wobble, Wobble)>);
+/// An input camera.
+#[derive(Clone, Debug)]
+struct InputCamera {
+    /// Its angle on the arc (radians).
+    angle_rad: f64,
+    /// Its height (m).
+    height_m: f64,
+    /// Its lens.
+    intrinsics: Intrinsics,
+    /// Its wobble (position, rotation) when hand-held.
+    wobble: Option<(Wobble, Wobble)>,
+}
 
 /// The cameras of an event.
 #[derive(Clone, Debug)]
@@ -135,7 +152,12 @@ impl Rig {
         let inputs = (0..n)
             .map(|i| {
                 let wobble = handheld.then(|| (Wobble::new(&mut rng), Wobble::new(&mut rng)));
-                (arc_angle_rad(i, n, layout.arc_deg), layout.intrinsics(i, n, width, height), wobble)
+                InputCamera {
+                    angle_rad: arc_angle_rad(i, n, layout.arc_deg),
+                    height_m: CAMERA_HEIGHT_M + alternate_sign(i) * layout.height_spread_m,
+                    intrinsics: layout.intrinsics(i, n, width, height),
+                    wobble,
+                }
             })
             .collect();
         Self {
@@ -159,8 +181,8 @@ impl Rig {
 
     /// Input camera `i` at time `t_s`.
     pub fn input(&self, i: usize, t_s: f64) -> Camera {
-        let (angle, intrinsics, wobble) = &self.inputs[i];
-        let eye = eye_on_arc(*angle, ARC_RADIUS_M, CAMERA_HEIGHT_M);
+        let InputCamera { angle_rad, height_m, intrinsics, wobble } = &self.inputs[i];
+        let eye = eye_on_arc(*angle_rad, ARC_RADIUS_M, *height_m);
         let mut pose = Rigid3::camera_from_world_looking_at(eye, LOOK_AT, DVec3::Y);
         if let Some((position, rotation)) = wobble {
             let eye = eye + position.at(t_s) * HANDHELD_POSITION_M;
@@ -245,7 +267,7 @@ mod tests {
 
     #[test]
     fn a_layout_sets_the_arc_the_focals_and_the_principal_points() {
-        let layout = Layout { arc_deg: 90.0, focal_range: Some([0.8, 1.6]), principal_offset_px: [3.0, -2.0] };
+        let layout = Layout { arc_deg: 90.0, focal_range: Some([0.8, 1.6]), principal_offset_px: [3.0, -2.0], ..Layout::default() };
         let rig = Rig::with_layout(5, 96, 54, false, 1, 1.0, &layout);
         let first = rig.input(0, 0.0).center_world() - LOOK_AT;
         let last = rig.input(4, 0.0).center_world() - LOOK_AT;
@@ -266,6 +288,19 @@ mod tests {
             Rig::with_layout(6, 96, 54, true, 1, 1.0, &Layout::default()).input(3, 0.2),
             Rig::new(6, 96, 54, true, 1, 1.0).input(3, 0.2)
         );
+    }
+
+    #[test]
+    fn a_height_spread_stands_the_cameras_above_and_below_alternately_looking_at_the_centre() {
+        let layout = Layout { height_spread_m: 0.5, ..Layout::default() };
+        let rig = Rig::with_layout(4, 96, 54, false, 1, 1.0, &layout);
+        for i in 0..4 {
+            let camera = rig.input(i, 0.0);
+            let expected = CAMERA_HEIGHT_M + if i % 2 == 0 { 0.5 } else { -0.5 };
+            assert!((camera.center_world().y - expected).abs() < 1e-9, "camera {i}: {}", camera.center_world().y);
+            let (px, _) = camera.project_world(LOOK_AT).unwrap();
+            assert!((px.x - 47.5).abs() < 1e-9 && (px.y - 26.5).abs() < 1e-9, "camera {i} looks at {px:?}");
+        }
     }
 
     #[test]

@@ -99,6 +99,11 @@ pub struct Args {
     /// cameras or more see) without the settling pass over every point.
     #[arg(long)]
     no_adjust_settle: bool,
+    /// On a still rig whose keyframes left the principal points at the image centre, the
+    /// time-step adjustment refines them only where it fixes every camera's to this share of
+    /// its longer side (standard deviation; 0: never).
+    #[arg(long, value_name = "FRACTION", default_value_t = StepAdjustOptions::default().still_principal_point_fraction)]
+    adjust_still_principal_points: f64,
     /// Time steps, spread over the capture, whose points place the still cameras the keyframes
     /// left out (their matches with the placed cameras, pooled; a pose kept only where what
     /// moves supports it). 0: such cameras are left out.
@@ -318,6 +323,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(plates) = options.package.plates.as_mut() {
         plates.repair_min_share = if args.no_plate_repair { 0.0 } else { args.plate_repair_min_share };
     }
+    if !(0.0..=1.0).contains(&args.adjust_still_principal_points) {
+        bail!("--adjust-still-principal-points must be between 0 and 1, found {}", args.adjust_still_principal_points);
+    }
     if !(args.foreground_tolerance > 0.0 && args.foreground_tolerance < 1.0) {
         bail!("--foreground-tolerance must lie between 0 and 1 (exclusive), found {}", args.foreground_tolerance);
     }
@@ -355,6 +363,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     options.step_adjust.samples = args.adjust_steps;
     options.step_adjust.still_rig_min_cameras = args.adjust_still_min_cameras;
     options.step_adjust.settle = !args.no_adjust_settle;
+    options.step_adjust.still_principal_point_fraction = args.adjust_still_principal_points;
     options.step_placement.samples = args.place_steps;
     options.features.max_features = args.max_features;
     let interrupt = Arc::new(AtomicBool::new(false));

@@ -67,6 +67,10 @@ pub struct Args {
     /// alternates from camera to camera.
     #[arg(long, value_delimiter = ',', num_args = 1, value_name = "DX,DY", default_value = "0,0")]
     principal_offset: Vec<f64>,
+    /// How far the input cameras stand above and below the default height (m), alternately
+    /// from camera to camera, as on a studio's dome.
+    #[arg(long, value_name = "M", default_value_t = 0.0)]
+    height_spread: f64,
     /// Unsynchronized cameras, as phones started by hand: each on its own clock, starting a
     /// different, non-whole-frame time (up to 0.8 s) before the event and stopping after it;
     /// camera 1 films at twice --fps, camera 2 at a variable frame rate, camera 3 in portrait
@@ -133,6 +137,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             arc_deg: args.arc_deg,
             focal_range: pair("--focal-range", args.focal_range.as_deref())?,
             principal_offset_px: pair("--principal-offset", Some(&args.principal_offset))?.unwrap_or_default(),
+            height_spread_m: args.height_spread,
         },
         unsync,
         plain_movers: args.plain_movers,

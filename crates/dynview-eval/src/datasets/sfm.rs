@@ -55,8 +55,12 @@ const LAYOUTS: [SynthLayout; 3] = [
 /// at 640x360, without videos; `None` for another name.
 pub fn layout_config(name: &str) -> Option<(&'static str, SynthConfig)> {
     let l = LAYOUTS.iter().find(|l| l.name == name)?;
-    let layout =
-        dynview_synth::rig::Layout { arc_deg: l.arc_deg, focal_range: Some(l.focal_range), principal_offset_px: l.principal_offset_px };
+    let layout = dynview_synth::rig::Layout {
+        arc_deg: l.arc_deg,
+        focal_range: Some(l.focal_range),
+        principal_offset_px: l.principal_offset_px,
+        ..Default::default()
+    };
     let config = SynthConfig {
         cameras: l.cameras,
         frames: 41,

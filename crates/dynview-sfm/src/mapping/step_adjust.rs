@@ -38,6 +38,13 @@ pub const DEFAULT_SAMPLES: usize = 24;
 /// our principal points to the poses.)
 pub const DEFAULT_STILL_RIG_MIN_CAMERAS: usize = 3;
 
+/// Default for [`StepAdjustOptions::still_principal_point_fraction`]: 0.25% of the longer side
+/// (1.6 px at 640). On the Panoptic arcs the time steps fix a still rig's principal points to
+/// 0.8-1.4 px on arc 2, where refining them brought cam04 and cam07 out 1.0 dB nearer the
+/// calibration, and to 2.9-3.7 px on arc 1, where refining them cost cam08 0.9 dB
+/// (`docs/results/sfm.md`, "Principal points refined by the time steps alone").
+pub const DEFAULT_STILL_PRINCIPAL_POINT_FRACTION: f64 = 0.0025;
+
 /// How the time steps adjust the intrinsics and poses.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StepAdjustOptions {
@@ -53,11 +60,36 @@ pub struct StepAdjustOptions {
     /// After a still rig's first pass, adjust once more over every point (those two cameras
     /// see too), from where the first pass left the cameras.
     pub settle: bool,
+    /// Where every camera stands still and the keyframes left the principal points where they
+    /// started, the time steps refine them only when they fix every camera's to this share of
+    /// its longer side (standard deviation, px along the worse axis); 0: never. Where the
+    /// keyframes refined them, the bound is [`PRINCIPAL_POINT_PRIOR_FRACTION`], as there.
+    pub still_principal_point_fraction: f64,
 }
 
 impl Default for StepAdjustOptions {
     fn default() -> Self {
-        Self { samples: DEFAULT_SAMPLES, still_rig_min_cameras: DEFAULT_STILL_RIG_MIN_CAMERAS, settle: true }
+        Self {
+            samples: DEFAULT_SAMPLES,
+            still_rig_min_cameras: DEFAULT_STILL_RIG_MIN_CAMERAS,
+            settle: true,
+            still_principal_point_fraction: DEFAULT_STILL_PRINCIPAL_POINT_FRACTION,
+        }
+    }
+}
+
+/// The share of each camera's longer side within which the time steps must fix its principal
+/// point for the refined ones to be kept; `None`: not tried. Where the keyframes refined them,
+/// the keyframes' own bound; on a still rig whose keyframes did not, `still_fraction` (the time
+/// steps add views from the same places, so only a tight fix is trusted); otherwise `None`
+/// (hand-held cameras' time steps can fix them in appearance only: `StepCameras::principal_points_fixed`).
+pub fn principal_point_bound_fraction(keyframes_refined: bool, still_rig: bool, still_fraction: f64) -> Option<f64> {
+    if keyframes_refined {
+        Some(PRINCIPAL_POINT_PRIOR_FRACTION)
+    } else if still_rig && still_fraction > 0.0 {
+        Some(still_fraction)
+    } else {
+        None
     }
 }
 
@@ -88,7 +120,7 @@ pub struct StepAdjustReport {
     pub focal_std_percent: Vec<Option<f64>>,
     /// Per camera, its principal point's standard deviation (px) with it refined.
     pub principal_point_std_px: Vec<Option<f64>>,
-    /// Whether the refined principal points were kept (all fixed to within their prior).
+    /// Whether the refined principal points were kept (all fixed to within their bound).
     pub principal_point_refined: bool,
     /// The settling pass over every point after a first pass over points three cameras or
     /// more see (a still rig's); the intrinsics figures above are after it (the focal changes
@@ -109,12 +141,14 @@ pub struct StepCameras<'a> {
     pub held: Vec<HeldIntrinsics>,
     /// Per camera, whether it stands still (one pose for all its frames).
     pub still: &'a [bool],
-    /// Whether the keyframes fixed the principal points well enough to refine them: only then
-    /// do the time steps refine them too. The time steps add views from the same cameras, not
-    /// new viewing directions, and their principal points can be fixed in appearance only: on
-    /// `tests/synthetic.rs`'s 4-camera event (principal points at the centre, which the
-    /// keyframes kept) they came out 18-22 px off with a reported standard deviation of 3 px,
-    /// and the rotation median went from 0.043 to 1.097 degrees.
+    /// Whether the keyframes fixed the principal points well enough to refine them: then the
+    /// time steps refine them too, within the same bound. Otherwise only a still rig's time
+    /// steps may, within the tighter [`StepAdjustOptions::still_principal_point_fraction`]. The
+    /// time steps add views from the same cameras, not new viewing directions, and their
+    /// principal points can be fixed in appearance only: on `tests/synthetic.rs`'s 4-camera
+    /// hand-held event (principal points at the centre, which the keyframes kept) they came out
+    /// 18-22 px off with a reported standard deviation of 3 px, and the rotation median went
+    /// from 0.043 to 1.097 degrees.
     pub principal_points_fixed: bool,
 }
 
@@ -146,8 +180,12 @@ pub fn adjust_with_steps(
         return Ok(None);
     }
     let steps = sample_steps(frames_count, options.samples);
-    let Some((first, mut report)) = adjust_pass(cameras, poses, &posed, &steps, min_track_cameras, features, mapper, progress, interrupt)?
-    else {
+    let bound = mapper
+        .refine_principal_point
+        .then(|| principal_point_bound_fraction(cameras.principal_points_fixed, !moving, options.still_principal_point_fraction))
+        .flatten();
+    let pass = PassOptions { min_track_cameras, principal_point_bound_fraction: bound };
+    let Some((first, mut report)) = adjust_pass(cameras, poses, &posed, &steps, pass, features, mapper, progress, interrupt)? else {
         return Ok(None);
     };
     if min_track_cameras <= 2 || !options.settle {
@@ -162,7 +200,8 @@ pub fn adjust_with_steps(
         still: cameras.still,
         principal_points_fixed: cameras.principal_points_fixed,
     };
-    let Some((settled, second)) = adjust_pass(&settled_cameras, poses, &posed, &steps, 2, features, mapper, progress, interrupt)? else {
+    let pass = PassOptions { min_track_cameras: 2, ..pass };
+    let Some((settled, second)) = adjust_pass(&settled_cameras, poses, &posed, &steps, pass, features, mapper, progress, interrupt)? else {
         return Ok(Some((first, report)));
     };
     report.focal_px = second.focal_px.clone();
@@ -180,14 +219,23 @@ fn focal_change_percent(cameras: &StepCameras, adjusted: &[Radial]) -> Vec<f64> 
     cameras.group.iter().map(|&g| 100.0 * (adjusted[g].f / cameras.intrinsics[g].f - 1.0)).collect()
 }
 
-/// One adjustment over `steps`, with the points `min_track_cameras` cameras or more see.
+/// What differs between the adjustment's passes.
+#[derive(Clone, Copy, Debug)]
+struct PassOptions {
+    /// Only points this many cameras or more see join.
+    min_track_cameras: usize,
+    /// [`principal_point_bound_fraction`]: `None`, the principal points stay where they are.
+    principal_point_bound_fraction: Option<f64>,
+}
+
+/// One adjustment over `steps`.
 #[allow(clippy::too_many_arguments)]
 fn adjust_pass(
     cameras: &StepCameras,
     poses: &mut [Vec<Rigid3>],
     posed: &[usize],
     steps: &[usize],
-    min_track_cameras: usize,
+    pass: PassOptions,
     features: &FeatureOptions,
     mapper: &MapperOptions,
     progress: StageProgress,
@@ -224,7 +272,7 @@ fn adjust_pass(
             .map(|(&c, image)| TimestepView { intrinsics: cameras.intrinsics[cameras.group[c]], pose: poses[c][t], image_bgr: image })
             .collect();
         for (xyz, observations) in timestep_tracks(&views, features, &point_options)? {
-            if observations.len() < min_track_cameras {
+            if observations.len() < pass.min_track_cameras {
                 continue;
             }
             let point = problem.points_world.len();
@@ -247,8 +295,9 @@ fn adjust_pass(
         max_iterations: 50,
         ..Default::default()
     };
-    let prior_px: Vec<f64> = cameras.intrinsics.iter().map(|k| PRINCIPAL_POINT_PRIOR_FRACTION * longer_side_px(k)).collect();
-    let solved = solve_final(&mut problem, ba, mapper.refine_principal_point && cameras.principal_points_fixed, &prior_px)?;
+    let bound_fraction = pass.principal_point_bound_fraction.unwrap_or(0.0);
+    let bound_px: Vec<f64> = cameras.intrinsics.iter().map(|k| bound_fraction * longer_side_px(k)).collect();
+    let solved = solve_final(&mut problem, ba, pass.principal_point_bound_fraction.is_some(), &bound_px)?;
     let adjusted: Vec<Radial> = problem.cameras.clone();
     for &c in posed {
         let corrections: Vec<(usize, Correction)> = steps
@@ -266,7 +315,7 @@ fn adjust_pass(
     }
     let report = StepAdjustReport {
         points: problem.points_world.len(),
-        min_track_cameras,
+        min_track_cameras: pass.min_track_cameras,
         observations: problem.observations.len(),
         rms_px: [solved.report.initial_rms_px, solved.report.final_rms_px],
         iterations: solved.report.iterations,
@@ -366,6 +415,20 @@ mod tests {
         assert_eq!(sample_steps(5, 12), vec![0, 1, 2, 3, 4]);
         assert_eq!(sample_steps(100, 1), vec![0]);
         assert_eq!(sample_steps(3, 2), vec![0, 2]);
+    }
+
+    #[test]
+    fn principal_points_are_tried_within_the_keyframes_bound_or_a_still_rigs_tighter_one() {
+        let tight = DEFAULT_STILL_PRINCIPAL_POINT_FRACTION;
+        assert!(tight < PRINCIPAL_POINT_PRIOR_FRACTION);
+        // Where the keyframes refined them, the keyframes' bound, still or hand-held.
+        assert_eq!(principal_point_bound_fraction(true, true, tight), Some(PRINCIPAL_POINT_PRIOR_FRACTION));
+        assert_eq!(principal_point_bound_fraction(true, false, tight), Some(PRINCIPAL_POINT_PRIOR_FRACTION));
+        // A still rig whose keyframes did not: the tight bound, or never with 0.
+        assert_eq!(principal_point_bound_fraction(false, true, tight), Some(tight));
+        assert_eq!(principal_point_bound_fraction(false, true, 0.0), None);
+        // Hand-held cameras whose keyframes did not: never.
+        assert_eq!(principal_point_bound_fraction(false, false, tight), None);
     }
 
     #[test]
