@@ -22,7 +22,7 @@ use crate::input::frames::{CameraFrames, EventFrames};
 use crate::mapping::incremental::{MapImage, MapperOptions, PRINCIPAL_POINT_PRIOR_FRACTION, Reconstruction, reconstruct};
 use crate::mapping::keyframes::Keyframe;
 use crate::mapping::refine::{CameraTrack, KeyframeView};
-use crate::mapping::still::{cameras_to_pool, pool, still_cameras, unpool};
+use crate::mapping::still::{cameras_to_pool, pool, still_cameras, unpool, without_pairs_across_time};
 
 /// The keyframe stage's result.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -127,6 +127,7 @@ pub fn reconstruct_keyframes(
     interrupt: &AtomicBool,
 ) -> SfmResult<KeyframeModel> {
     let still = still_cameras(frames.cameras.len(), keys, features, pairs);
+    let pairs = &without_pairs_across_time(&still, keys, pairs);
     let pooled_cameras = cameras_to_pool(&still, keys, pairs);
     let pooled = pool(keys, features, pairs, &pooled_cameras, match_options)?;
     let (intrinsics, mut focal_source) = initial_intrinsics(frames, &pooled.keys, &pooled.pairs, known, match_options);

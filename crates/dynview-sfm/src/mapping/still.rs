@@ -55,6 +55,25 @@ pub const MIN_MOVING_SHARE: f64 = 0.3;
 /// their single time steps need no pooling.
 pub const MIN_SINGLE_STEP_INLIERS: usize = 100;
 
+/// The keyframe pairs without those across time between two still cameras: matches across time
+/// are wrong on whatever moved in between, and between two still cameras the pairs of one time
+/// step already hold every static match. (Pooled cameras' pairs across time are dropped by
+/// [`pool`] too.) On a synthetic still arc of 8 cameras over 160 degrees with long lenses (1.2
+/// to 1.0 x the longer side), 3 keyframes a camera, the pairs across time left focal lengths
+/// up to 5 times too long; without them every one is within 1.1% (`docs/results/sfm.md`, "Found
+/// on the way: long lenses on a 160-degree still arc").
+pub fn without_pairs_across_time(still: &[bool], keys: &[Keyframe], pairs: &[(usize, usize, TwoView)]) -> Vec<(usize, usize, TwoView)> {
+    let is_still = |camera: usize| still.get(camera) == Some(&true);
+    pairs
+        .iter()
+        .filter(|(a, b, _)| {
+            let (ka, kb) = (&keys[*a], &keys[*b]);
+            !(ka.camera != kb.camera && ka.frame != kb.frame && is_still(ka.camera) && is_still(kb.camera))
+        })
+        .cloned()
+        .collect()
+}
+
 /// Which still cameras to pool: those with no pair of [`MIN_SINGLE_STEP_INLIERS`] inliers
 /// with another camera at one time step.
 pub fn cameras_to_pool(still: &[bool], keys: &[Keyframe], pairs: &[(usize, usize, TwoView)]) -> Vec<bool> {
@@ -287,6 +306,22 @@ mod tests {
     /// Keyframes of cameras 0 and 1 at frames 0 and 5.
     fn two_cameras_two_steps() -> [Keyframe; 4] {
         [0, 1].map(|camera| [0, 5].map(|frame| Keyframe { camera, frame })).concat().try_into().expect("4 keyframes")
+    }
+
+    #[test]
+    fn pairs_across_time_are_dropped_between_still_cameras_only() {
+        // Cameras 0 and 1 (still) at frames 0 and 5, camera 2 (hand-held) at frame 5.
+        let mut keys = two_cameras_two_steps().to_vec();
+        keys.push(Keyframe { camera: 2, frame: 5 });
+        let m = [[0, 0]];
+        let pairs = vec![pair(0, 1, &m), pair(0, 2, &m), pair(0, 3, &m), pair(1, 3, &m), pair(2, 4, &m), pair(0, 4, &m)];
+        let kept: Vec<(usize, usize)> =
+            without_pairs_across_time(&[true, true, false], &keys, &pairs).iter().map(|(a, b, _)| (*a, *b)).collect();
+        // Dropped: (0, 3), cameras 0 and 1 across time. Kept: one camera's own keyframes (0, 1),
+        // one time step (0, 2) and (1, 3), and pairs with the hand-held camera across time.
+        assert_eq!(kept, vec![(0, 1), (0, 2), (1, 3), (2, 4), (0, 4)]);
+        // Where neither stands still, nothing is dropped.
+        assert_eq!(without_pairs_across_time(&[false, false, false], &keys, &pairs).len(), pairs.len());
     }
 
     #[test]
