@@ -41,7 +41,7 @@ pub const DEFAULT_STILL_RIG_MIN_CAMERAS: usize = 3;
 /// Default for [`StepAdjustOptions::still_principal_point_fraction`]: 0.25% of the longer side
 /// (1.6 px at 640). On the Panoptic arcs the time steps fix a still rig's principal points to
 /// 0.8-1.4 px on arc 2, where refining them brought cam04 and cam07 out 1.0 dB nearer the
-/// calibration, and to 2.9-3.7 px on arc 1, where refining them cost cam08 0.9 dB
+/// calibration, and to 2.8-3.7 px at worst on arc 1, where refining them cost cam08 0.9 dB
 /// (`docs/results/sfm.md`, "Principal points refined by the time steps alone").
 pub const DEFAULT_STILL_PRINCIPAL_POINT_FRACTION: f64 = 0.0025;
 
