@@ -66,7 +66,7 @@ export class RendererClient {
         this.handlers.onProgress(msg);
         break;
       case FROM_WORKER.IDLE:
-        this.handlers.onIdle?.();
+        this.handlers.onIdle?.(msg);
         break;
       case FROM_WORKER.GPU_LOST:
         this.handlers.onGpuLost?.(msg.message);

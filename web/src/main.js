@@ -22,6 +22,7 @@ import { filesFromDrop, filesFromInput } from "./files.js";
 import { createOpening } from "./opening.js";
 import { $, canvas, gpuCanvas, showError, urlOptions } from "./page.js";
 import { createPlayback } from "./playback.js";
+import { idleSettles } from "./protocol.js";
 import { QUALITY, createFrames, showProgress } from "./render.js";
 import { state, track } from "./state.js";
 import { createViewMoves, saveHashSoon } from "./view.js";
@@ -32,7 +33,7 @@ const client = new RendererClient({
   onFrame: (msg) => frames.showFrame(msg),
   onProgress: showProgress,
   onError: showError,
-  onIdle: () => (state.rendering = false),
+  onIdle: (msg) => idleSettles(msg, state.latestId) && (state.rendering = false),
   onGpuLost: (message) => frames.fallBackToCpu(message),
 });
 /** Whether to set up the GPU path (also when the URL starts on the CPU: the menu can switch). */

@@ -28,7 +28,8 @@
 //                                            as `image`)
 //   {type: "progress", time_step, stats, done, total}
 //                                            loading a time step
-//   {type: "idle"}                           no render request is left
+//   {type: "idle", last_id}                  no render request is left; last_id: the newest
+//                                            request the worker had taken by then
 //   {type: "gpu-lost", message}              the GPU path failed; the page falls back to the CPU
 //   {type: "reply", id, value}               the value of a "call"
 //   {type: "error", id, message, open}       a request failed; open: it was an opening
@@ -126,8 +127,14 @@ export const gpuFrameMessage = (id, report) => ({ type: FROM_WORKER.FRAME, id, g
 /** Loading progress of time step `timeStep`: `done` of `total` frames, and the load stats. */
 export const progressMessage = (timeStep, stats, done, total) => ({ type: FROM_WORKER.PROGRESS, time_step: timeStep, stats, done, total });
 
-/** No render request is left. */
-export const idleMessage = () => ({ type: FROM_WORKER.IDLE });
+/** No render request is left; `lastId` is the id of the newest request the worker had taken. */
+export const idleMessage = (lastId) => ({ type: FROM_WORKER.IDLE, last_id: lastId });
+
+/**
+ * Whether idle message `msg` means the page's newest request (`latestId`) is settled. An idle
+ * posted before the worker took a request already on its way says nothing about that request.
+ */
+export const idleSettles = (msg, latestId) => msg.last_id >= latestId;
 
 /** The GPU path failed with `message`. */
 export const gpuLostMessage = (message) => ({ type: FROM_WORKER.GPU_LOST, message });

@@ -27,6 +27,7 @@ let viewer = null;
 let video = null; // the decoders of a video package's frames
 let canvas = null; // the OffscreenCanvas of the GPU path
 let pending = null; // the newest render request not yet started
+let lastTakenId = 0; // the id of the newest render request received
 let current = null; // the request whose job is in the viewer
 let running = false;
 const ready = init();
@@ -116,7 +117,7 @@ async function pump() {
     }
   } finally {
     running = false;
-    post(idleMessage());
+    post(idleMessage(lastTakenId));
   }
 }
 
@@ -255,6 +256,7 @@ self.onmessage = async (event) => {
     } else if (msg.type === TO_WORKER.RENDER) {
       if (viewer.isRendering() && !sameFrame(current, msg.request) && !running) viewer.cancel();
       pending = msg.request;
+      lastTakenId = Math.max(lastTakenId, msg.request.id);
       pump();
     } else if (msg.type === TO_WORKER.PREFETCH) {
       if (!running) ensureLoaded(msg.time_step).catch(() => {});

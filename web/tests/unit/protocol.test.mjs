@@ -10,6 +10,7 @@ import {
   gpuFrameMessage,
   gpuLostMessage,
   idleMessage,
+  idleSettles,
   isFromWorker,
   isOpening,
   isToWorker,
@@ -52,7 +53,7 @@ test('messages from the worker carry their fields', () => {
   assert.deepEqual(openedMessage(info, ['cpu'], { error: 'none' }, { renderer: null, reason: '' }),
     { type: 'opened', info, backends: ['cpu'], gpu: { error: 'none' }, choice: { renderer: null, reason: '' } });
   assert.deepEqual(progressMessage(2, { bytes_read: 10 }, 1, 6), { type: 'progress', time_step: 2, stats: { bytes_read: 10 }, done: 1, total: 6 });
-  assert.deepEqual(idleMessage(), { type: 'idle' });
+  assert.deepEqual(idleMessage(7), { type: 'idle', last_id: 7 });
   assert.deepEqual(gpuLostMessage('device lost'), { type: 'gpu-lost', message: 'device lost' });
   assert.deepEqual(replyMessage(3, 42), { type: 'reply', id: 3, value: 42 });
   assert.deepEqual(errorMessage(3, 'bad'), { type: 'error', id: 3, message: 'bad', open: false });
@@ -74,7 +75,7 @@ test('each side knows its own messages and no others', () => {
     assert.ok(isToWorker(msg), msg.type);
     assert.ok(!isFromWorker(msg), msg.type);
   }
-  for (const msg of [idleMessage(), replyMessage(1, 0), errorMessage(1, 'x'), gpuLostMessage('x'), progressMessage(0, {}, 0, 1)]) {
+  for (const msg of [idleMessage(1), replyMessage(1, 0), errorMessage(1, 'x'), gpuLostMessage('x'), progressMessage(0, {}, 0, 1)]) {
     assert.ok(isFromWorker(msg), msg.type);
     assert.ok(!isToWorker(msg), msg.type);
   }
@@ -91,4 +92,11 @@ test('openings and the ids errors answer', () => {
   assert.equal(requestId(renderMessage({ time_step: 0 }, 6)), 6);
   assert.equal(requestId(prefetchMessage(2)), undefined);
   assert.equal(requestId(openUrlMessage('u')), undefined);
+});
+
+test('an idle posted before the worker took the newest request does not settle it', () => {
+  // The page asked for request 6 while the worker finished 5 and said it was idle.
+  assert.equal(idleSettles(idleMessage(5), 6), false);
+  assert.equal(idleSettles(idleMessage(6), 6), true);
+  assert.equal(idleSettles(idleMessage(0), 0), true, 'nothing asked yet: settled');
 });
