@@ -234,3 +234,23 @@ fn a_refused_request_drops_the_render_in_progress_and_keeps_the_finished_frame()
     assert!(!renderer.is_rendering() && renderer.has_previous());
     assert!(matches!(renderer.step(&mut RenderHooks::default()), Err(RenderError::Cancelled)));
 }
+
+#[test]
+fn views_are_ranked_with_rank_sigma_and_not_with_the_colour_tolerance() {
+    // Nearer to input 0, but turned more from it than from input 2: a narrow angular
+    // tolerance ranks input 2 first, a wide one input 0 (the distance then counts more).
+    let camera = camera_looking_at_origin(DVec3::new(-0.3, 0.4, -3.5));
+    let inputs = inputs(RenderParams::default().levels);
+    let best_view = |params: RenderParams| {
+        let params = RenderParams { views: 1, method: Method::Blend, ..params };
+        StreamingRenderer::new().render(&params, &camera, &inputs, &mut RenderHooks::default()).unwrap().views_used
+    };
+    let narrow = RenderParams { rank_sigma: 0.075, ..RenderParams::default() };
+    let wide = RenderParams { rank_sigma: 0.3, ..RenderParams::default() };
+    assert_eq!(best_view(narrow.clone()), [2]);
+    assert_eq!(best_view(wide.clone()), [0]);
+    for sigma in [0.02, 0.3] {
+        assert_eq!(best_view(RenderParams { sigma, ..narrow.clone() }), [2], "colour tolerance {sigma}");
+        assert_eq!(best_view(RenderParams { sigma, ..wide.clone() }), [0], "colour tolerance {sigma}");
+    }
+}

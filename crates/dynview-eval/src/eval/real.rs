@@ -355,7 +355,7 @@ fn evaluate_camera(
         }
         // The inputs already hold every input camera, frame and the cloud of this step.
         let input_poses: Vec<_> = inputs.views.iter().map(|v| v.camera.camera_from_world).collect();
-        let j = rank_views(&camera.camera_from_world, &input_poses, f64::from(defaults.sigma), 1)
+        let j = rank_views(&camera.camera_from_world, &input_poses, f64::from(defaults.rank_sigma), 1)
             .first()
             .copied()
             .context("the package has no camera")?;
