@@ -44,14 +44,35 @@ pub struct ChosenViews {
     pub blend_weights: Vec<f32>,
 }
 
+/// How the chosen views are weighed against the best one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RankTolerance {
+    /// The angular tolerance `sigma` of the score `r_F` ([`view_score`]).
+    pub sigma: f64,
+    /// A chosen view turned more than this (radians) beyond the best view's angle to the
+    /// virtual camera keeps only [`MIN_RELATIVE_BLEND_WEIGHT`], whatever its score: it sees
+    /// other sides of the scene, and counts only where no nearer view sees. `PI` or more: no cap.
+    pub max_extra_angle_rad: f64,
+}
+
 /// The `n` best input cameras for the virtual camera (as [`rank_views`]) with their weights in
 /// the color initial guess (as [`ChosenViews::blend_weights`]); the CPU and GPU renderers
 /// both start from these.
-pub fn choose_views(virtual_from_world: &Rigid3, inputs_from_world: &[Rigid3], sigma: f64, n: usize) -> ChosenViews {
-    let indices = rank_views(virtual_from_world, inputs_from_world, sigma, n);
-    let scores: Vec<f64> = indices.iter().map(|&s| view_score(virtual_from_world, &inputs_from_world[s], sigma)).collect();
+pub fn choose_views(virtual_from_world: &Rigid3, inputs_from_world: &[Rigid3], tolerance: RankTolerance, n: usize) -> ChosenViews {
+    let indices = rank_views(virtual_from_world, inputs_from_world, tolerance.sigma, n);
+    let scores: Vec<f64> = indices.iter().map(|&s| view_score(virtual_from_world, &inputs_from_world[s], tolerance.sigma)).collect();
+    let angles: Vec<f64> =
+        indices.iter().map(|&s| relative_angle_rad(virtual_from_world.rotation, inputs_from_world[s].rotation)).collect();
     let best = scores.iter().copied().fold(f64::MIN_POSITIVE, f64::max);
-    let blend_weights = scores.iter().map(|s| (s / best).max(MIN_RELATIVE_BLEND_WEIGHT) as f32).collect();
+    let best_angle = angles.first().copied().unwrap_or(0.0);
+    let blend_weights = scores
+        .iter()
+        .zip(&angles)
+        .map(|(s, angle)| {
+            let relative = if angle - best_angle > tolerance.max_extra_angle_rad { 0.0 } else { s / best };
+            relative.max(MIN_RELATIVE_BLEND_WEIGHT) as f32
+        })
+        .collect();
     ChosenViews { indices, blend_weights }
 }
 
@@ -59,6 +80,8 @@ pub fn choose_views(virtual_from_world: &Rigid3, inputs_from_world: &[Rigid3], s
 mod tests {
     use super::*;
     use glam::{DMat3, DVec3};
+
+    const PAPER: RankTolerance = RankTolerance { sigma: 0.075, max_extra_angle_rad: std::f64::consts::PI };
 
     fn looking_at_origin(eye: DVec3) -> Rigid3 {
         Rigid3::camera_from_world_looking_at(eye, DVec3::ZERO, DVec3::Y)
@@ -95,7 +118,7 @@ mod tests {
     fn blend_weights_are_scores_relative_to_the_best() {
         let inputs: Vec<Rigid3> = [0.0, 0.5, 40.0].iter().map(|&x| looking_at_origin(DVec3::new(x, 0.0, 5.0))).collect();
         let virtual_cam = looking_at_origin(DVec3::new(0.2, 0.0, 5.0));
-        let chosen = choose_views(&virtual_cam, &inputs, 0.075, 3);
+        let chosen = choose_views(&virtual_cam, &inputs, PAPER, 3);
         assert_eq!(chosen.indices, rank_views(&virtual_cam, &inputs, 0.075, 3));
         assert_eq!(chosen.blend_weights[0], 1.0);
         let score = |k: usize| view_score(&virtual_cam, &inputs[chosen.indices[k]], 0.075);
@@ -103,6 +126,31 @@ mod tests {
         assert!(chosen.blend_weights[1] > 1e3 * MIN_RELATIVE_BLEND_WEIGHT as f32);
         // The far, turned view's score is negligible: it keeps the floor.
         assert_eq!(chosen.blend_weights[2], MIN_RELATIVE_BLEND_WEIGHT as f32);
+    }
+
+    #[test]
+    fn views_turned_beyond_the_cap_keep_only_the_floor() {
+        // Inputs on a ring around the origin at 0, 20 and 80 degrees; the virtual camera at 5.
+        let on_ring = |deg: f64| {
+            let a = deg.to_radians();
+            looking_at_origin(DVec3::new(6.0 * a.sin(), 0.0, 6.0 * a.cos()))
+        };
+        let inputs: Vec<Rigid3> = [0.0, 20.0, 80.0].iter().map(|&d| on_ring(d)).collect();
+        let virtual_cam = on_ring(5.0);
+        let wide = RankTolerance { sigma: 1.0, max_extra_angle_rad: std::f64::consts::PI };
+        let uncapped = choose_views(&virtual_cam, &inputs, wide, 3);
+        assert_eq!(uncapped.indices, vec![0, 1, 2]);
+        assert!(
+            uncapped.blend_weights[2] > 1e3 * MIN_RELATIVE_BLEND_WEIGHT as f32,
+            "a wide tolerance keeps the 80-degree view: {:?}",
+            uncapped.blend_weights
+        );
+        // Capped at 30 degrees beyond the best (5 degrees away): the 20-degree view (15 beyond)
+        // keeps its score, the 80-degree view (75 beyond) only the floor.
+        let capped = choose_views(&virtual_cam, &inputs, RankTolerance { max_extra_angle_rad: 30f64.to_radians(), ..wide }, 3);
+        assert_eq!(capped.indices, uncapped.indices);
+        assert_eq!(capped.blend_weights[..2], uncapped.blend_weights[..2]);
+        assert_eq!(capped.blend_weights[2], MIN_RELATIVE_BLEND_WEIGHT as f32);
     }
 
     #[test]

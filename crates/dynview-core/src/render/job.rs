@@ -64,7 +64,7 @@ impl<I: Borrow<TimeStepInputs>, P: Borrow<PreviousFrame>> FrameJob<I, P> {
         check_inputs(&params, &camera, inputs.borrow())?;
         let poses: Vec<_> = inputs.borrow().views.iter().map(|v| v.camera.camera_from_world).collect();
         let ChosenViews { indices: chosen, blend_weights: init_weights } =
-            choose_views(&camera.camera_from_world, &poses, f64::from(params.rank_sigma), params.views);
+            choose_views(&camera.camera_from_world, &poses, params.rank_tolerance(), params.views);
         let previous = if params.method == Method::Full { previous } else { None };
         let next_level = Some(if params.method.is_variational() { params.levels - 1 } else { 0 });
         let previous_plane = previous.as_ref().and_then(|p| p.borrow().plane);

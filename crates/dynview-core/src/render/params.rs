@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::view_ranking::RankTolerance;
+
 /// What to render: the full method, or one of the baselines and ablations it is compared with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
@@ -50,15 +52,22 @@ pub struct RenderParams {
     /// `sigma`: color tolerance of the Gaussian weights of the views, the points and the
     /// previous frame (paper Eqs. wP, wH, wT; the paper's 0.075).
     pub sigma: f32,
-    /// `sigma` of the view ranking `r_F` (paper Eq. rF; the paper's 0.075): how fast a view's
-    /// score falls with the angle between its orientation and the virtual camera's. The score
-    /// weighs the views in the colour initial guess and in the rank preference
+    /// `sigma` of the view ranking `r_F` (paper Eq. rF; the paper's 0.075, ours 0.3): how fast
+    /// a view's score falls with the angle between its orientation and the virtual camera's.
+    /// The score weighs the views in the colour initial guess and in the rank preference
     /// (`view_rank_exponent`). The paper has one `sigma` for colours and angles; ours keeps them
-    /// apart. At 0.075 a view 10 degrees from the best one keeps under 1% of its score; 0.3
-    /// (73% at 10 degrees) lifts every Panoptic held-out camera but one, up to +0.93 dB, and
-    /// drops Pose2Sim's wide-baseline views below their floor's SSIM, so the default stays the
-    /// paper's. Measured in `docs/results/view_ranking.md`.
+    /// apart. At 0.075 a view 10 degrees from the best one keeps under 1% of its score, so the
+    /// views of a real arc (neighbours 5-30 degrees apart) all follow the best one; at 0.3 it
+    /// keeps 73%. Measured in `docs/results/view_ranking.md`.
     pub rank_sigma: f32,
+    /// The view ranking's cap (ours), degrees: a chosen view turned more than this beyond the
+    /// best view's angle to the virtual camera keeps only the smallest weight in the colour
+    /// initial guess and the rank preference, however wide `rank_sigma` is: it sees other
+    /// sides of the scene and counts only where no nearer view sees. 180 is no cap; the
+    /// default 45 keeps a wide-baseline rig's views (Pose2Sim's, 54 degrees or more beyond
+    /// the best) out as the paper's tolerance did, and every view an arc's held-out camera
+    /// chooses in. Measured in `docs/results/view_ranking.md`.
+    pub rank_max_extra_angle_deg: f32,
     /// `lambda_PC`: attachment of the depth to the sparse points (paper Eq. rendering_depth;
     /// 0.25 to 2, default 1).
     pub lambda_pc: f32,
@@ -185,7 +194,8 @@ impl Default for RenderParams {
         Self {
             method: Method::Full,
             sigma: 0.075,
-            rank_sigma: 0.075,
+            rank_sigma: 0.3,
+            rank_max_extra_angle_deg: 45.0,
             lambda_pc: 1.0,
             lambda_t: 0.1,
             temporal_coverage_scaling: true,
@@ -260,6 +270,9 @@ impl RenderParams {
                 return bad(field, format!("must be finite and non-negative, found {v}"));
             }
         }
+        if !(self.rank_max_extra_angle_deg > 0.0 && self.rank_max_extra_angle_deg <= 180.0) {
+            return bad("rank_max_extra_angle_deg", format!("must be in (0, 180] degrees, found {}", self.rank_max_extra_angle_deg));
+        }
         if !(self.w_d_max.is_finite() && self.w_d_max >= self.w_d_min) {
             return bad("w_d_max", format!("must be finite and at least w_d_min, found {}", self.w_d_max));
         }
@@ -300,6 +313,11 @@ impl RenderParams {
         Ok(())
     }
 
+    /// The view ranking's tolerances (`rank_sigma`, `rank_max_extra_angle_deg`).
+    pub fn rank_tolerance(&self) -> RankTolerance {
+        RankTolerance { sigma: f64::from(self.rank_sigma), max_extra_angle_rad: f64::from(self.rank_max_extra_angle_deg).to_radians() }
+    }
+
     /// Outer iterations at `level` (0 = finest).
     pub fn outer_iterations_at(&self, level: usize) -> usize {
         if level == 0 { self.outer_iterations_finest } else { self.outer_iterations }
@@ -334,5 +352,9 @@ mod tests {
         assert_eq!(p.validate().unwrap_err().field, "sigma");
         let p = RenderParams { rank_sigma: 0.0, ..RenderParams::default() };
         assert_eq!(p.validate().unwrap_err().field, "rank_sigma");
+        for bad in [0.0, -1.0, 181.0, f32::NAN] {
+            let p = RenderParams { rank_max_extra_angle_deg: bad, ..RenderParams::default() };
+            assert_eq!(p.validate().unwrap_err().field, "rank_max_extra_angle_deg");
+        }
     }
 }

@@ -242,7 +242,7 @@ impl GpuRenderer {
     /// The views a frame of `camera` renders from, ranked as dynview-core ranks them.
     fn views_for(params: &RenderParams, camera: &Camera, inputs: &GpuInputs) -> ChosenViews {
         let poses: Vec<_> = inputs.views.iter().map(|(c, _)| c.camera_from_world).collect();
-        choose_views(&camera.camera_from_world, &poses, f64::from(params.rank_sigma), params.views)
+        choose_views(&camera.camera_from_world, &poses, params.rank_tolerance(), params.views)
     }
 
     /// Uploads into `uploaded` the views of `inputs` (the same time step) that a frame of
