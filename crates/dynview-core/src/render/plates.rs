@@ -48,6 +48,9 @@ pub struct MaskGeometry {
     pub camera: Camera,
     /// Each point attached over this radius (`sparse_footprint_px`, scaled).
     pub footprint_px: usize,
+    /// The static points attached over this radius (`plate_static_reach_px`, scaled; at least
+    /// `footprint_px`).
+    pub static_reach_px: usize,
     /// The region in front grown by this radius (`plate_moving_dilation_px`, scaled).
     pub dilation_px: usize,
     /// The edge box-filtered over this radius (`plate_feather_px`, scaled).
@@ -74,6 +77,7 @@ impl MaskGeometry {
         Self {
             camera,
             footprint_px: radius(params.sparse_footprint_px),
+            static_reach_px: radius(params.plate_static_reach_px.max(params.sparse_footprint_px)),
             dilation_px: radius(params.plate_moving_dilation_px),
             feather_px: radius(params.plate_feather_px),
         }
@@ -91,10 +95,10 @@ fn mask_of(params: &RenderParams, cloud: &PointCloud, static_points: usize, geom
     if !has_mask(params, static_points, cloud.len()) {
         return None;
     }
-    let MaskGeometry { camera, footprint_px, dilation_px, feather_px } = *geometry;
+    let MaskGeometry { camera, footprint_px, static_reach_px, dilation_px, feather_px } = *geometry;
     let split = cloud.len() - static_points;
     let own = attached_depth(&cloud.positions_world[..split], &camera, footprint_px);
-    let statics = attached_depth(&cloud.positions_world[split..], &camera, footprint_px);
+    let statics = attached_depth(&cloud.positions_world[split..], &camera, static_reach_px);
     let data = own
         .data
         .iter()
@@ -200,6 +204,43 @@ mod tests {
         // An own point on the static surface itself leaves its pixels static.
         assert_eq!(at(30, 20), 1.0);
         assert_eq!(mask.data.iter().filter(|&&v| v == 0.0).count(), 81, "a 9x9 square");
+    }
+
+    #[test]
+    fn an_own_point_in_a_hole_of_the_static_cloud_is_compared_with_the_surface_around_it() {
+        // The wall of `cloud` with a hole of 9x9 pixels around (30, 20), where the own point on
+        // the wall lies, and a second own point 30% in front of the wall inside the hole.
+        let cam = camera();
+        let (mut cloud, _) = cloud();
+        let at = |x: f64, y: f64, z: f64| {
+            let p = cam.unproject_world(glam::DVec2::new(x, y), z);
+            [p.x as f32, p.y as f32, p.z as f32]
+        };
+        let hole = |p: &[f32; 3]| {
+            let pixel = cam.project_world(glam::DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
+            pixel.is_some_and(|(q, _)| (q.x - 30.0).abs() <= 4.5 && (q.y - 20.0).abs() <= 4.5 && p[2] > 9.0)
+        };
+        let own = vec![cloud.positions_world[0], cloud.positions_world[1], at(26.0, 16.0, 7.0)];
+        let statics: Vec<[f32; 3]> = cloud.positions_world[2..].iter().copied().filter(|p| !hole(p)).collect();
+        cloud.positions_world = own.iter().chain(&statics).copied().collect();
+        cloud.colors = vec![[128; 3]; cloud.positions_world.len()];
+        let mask_with = |reach: usize| {
+            let params = RenderParams {
+                plate_moving_dilation_px: 1,
+                sparse_footprint_px: 1,
+                plate_feather_px: 0,
+                plate_static_reach_px: reach,
+                ..RenderParams::default()
+            };
+            static_mask(&params, &cloud, statics.len(), &cam).expect("static points and plates on")
+        };
+        let (near, far) = (mask_with(0), mask_with(6));
+        let at_mask = |mask: &ScalarRaster, x: usize, y: usize| mask.data[y * 40 + x];
+        assert_eq!(at_mask(&near, 30, 20), 0.0, "with the footprint alone the wall's own point finds no static point");
+        assert_eq!(at_mask(&far, 30, 20), 1.0, "within the reach it finds the wall around it and stays static");
+        assert_eq!(at_mask(&far, 26, 16), 0.0, "the own point in front of the wall stays in front");
+        assert_eq!(at_mask(&far, 10, 10), 0.0, "and so does the one in front outside the hole");
+        assert_eq!(mask_with(1).data, near.data, "a reach within the footprint changes nothing");
     }
 
     #[test]

@@ -65,11 +65,11 @@ impl StaticMaskKernels {
         let camera = &geometry.camera;
         let (w, h) = (camera.width_px as usize, camera.height_px as usize);
         let split = count - static_points;
-        let attached = |range: std::ops::Range<usize>| -> Result<GpuImage, GpuError> {
+        let attached = |range: std::ops::Range<usize>, radius: usize| -> Result<GpuImage, GpuError> {
             let splat_maps = splat.project_range(ctx, cloud, range, camera)?;
-            Ok(splat.with_footprint(ctx, &splat_maps, geometry.footprint_px)?.0.depth)
+            Ok(splat.with_footprint(ctx, &splat_maps, radius)?.0.depth)
         };
-        let (own, statics) = (attached(0..split)?, attached(split..count)?);
+        let (own, statics) = (attached(0..split, geometry.footprint_px)?, attached(split..count, geometry.static_reach_px)?);
         let uniform = |radius: usize| MaskParams { width: w as u32, height: h as u32, radius: radius as u32, nearer_margin: NEARER_MARGIN };
         let nearer = GpuImage::zeroed(ctx, w, h, 1)?;
         self.nearer.dispatch(ctx, bytemuck::bytes_of(&uniform(0)), &[&own.buffer, &statics.buffer, &nearer.buffer], w, h);
@@ -141,11 +141,12 @@ mod tests {
         let (splat, kernels) = (SplatKernels::new(&ctx), StaticMaskKernels::new(&ctx));
         let (cloud, statics, camera) = scene();
         let uploaded = GpuCloud::upload(&ctx, &cloud).unwrap();
-        for (dilation, footprint, feather) in [(6, 2, 3), (3, 1, 0), (2, 0, 1)] {
+        for (dilation, footprint, feather, reach) in [(6, 2, 3, 0), (3, 1, 0, 0), (2, 0, 1, 0), (6, 2, 3, 8), (2, 0, 1, 5)] {
             let params = RenderParams {
                 plate_moving_dilation_px: dilation,
                 sparse_footprint_px: footprint,
                 plate_feather_px: feather,
+                plate_static_reach_px: reach,
                 ..RenderParams::default()
             };
             let cpu = plates::static_mask(&params, &cloud, statics, &camera).unwrap();
@@ -154,7 +155,7 @@ mod tests {
             let gpu_values = gpu.download(&ctx).unwrap();
             assert_eq!((gpu.width, gpu.height), (cpu.width, cpu.height));
             let worst = gpu_values.iter().zip(&cpu.data).map(|(g, c)| (g - c).abs()).fold(0.0f32, f32::max);
-            assert!(worst < 1e-5, "dilation {dilation}, footprint {footprint}, feather {feather}: worst difference {worst}");
+            assert!(worst < 1e-5, "dilation {dilation}, footprint {footprint}, feather {feather}, reach {reach}: worst difference {worst}");
             let masked = cpu.data.iter().filter(|&&v| v < 0.5).count();
             assert!(masked > 500 && masked < 96 * 64 - 500, "{masked} pixels in front: the test shows nothing");
         }
