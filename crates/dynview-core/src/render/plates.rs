@@ -220,7 +220,7 @@ mod tests {
             let pixel = cam.project_world(glam::DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
             pixel.is_some_and(|(q, _)| (q.x - 30.0).abs() <= 4.5 && (q.y - 20.0).abs() <= 4.5 && p[2] > 9.0)
         };
-        let own = vec![cloud.positions_world[0], cloud.positions_world[1], at(26.0, 16.0, 7.0)];
+        let own = [cloud.positions_world[0], cloud.positions_world[1], at(26.0, 16.0, 7.0)];
         let statics: Vec<[f32; 3]> = cloud.positions_world[2..].iter().copied().filter(|p| !hole(p)).collect();
         cloud.positions_world = own.iter().chain(&statics).copied().collect();
         cloud.colors = vec![[128; 3]; cloud.positions_world.len()];
