@@ -167,15 +167,16 @@ mod tests {
         }
     }
 
+    /// The world point that `camera()` sees at pixel `(x, y)` with z-depth `z`.
+    fn at(x: f64, y: f64, z: f64) -> [f32; 3] {
+        let p = camera().unproject_world(glam::DVec2::new(x, y), z);
+        [p.x as f32, p.y as f32, p.z as f32]
+    }
+
     /// A wall of static points at z = 10 over the whole view, and one own point at z = 5 in
     /// front of pixel (10, 10) plus one own point on the wall at pixel (30, 20).
     fn cloud() -> (PointCloud, usize) {
-        let cam = camera();
         let mut cloud = PointCloud::default();
-        let at = |x: f64, y: f64, z: f64| {
-            let p = cam.unproject_world(glam::DVec2::new(x, y), z);
-            [p.x as f32, p.y as f32, p.z as f32]
-        };
         cloud.positions_world.push(at(10.0, 10.0, 5.0));
         cloud.positions_world.push(at(30.0, 20.0, 10.0));
         let mut statics = 0;
@@ -212,10 +213,6 @@ mod tests {
         // the wall lies, and a second own point 30% in front of the wall inside the hole.
         let cam = camera();
         let (mut cloud, _) = cloud();
-        let at = |x: f64, y: f64, z: f64| {
-            let p = cam.unproject_world(glam::DVec2::new(x, y), z);
-            [p.x as f32, p.y as f32, p.z as f32]
-        };
         let hole = |p: &[f32; 3]| {
             let pixel = cam.project_world(glam::DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
             pixel.is_some_and(|(q, _)| (q.x - 30.0).abs() <= 4.5 && (q.y - 20.0).abs() <= 4.5 && p[2] > 9.0)
