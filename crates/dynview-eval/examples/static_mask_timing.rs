@@ -1,8 +1,10 @@
 //! Times the plates' static mask (`dynview_core::render::plates::static_mask`) of a prepared
 //! package's middle time step, seen by its second camera at 640x360 and 1920x1080: median of
-//! 5 runs. `cargo run --release -p dynview-eval --example static_mask_timing -- SCENE_DIR`
-//! (default: arc 1's package of all cameras, `target/eval/real/panoptic/all75/scene`, which
-//! `cargo xtask eval --real --capture panoptic` writes).
+//! 5 runs, and how many of its pixels are not static. `cargo run --release -p dynview-eval
+//! --example static_mask_timing -- SCENE_DIR [PARAMS_JSON]` (default: arc 1's package of all
+//! cameras, `target/eval/real/panoptic/all75/scene`, which `cargo xtask eval --real --capture
+//! panoptic` writes; the default render parameters, or those the JSON changes, e.g.
+//! `'{"plate_static_reach_px": 6}'`).
 
 use std::time::Instant;
 
@@ -14,7 +16,10 @@ fn main() -> anyhow::Result<()> {
     let dir = std::env::args().nth(1).unwrap_or_else(|| "target/eval/real/panoptic/all75/scene".into());
     let package = ScenePackage::open(&dir).with_context(|| format!("opening {dir}"))?;
     let step = package.time_step_count() / 2;
-    let params = RenderParams::default();
+    let params: RenderParams = match std::env::args().nth(2) {
+        Some(json) => serde_json::from_str(&json).context("the second argument: render parameters as JSON")?,
+        None => RenderParams::default(),
+    };
     let inputs = package.time_step_inputs(step, params.levels)?;
     let camera = package.camera(1.min(package.manifest().cameras.len() - 1), step)?;
     for (width, height) in [(640, 360), (1920, 1080)] {

@@ -115,13 +115,13 @@ pub struct RenderParams {
     /// (`docs/results/static_scene.md`).
     pub plate_feather_px: usize,
     /// Radius in pixels (at the finest level) within which a pixel of the plates' static mask
-    /// without a static point of its own looks for the static surface that an own point there
-    /// is compared with (ours; at or below `sparse_footprint_px`, the default 0 among them,
-    /// that footprint is used, as before). The static cloud has holes (plain walls), and an own
-    /// point on the wall seen through one counts as standing in front of the static scene and
-    /// keeps the frames around it. 6 gives both Panoptic arcs +0.03 to +0.05 dB (static regions
-    /// +0.05 to +0.11) but their moving regions -0.02: not the default
-    /// (`docs/results/moving.md`). CPU and GPU alike.
+    /// without a static point within the footprint takes the farthest static depth around as
+    /// the static surface an own point there is compared with (ours; at or below
+    /// `sparse_footprint_px`, the default 0 among them, nothing changes). The static cloud has
+    /// holes (plain walls), and an own point on the wall seen through one counts as standing in
+    /// front of the static scene and keeps the frames around it; the farthest rather than the
+    /// nearest, so that a person in such a hole is not compared with the floor in front of his
+    /// feet. Not the default (`docs/results/moving.md`). CPU and GPU alike.
     pub plate_static_reach_px: usize,
     /// `lambda_P`: color data term per view (paper Eq. rendering_color; 5 to 20, default 10).
     pub lambda_p: f32,

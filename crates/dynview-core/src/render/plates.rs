@@ -48,8 +48,9 @@ pub struct MaskGeometry {
     pub camera: Camera,
     /// Each point attached over this radius (`sparse_footprint_px`, scaled).
     pub footprint_px: usize,
-    /// The static points attached over this radius (`plate_static_reach_px`, scaled; at least
-    /// `footprint_px`).
+    /// A pixel without a static point within the footprint takes the farthest static depth
+    /// within this radius (`plate_static_reach_px`, scaled; at least `footprint_px`, where it
+    /// changes nothing).
     pub static_reach_px: usize,
     /// The region in front grown by this radius (`plate_moving_dilation_px`, scaled).
     pub dilation_px: usize,
@@ -98,7 +99,10 @@ fn mask_of(params: &RenderParams, cloud: &PointCloud, static_points: usize, geom
     let MaskGeometry { camera, footprint_px, static_reach_px, dilation_px, feather_px } = *geometry;
     let split = cloud.len() - static_points;
     let own = attached_depth(&cloud.positions_world[..split], &camera, footprint_px);
-    let statics = attached_depth(&cloud.positions_world[split..], &camera, static_reach_px);
+    let mut statics = attached_depth(&cloud.positions_world[split..], &camera, footprint_px);
+    if static_reach_px > footprint_px {
+        statics = with_farthest_around(statics, static_reach_px);
+    }
     let data = own
         .data
         .iter()
@@ -121,6 +125,27 @@ fn attached_depth(positions_world: &[[f32; 3]], camera: &Camera, footprint_px: u
         let nearest_around = min_filtered(&depth, footprint_px);
         depth.data.iter_mut().zip(&nearest_around.data).filter(|(d, _)| !d.is_finite()).for_each(|(d, &n)| *d = n);
     }
+    depth
+}
+
+/// `depth` where it has a depth, and elsewhere the farthest depth within `reach_px` (infinite
+/// where there is none): the static surface an own point seen through a hole of the static
+/// cloud is compared with. The farthest, not the nearest: behind a person standing in such a
+/// hole the nearest static point around is often the floor in front of his feet, nearer than
+/// he is, and the farthest the wall behind him.
+fn with_farthest_around(mut depth: ScalarRaster, reach_px: usize) -> ScalarRaster {
+    let finite = Raster {
+        width: depth.width,
+        height: depth.height,
+        data: depth.data.iter().map(|&d| if d.is_finite() { d } else { 0.0 }).collect(),
+    };
+    let farthest = dilated(&finite, reach_px);
+    depth
+        .data
+        .iter_mut()
+        .zip(&farthest.data)
+        .filter(|(d, _)| !d.is_finite())
+        .for_each(|(d, &f)| *d = if f > 0.0 { f } else { f32::INFINITY });
     depth
 }
 
@@ -238,6 +263,40 @@ mod tests {
         assert_eq!(at_mask(&far, 26, 16), 0.0, "the own point in front of the wall stays in front");
         assert_eq!(at_mask(&far, 10, 10), 0.0, "and so does the one in front outside the hole");
         assert_eq!(mask_with(1).data, near.data, "a reach within the footprint changes nothing");
+    }
+
+    #[test]
+    fn an_own_point_in_a_hole_is_compared_with_the_farthest_static_surface_around_it() {
+        // The wall of `cloud` with a hole of 9x9 pixels around (30, 20), a patch of floor 6 m
+        // away just left of the hole (x 24-25, y 18-22, in front of the wall), and an own point
+        // 8 m away in the hole (a person's leg between the floor in front and the wall behind).
+        let cam = camera();
+        let in_hole = |x: f64, y: f64| (x - 30.0).abs() <= 4.5 && (y - 20.0).abs() <= 4.5;
+        let mut statics: Vec<[f32; 3]> = Vec::new();
+        for y in 0..30 {
+            for x in 0..40 {
+                let (x, y) = (f64::from(x), f64::from(y));
+                if (24.0..=25.0).contains(&x) && (18.0..=22.0).contains(&y) {
+                    statics.push(at(x, y, 6.0));
+                } else if !in_hole(x, y) {
+                    statics.push(at(x, y, 10.0));
+                }
+            }
+        }
+        let mut cloud = PointCloud::default();
+        cloud.positions_world = std::iter::once(at(28.0, 20.0, 8.0)).chain(statics.iter().copied()).collect();
+        cloud.colors = vec![[128; 3]; cloud.positions_world.len()];
+        let params = RenderParams {
+            plate_moving_dilation_px: 1,
+            sparse_footprint_px: 1,
+            plate_feather_px: 0,
+            plate_static_reach_px: 6,
+            ..RenderParams::default()
+        };
+        let mask = static_mask(&params, &cloud, statics.len(), &cam).expect("static points and plates on");
+        // The nearest static point around (the floor, 6 m) is nearer than the leg; the farthest
+        // (the wall, 10 m) is behind it.
+        assert_eq!(mask.data[20 * 40 + 28], 0.0, "the leg stands in front of the wall behind it");
     }
 
     #[test]

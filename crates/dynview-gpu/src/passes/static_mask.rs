@@ -1,7 +1,7 @@
 //! The plates' static mask on the GPU (`shaders/static_mask.wgsl`), as dynview-core's
 //! `render::plates::static_mask` on the same geometry (`plates::MaskGeometry`): the step's own
 //! points and its static points splatted apart with their footprints ([`SplatKernels`]), the
-//! pixels where an own point lies in front of the static surface, grown, inverted and feathered.
+//! static depth's holes filled with the farthest static depth within the reach, the pixels where an own point lies in front of the static surface, grown, inverted and feathered.
 //! On the GPU the cloud is already uploaded; on the host this cost a real-footage frame most of
 //! its time.
 
@@ -28,6 +28,7 @@ struct MaskParams {
 /// The static mask's kernels, compiled once per device.
 #[derive(Debug)]
 pub struct StaticMaskKernels {
+    farthest: Kernel,
     nearer: Kernel,
     grown: Kernel,
     feathered: Kernel,
@@ -39,6 +40,7 @@ impl StaticMaskKernels {
         let module = shaders::module(&ctx.device, shaders::STATIC_MASK);
         let bindings = [true, true, false];
         Self {
+            farthest: Kernel::new(&ctx.device, &module, "farthest", &bindings, 8),
             nearer: Kernel::new(&ctx.device, &module, "nearer", &bindings, 8),
             grown: Kernel::new(&ctx.device, &module, "grown", &bindings, 8),
             feathered: Kernel::new(&ctx.device, &module, "feathered", &bindings, 8),
@@ -69,8 +71,14 @@ impl StaticMaskKernels {
             let splat_maps = splat.project_range(ctx, cloud, range, camera)?;
             Ok(splat.with_footprint(ctx, &splat_maps, radius)?.0.depth)
         };
-        let (own, statics) = (attached(0..split, geometry.footprint_px)?, attached(split..count, geometry.static_reach_px)?);
+        let (own, mut statics) = (attached(0..split, geometry.footprint_px)?, attached(split..count, geometry.footprint_px)?);
         let uniform = |radius: usize| MaskParams { width: w as u32, height: h as u32, radius: radius as u32, nearer_margin: NEARER_MARGIN };
+        if geometry.static_reach_px > geometry.footprint_px {
+            let reached = GpuImage::zeroed(ctx, w, h, 1)?;
+            let params_reach = uniform(geometry.static_reach_px);
+            self.farthest.dispatch(ctx, bytemuck::bytes_of(&params_reach), &[&statics.buffer, &statics.buffer, &reached.buffer], w, h);
+            statics = reached;
+        }
         let nearer = GpuImage::zeroed(ctx, w, h, 1)?;
         self.nearer.dispatch(ctx, bytemuck::bytes_of(&uniform(0)), &[&own.buffer, &statics.buffer, &nearer.buffer], w, h);
         let grown = GpuImage::zeroed(ctx, w, h, 1)?;

@@ -1,6 +1,8 @@
 // The plates' static mask of a novel view, following dynview-core's render::plates::static_mask
 // step by step, from the step's own points and its static points splatted apart (each with its
 // footprint, splat_footprint.wgsl). Entry points, in order:
+// farthest (where the reach exceeds the footprint): the static points' depth where it has one,
+// elsewhere the farthest of it over the square window of `radius` (infinite where none);
 // nearer: 1 where an own point lies more than NEARER_MARGIN nearer than the static surface;
 // grown: 1 - the maximum of `nearer` over the square window of `radius` (the static pixels);
 // feathered: the mean of `grown` over the square window of `radius` cut at the image's edges.
@@ -16,7 +18,8 @@ struct MaskParams {
 };
 
 @group(0) @binding(0) var<uniform> params: MaskParams;
-// nearer: the own points' depth; grown and feathered: the step before's mask.
+// nearer: the own points' depth; farthest: the static points'; grown and feathered: the step
+// before's mask.
 @group(0) @binding(1) var<storage, read> first_in: array<f32>;
 // nearer: the static points' depth; unused by the others (bound to `first_in`'s buffer).
 @group(0) @binding(2) var<storage, read> second_in: array<f32>;
@@ -33,6 +36,32 @@ fn nearer(@builtin(global_invocation_id) id: vec3<u32>) {
     // An infinite static depth (no static point there) counts as farther than any own point.
     let in_front = is_finite(own) && (!is_finite(stat) || own < stat * (1.0 - params.nearer_margin));
     mask_out[i] = select(0.0, 1.0, in_front);
+}
+
+@compute @workgroup_size(8, 8)
+fn farthest(@builtin(global_invocation_id) id: vec3<u32>) {
+    let w = params.width;
+    let h = params.height;
+    if (id.x >= w || id.y >= h) {
+        return;
+    }
+    let own = first_in[id.y * w + id.x];
+    if (is_finite(own)) {
+        mask_out[id.y * w + id.x] = own;
+        return;
+    }
+    let r = params.radius;
+    var largest = 0.0;
+    for (var y = max(id.y, r) - r; y <= min(id.y + r, h - 1u); y = y + 1u) {
+        for (var x = max(id.x, r) - r; x <= min(id.x + r, w - 1u); x = x + 1u) {
+            let d = first_in[y * w + x];
+            if (is_finite(d)) {
+                largest = max(largest, d);
+            }
+        }
+    }
+    // No static depth around: infinite, as the splat leaves it.
+    mask_out[id.y * w + id.x] = select(bitcast<f32>(infinity_bits), largest, largest > 0.0);
 }
 
 @compute @workgroup_size(8, 8)
