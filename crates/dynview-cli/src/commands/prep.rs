@@ -156,9 +156,9 @@ pub struct Args {
     no_moving_plates: bool,
     /// Fewest rays of the visual hull a connected region of a camera's foreground gets: small
     /// ones (a ball far from the cameras) are sampled more finely, down to every pixel. Off (0)
-    /// by default: on the synthetic event it brings a plain 30 cm ball's depth error from 22.5%
-    /// to 2.5% with 400, but on the real Panoptic arcs it costs arc 2's moving regions 0.13 dB
-    /// (docs/results/moving.md).
+    /// by default: on the synthetic event it brings a plain 30 cm ball's depth error from 6.0%
+    /// to 1.9% with 400, but on the real Panoptic arcs the full method's lead over the blend in
+    /// the moving regions shrinks and its SSIM falls (docs/results/moving.md).
     #[arg(long, value_name = "RAYS", default_value_t = 0, conflicts_with = "no_hull")]
     hull_region_rays: usize,
     /// Cells of the visual hull's ray grid around a hull point whose own stereo points move it
