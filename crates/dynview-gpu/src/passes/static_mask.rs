@@ -1,7 +1,8 @@
 //! The plates' static mask on the GPU (`shaders/static_mask.wgsl`), as dynview-core's
 //! `render::plates::static_mask` on the same geometry (`plates::MaskGeometry`): the step's own
 //! points and its static points splatted apart with their footprints ([`SplatKernels`]), the
-//! static depth's holes filled with the farthest static depth within the reach, the pixels where an own point lies in front of the static surface, grown, inverted and feathered.
+//! static depth's holes filled with the farthest static depth within the reach, the pixels
+//! where an own point lies in front of the static surface, grown, inverted and feathered.
 //! On the GPU the cloud is already uploaded; on the host this cost a real-footage frame most of
 //! its time.
 
@@ -67,11 +68,11 @@ impl StaticMaskKernels {
         let camera = &geometry.camera;
         let (w, h) = (camera.width_px as usize, camera.height_px as usize);
         let split = count - static_points;
-        let attached = |range: std::ops::Range<usize>, radius: usize| -> Result<GpuImage, GpuError> {
+        let attached = |range: std::ops::Range<usize>| -> Result<GpuImage, GpuError> {
             let splat_maps = splat.project_range(ctx, cloud, range, camera)?;
-            Ok(splat.with_footprint(ctx, &splat_maps, radius)?.0.depth)
+            Ok(splat.with_footprint(ctx, &splat_maps, geometry.footprint_px)?.0.depth)
         };
-        let (own, mut statics) = (attached(0..split, geometry.footprint_px)?, attached(split..count, geometry.footprint_px)?);
+        let (own, mut statics) = (attached(0..split)?, attached(split..count)?);
         let uniform = |radius: usize| MaskParams { width: w as u32, height: h as u32, radius: radius as u32, nearer_margin: NEARER_MARGIN };
         if geometry.static_reach_px > geometry.footprint_px {
             let reached = GpuImage::zeroed(ctx, w, h, 1)?;

@@ -45,9 +45,9 @@ fn farthest(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= w || id.y >= h) {
         return;
     }
-    let own = first_in[id.y * w + id.x];
-    if (is_finite(own)) {
-        mask_out[id.y * w + id.x] = own;
+    let depth = first_in[id.y * w + id.x];
+    if (is_finite(depth)) {
+        mask_out[id.y * w + id.x] = depth;
         return;
     }
     let r = params.radius;
