@@ -12,7 +12,10 @@
 //!   a change of brightness or contrast leaves alone: flicker, a camera's gain), counted only
 //!   where the pixel's colour has changed at least a little ([`TEXTURE_GATE`]);
 //!
-//! their maximum, box-filtered over 3 x 3 pixels. A pixel is foreground (rays start there) where
+//! their maximum, the colour cue first lowered where [`HullOptions::shadows`] finds a shadow (the
+//! frame darker than the plate by one gain in every channel, between [`SHADOW_DARKEST`] and
+//! [`SHADOW_LIGHTEST`], where the plate has texture and the frame keeps it: [`shadow_cue`]),
+//! box-filtered over 3 x 3 pixels. A pixel is foreground (rays start there) where
 //! the probability is at least one half, and it carves only where it is below [`CARVE_BELOW`]
 //! (one half as well: a band below it that neither started rays nor carved measured no better,
 //! `docs/results/moving.md`), so a pixel the opening drops carves nothing. Both models then
@@ -43,6 +46,19 @@ pub const TEXTURE_NOISE: f32 = 0.01;
 pub const TEXTURE_GATE: f32 = 0.02;
 /// See [`TEXTURE_GATE`].
 pub const TEXTURE_GATE_FULL: f32 = 0.05;
+/// The darkest a shadow makes the plate (the frame's brightness over the plate's): darker is
+/// something else (dark trousers on a grey floor).
+pub const SHADOW_DARKEST: f32 = 0.35;
+/// The lightest a shadow leaves the plate; lighter changes are the colour cue's to judge.
+pub const SHADOW_LIGHTEST: f32 = 0.95;
+/// Largest difference of chromaticity (each channel's share of the pixel's sum) between frame
+/// and plate at which a pixel may be in shadow; it counts fully below half of this.
+pub const SHADOW_CHROMA: f32 = 0.04;
+/// Correlation of the frame's window with the plate's above which the plate's texture counts as
+/// kept (fully from [`SHADOW_KEPT_FULL`]).
+pub const SHADOW_KEPT_FROM: f32 = 0.6;
+/// See [`SHADOW_KEPT_FROM`].
+pub const SHADOW_KEPT_FULL: f32 = 0.85;
 /// A pixel of the soft model carves (calls the space it sees empty) only where its probability
 /// is below this.
 pub const CARVE_BELOW: f32 = 0.5;
@@ -91,7 +107,7 @@ pub fn foreground(frame: &image::RgbImage, plate: &Plate, options: &HullOptions)
     let (probability, unsure) = match options.foreground_model {
         ForegroundModel::Difference => (colour_difference.map(|d| f32::from(u8::from(d > options.foreground_tolerance))), None),
         ForegroundModel::Soft => {
-            let mut p = soft_probability(frame, plate, &colour_difference, options.foreground_tolerance);
+            let mut p = soft_probability(frame, plate, &colour_difference, options);
             p.data.iter_mut().zip(&unknown.data).for_each(|(p, u)| *p *= 1.0 - u);
             let unsure = p.map(|p| f32::from(u8::from(p >= CARVE_BELOW)));
             (p, Some(unsure))
@@ -119,8 +135,13 @@ fn ramp(x: f32, from: f32, to: f32) -> f32 {
 
 /// The soft model's probability per pixel (the module's comment), before unsure plate pixels
 /// are set to 0.
-fn soft_probability(frame: &image::RgbImage, plate: &Plate, colour_difference: &ScalarRaster, tolerance: f32) -> ScalarRaster {
+fn soft_probability(frame: &image::RgbImage, plate: &Plate, colour_difference: &ScalarRaster, options: &HullOptions) -> ScalarRaster {
     let (w, h) = (colour_difference.width, colour_difference.height);
+    let tolerance = options.foreground_tolerance;
+    let unit = |image: &image::RgbImage, i: usize| {
+        let raw = image.as_raw();
+        [0, 1, 2].map(|c| f32::from(raw[3 * i + c]) / 255.0)
+    };
     let grey = |image: &image::RgbImage| {
         let data = image.pixels().map(|p| p.0.iter().map(|&v| f32::from(v)).sum::<f32>() / (3.0 * 255.0)).collect();
         ScalarRaster::from_vec(w, h, data).expect("an image's pixels fill its raster")
@@ -136,17 +157,39 @@ fn soft_probability(frame: &image::RgbImage, plate: &Plate, colour_difference: &
     let cues: Vec<f32> = (0..w * h)
         .map(|i| {
             let d = colour_difference.data[i];
-            let colour = if tolerance > SOFT_FROM { ramp(d, SOFT_FROM, tolerance) } else { f32::from(u8::from(d > tolerance)) };
+            let mut colour = if tolerance > SOFT_FROM { ramp(d, SOFT_FROM, tolerance) } else { f32::from(u8::from(d > tolerance)) };
             let var_f = (ff.data[i] - mean_f.data[i] * mean_f.data[i]).max(0.0);
             let var_p = (pp.data[i] - mean_p.data[i] * mean_p.data[i]).max(0.0);
             let covariance = fp.data[i] - mean_f.data[i] * mean_p.data[i];
             let correlation = covariance / ((var_f + noise) * (var_p + noise)).sqrt();
             let texture = ramp(var_f.max(var_p).sqrt(), TEXTURE_FROM, TEXTURE_FULL);
             let texture_cue = ramp(1.0 - correlation, 0.5, 1.0) * texture * ramp(d, TEXTURE_GATE, TEXTURE_GATE_FULL);
+            if options.shadows {
+                let plate_texture = ramp(var_p.sqrt(), TEXTURE_FROM, TEXTURE_FULL);
+                colour *= 1.0 - shadow_cue(unit(frame, i), unit(&plate.image, i), correlation) * plate_texture;
+            }
             colour.max(texture_cue)
         })
         .collect();
     box_filtered(&ScalarRaster::from_vec(w, h, cues).expect("one cue per pixel"), 1)
+}
+
+/// How surely a pixel of colour `frame` over a plate of colour `plate` (both in `[0, 1]`) is the
+/// plate in shadow, in `[0, 1]`, given the zero-mean normalized correlation of the two windows
+/// around it: darker by one gain in every channel ([`SHADOW_DARKEST`] to [`SHADOW_LIGHTEST`]),
+/// the same chromaticity ([`SHADOW_CHROMA`]) and the plate's texture kept ([`SHADOW_KEPT_FROM`]).
+/// The caller weighs it by how much texture the plate has: on a plain floor a shadow and a grey
+/// shirt look alike.
+pub fn shadow_cue(frame: [f32; 3], plate: [f32; 3], correlation: f32) -> f32 {
+    let (sum_f, sum_p) = (frame.iter().sum::<f32>(), plate.iter().sum::<f32>());
+    if sum_p < 0.15 || sum_f <= 0.0 {
+        return 0.0;
+    }
+    let gain = sum_f / sum_p;
+    let darker = ramp(gain, SHADOW_DARKEST, SHADOW_DARKEST + 0.1) * (1.0 - ramp(gain, SHADOW_LIGHTEST - 0.05, SHADOW_LIGHTEST));
+    let chroma = (0..3).map(|c| (frame[c] / sum_f - plate[c] / sum_p).abs()).fold(0.0, f32::max);
+    let same_chroma = 1.0 - ramp(chroma, SHADOW_CHROMA / 2.0, SHADOW_CHROMA);
+    darker * same_chroma * ramp(correlation, SHADOW_KEPT_FROM, SHADOW_KEPT_FULL)
 }
 
 /// The minimum of a 0/1 `mask` over a square window of side `2 radius + 1`.

@@ -11,6 +11,10 @@ use crate::error::{SfmError, SfmResult};
 pub struct HullOptions {
     /// How a camera's foreground is told from its plate ([`ForegroundModel`]).
     pub foreground_model: ForegroundModel,
+    /// With [`ForegroundModel::Soft`], a pixel darker than its plate by one gain in every channel,
+    /// where the plate has texture and the frame keeps it, is a shadow on the background: its
+    /// colour cue is lowered (`dense::hull`'s foreground module). Off by default.
+    pub shadows: bool,
     /// Mean absolute RGB difference (colours in `[0, 1]`) between frame and plate above which a
     /// pixel is foreground (with [`ForegroundModel::Soft`], where its colour cue is certain).
     pub foreground_tolerance: f32,
@@ -58,6 +62,7 @@ impl Default for HullOptions {
     fn default() -> Self {
         Self {
             foreground_model: ForegroundModel::default(),
+            shadows: false,
             foreground_tolerance: 0.15,
             min_plate_confidence: 0.5,
             open_px: 1,
