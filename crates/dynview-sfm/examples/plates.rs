@@ -6,7 +6,8 @@
 //! `cargo run --release -p dynview-sfm --example plates FRAMES_DIR OUT_PREFIX`, e.g. on a camera
 //! of `../shared/data/panoptic-basketball-arc/cams/cam11`.
 
-use std::path::PathBuf;
+#[path = "common/frames.rs"]
+mod frames;
 
 use anyhow::{Context, bail};
 use dynview_sfm::dense::plates::{PlateEstimator, PlateOptions};
@@ -15,17 +16,7 @@ use image::{GrayImage, RgbImage};
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let [dir, out] = args.as_slice() else { bail!("usage: plates FRAMES_DIR OUT_PREFIX") };
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("cannot list {dir}"))?
-        .filter_map(Result::ok)
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|e| e == "jpg" || e == "png"))
-        .collect();
-    paths.sort();
-    let frames: Vec<RgbImage> = paths
-        .iter()
-        .map(|p| image::open(p).map(|i| i.to_rgb8()).with_context(|| format!("cannot read {}", p.display())))
-        .collect::<anyhow::Result<_>>()?;
+    let frames: Vec<RgbImage> = frames::frame_paths(dir)?.iter().map(frames::read_frame).collect::<anyhow::Result<_>>()?;
     let Some(first) = frames.first() else { bail!("{dir}: no .jpg or .png frames") };
     let mut estimator = PlateEstimator::new(first.width(), first.height(), PlateOptions::default())?;
     for frame in &frames {

@@ -6,7 +6,8 @@
 //! `cargo run --release -p dynview-sfm --example shadows FRAMES_DIR OUT_PREFIX [STRIDE]`, e.g. on
 //! a camera of `../shared/data/panoptic-basketball-arc/cams/cam11`.
 
-use std::path::PathBuf;
+#[path = "common/frames.rs"]
+mod frames;
 
 use anyhow::{Context, bail};
 use dynview_sfm::dense::hull::{HullOptions, foreground};
@@ -20,14 +21,8 @@ fn main() -> anyhow::Result<()> {
         [dir, out, stride] => (dir, out, stride.parse().context("STRIDE must be a whole number")?),
         _ => bail!("usage: shadows FRAMES_DIR OUT_PREFIX [STRIDE]"),
     };
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("cannot list {dir}"))?
-        .filter_map(Result::ok)
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|e| e == "jpg" || e == "png"))
-        .collect();
-    paths.sort();
-    let read = |p: &PathBuf| image::open(p).map(|i| i.to_rgb8()).with_context(|| format!("cannot read {}", p.display()));
+    let paths = frames::frame_paths(dir)?;
+    let read = frames::read_frame;
     let Some(first) = paths.first() else { bail!("{dir}: no .jpg or .png frames") };
     let first = read(first)?;
     let mut estimator = PlateEstimator::new(first.width(), first.height(), PlateOptions::default())?;
@@ -35,7 +30,7 @@ fn main() -> anyhow::Result<()> {
         estimator.push(&read(path)?)?;
     }
     let plate = estimator.plate();
-    let plain = HullOptions::default();
+    let plain = HullOptions { shadows: false, ..HullOptions::default() };
     let shadows = HullOptions { shadows: true, ..HullOptions::default() };
     let share = |mask: &[f32]| mask.iter().filter(|&&v| v > 0.5).count() as f64 / mask.len() as f64;
     let (mut sum_plain, mut sum_shadows, mut count, mut changed) = (0.0, 0.0, 0, 0usize);

@@ -178,11 +178,12 @@ pub struct Args {
     /// 0.05, and a pixel is foreground from half way).
     #[arg(long, value_name = "DIFFERENCE", default_value_t = HullOptions::default().foreground_tolerance, conflicts_with = "no_hull")]
     foreground_tolerance: f32,
-    /// With `--foreground soft`, a pixel darker than its plate by one gain in every channel,
-    /// where the plate has texture and the frame keeps it, counts as a shadow on the background,
-    /// not as something in front of it (docs/results/moving.md).
+    /// No shadow cue: by default, with `--foreground soft`, a pixel darker than its plate by one
+    /// gain in every channel (to 35-95%), where the plate has texture and the frame keeps it,
+    /// counts as a shadow on the background, not as something in front of it
+    /// (docs/results/moving.md).
     #[arg(long, conflicts_with = "no_hull")]
-    foreground_shadows: bool,
+    no_foreground_shadows: bool,
     /// Keep the steps' own points that float in front of the static scene where two or more
     /// still cameras see their background plate (by default they are dropped: nothing stands
     /// where a camera looking through it sees the wall behind).
@@ -342,7 +343,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         hull.own_point_reach = args.hull_own_reach;
         hull.foreground_model = args.foreground;
         hull.foreground_tolerance = args.foreground_tolerance;
-        hull.shadows = args.foreground_shadows;
+        hull.shadows = !args.no_foreground_shadows;
     }
     if args.no_free_space {
         options.package.free_space = None;
