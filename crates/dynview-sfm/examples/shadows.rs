@@ -22,12 +22,11 @@ fn main() -> anyhow::Result<()> {
         _ => bail!("usage: shadows FRAMES_DIR OUT_PREFIX [STRIDE]"),
     };
     let paths = frames::frame_paths(dir)?;
-    let read = frames::read_frame;
     let Some(first) = paths.first() else { bail!("{dir}: no .jpg or .png frames") };
-    let first = read(first)?;
+    let first = frames::read_frame(first)?;
     let mut estimator = PlateEstimator::new(first.width(), first.height(), PlateOptions::default())?;
     for path in &paths {
-        estimator.push(&read(path)?)?;
+        estimator.push(&frames::read_frame(path)?)?;
     }
     let plate = estimator.plate();
     let plain = HullOptions { shadows: false, ..HullOptions::default() };
@@ -35,7 +34,7 @@ fn main() -> anyhow::Result<()> {
     let share = |mask: &[f32]| mask.iter().filter(|&&v| v > 0.5).count() as f64 / mask.len() as f64;
     let (mut sum_plain, mut sum_shadows, mut count, mut changed) = (0.0, 0.0, 0, 0usize);
     for (k, path) in paths.iter().enumerate().step_by(stride.max(1)) {
-        let frame = read(path)?;
+        let frame = frames::read_frame(path)?;
         let a = foreground(&frame, &plate, &plain)?;
         let b = foreground(&frame, &plate, &shadows)?;
         sum_plain += share(&a.mask.data);

@@ -93,14 +93,13 @@ pub fn foreground(frame: &image::RgbImage, plate: &Plate, options: &HullOptions)
             frame.height()
         )));
     }
-    let unit = |p: &image::Rgb<u8>| p.0.map(|v| f32::from(v) / 255.0);
     let mut unknown = ScalarRaster::filled(w, h, 0.0);
     let mut colour_difference = ScalarRaster::filled(w, h, 0.0);
-    for (i, (a, b)) in frame.pixels().zip(plate.image.pixels()).enumerate() {
+    for i in 0..w * h {
         if plate.confidence[i] < options.min_plate_confidence {
             unknown.data[i] = 1.0;
         } else {
-            colour_difference.data[i] = difference(unit(a), unit(b));
+            colour_difference.data[i] = difference(unit_at(frame, i), unit_at(&plate.image, i));
         }
     }
     // With the soft model, pixels too likely foreground to carve beyond the mask.
@@ -128,6 +127,12 @@ pub fn foreground(frame: &image::RgbImage, plate: &Plate, options: &HullOptions)
     Ok(Foreground { probability, mask, unknown, keeps, grown })
 }
 
+/// The colour of pixel `i` (row-major) of `image`, each channel in `[0, 1]`.
+fn unit_at(image: &image::RgbImage, i: usize) -> [f32; 3] {
+    let raw = &image.as_raw()[3 * i..3 * i + 3];
+    [0, 1, 2].map(|c| f32::from(raw[c]) / 255.0)
+}
+
 /// `(x - from) / (to - from)`, clamped to `[0, 1]`.
 fn ramp(x: f32, from: f32, to: f32) -> f32 {
     ((x - from) / (to - from)).clamp(0.0, 1.0)
@@ -138,10 +143,6 @@ fn ramp(x: f32, from: f32, to: f32) -> f32 {
 fn soft_probability(frame: &image::RgbImage, plate: &Plate, colour_difference: &ScalarRaster, options: &HullOptions) -> ScalarRaster {
     let (w, h) = (colour_difference.width, colour_difference.height);
     let tolerance = options.foreground_tolerance;
-    let unit = |image: &image::RgbImage, i: usize| {
-        let raw = image.as_raw();
-        [0, 1, 2].map(|c| f32::from(raw[3 * i + c]) / 255.0)
-    };
     let grey = |image: &image::RgbImage| {
         let data = image.pixels().map(|p| p.0.iter().map(|&v| f32::from(v)).sum::<f32>() / (3.0 * 255.0)).collect();
         ScalarRaster::from_vec(w, h, data).expect("an image's pixels fill its raster")
@@ -164,9 +165,9 @@ fn soft_probability(frame: &image::RgbImage, plate: &Plate, colour_difference: &
             let correlation = covariance / ((var_f + noise) * (var_p + noise)).sqrt();
             let texture = ramp(var_f.max(var_p).sqrt(), TEXTURE_FROM, TEXTURE_FULL);
             let texture_cue = ramp(1.0 - correlation, 0.5, 1.0) * texture * ramp(d, TEXTURE_GATE, TEXTURE_GATE_FULL);
-            if options.shadows {
+            if options.shadows && colour > 0.0 {
                 let plate_texture = ramp(var_p.sqrt(), TEXTURE_FROM, TEXTURE_FULL);
-                colour *= 1.0 - shadow_cue(unit(frame, i), unit(&plate.image, i), correlation) * plate_texture;
+                colour *= 1.0 - shadow_cue(unit_at(frame, i), unit_at(&plate.image, i), correlation) * plate_texture;
             }
             colour.max(texture_cue)
         })

@@ -254,15 +254,15 @@ fn flicker_and_compression_noise_are_not_foreground_to_the_soft_model() {
 }
 
 /// A textured floor (grey and a little colour varying over a few pixels) with the square of
-/// `striped_shirt` given by `inside(x, y, floor_colour)`.
-fn floor_with_square(inside: impl Fn(u32, u32, [u8; 3]) -> [u8; 3]) -> (Plate, RgbImage) {
+/// `striped_shirt` given by `inside(floor_colour)`.
+fn floor_with_square(inside: impl Fn([u8; 3]) -> [u8; 3]) -> (Plate, RgbImage) {
     let floor = |x: u32, y: u32| {
         let v = 0.55 + 0.25 * (0.9 * x as f32).sin() * (0.7 * y as f32).cos();
         [(200.0 * v) as u8, (190.0 * v) as u8, (150.0 * v) as u8]
     };
     let plate_image = RgbImage::from_fn(SIZE_PX.0, SIZE_PX.1, |x, y| image::Rgb(floor(x, y)));
     let frame = RgbImage::from_fn(SIZE_PX.0, SIZE_PX.1, |x, y| {
-        image::Rgb(if (60..100).contains(&x) && (40..80).contains(&y) { inside(x, y, floor(x, y)) } else { floor(x, y) })
+        image::Rgb(if (60..100).contains(&x) && (40..80).contains(&y) { inside(floor(x, y)) } else { floor(x, y) })
     });
     let plate = Plate { image: plate_image, confidence: vec![1.0; (SIZE_PX.0 * SIZE_PX.1) as usize], frames: 10, others: Vec::new() };
     (plate, frame)
@@ -274,16 +274,16 @@ fn a_shadow_on_a_textured_floor_is_background_with_the_shadow_cue_and_a_plain_sh
     let plain = HullOptions { shadows: false, ..HullOptions::default() };
     let shadows = HullOptions { shadows: true, ..HullOptions::default() };
     // The sun blocked: every channel at 45%, the floor's texture kept.
-    let (plate, shadow) = floor_with_square(|_, _, c| c.map(|v| (f32::from(v) * 0.45).round() as u8));
+    let (plate, shadow) = floor_with_square(|c| c.map(|v| (f32::from(v) * 0.45).round() as u8));
     assert_eq!(inside(&foreground(&shadow, &plate, &plain).expect("sizes match").mask), 1.0, "without the cue a shadow is foreground");
     let fg = foreground(&shadow, &plate, &shadows).expect("sizes match");
     assert_eq!(inside(&fg.mask), 0.0, "with it the shadow is the floor");
     assert_eq!(inside(&fg.keeps), 0.0, "and carves");
     // A plain shirt of the floor's mean colour darkened alike: the texture is gone.
-    let (plate, shirt) = floor_with_square(|_, _, _| [50, 47, 37]);
+    let (plate, shirt) = floor_with_square(|_| [50, 47, 37]);
     assert_eq!(inside(&foreground(&shirt, &plate, &shadows).expect("sizes match").mask), 1.0, "a plain shirt stays foreground");
     // Dark trousers that keep the floor's texture by chance are darker than any shadow.
-    let (plate, dark) = floor_with_square(|_, _, c| c.map(|v| (f32::from(v) * 0.2).round() as u8));
+    let (plate, dark) = floor_with_square(|c| c.map(|v| (f32::from(v) * 0.2).round() as u8));
     assert_eq!(inside(&foreground(&dark, &plate, &shadows).expect("sizes match").mask), 1.0, "darker than a shadow stays foreground");
 }
 
