@@ -12,6 +12,7 @@
 
 mod orbit;
 pub mod own_poses;
+pub mod register;
 mod report;
 pub mod rig;
 mod run;
@@ -30,12 +31,13 @@ use dynview_core::scene::ScenePackage;
 use dynview_core::view_ranking::rank_views;
 use dynview_core::{RgbRaster, ScalarRaster};
 
-use crate::align::{Similarity3, median};
+use crate::align::median;
 use crate::datasets::real_captures::RealCapture;
 use crate::eval::plane_view::plane_view;
 use crate::paths::workspace_root;
 use crate::runs::prep::{PrepRun, cloud_point_counts, prep_once, stage_seconds};
 use crate::runs::programs::dynview_binary;
+use register::HeldOutPose;
 use report::{header, markdown};
 use rig::Rig;
 pub use run::Options;
@@ -231,7 +233,7 @@ fn evaluate_capture(capture: RealCapture, options: &Options, root: &Path, held_o
         let (run, package) = prepared.without(capture, options, root, held_out, PosesFrom::Calibration)?;
         let steps = Steps::all(&prepared.reference, &package);
         let params = options.params.clone().unwrap_or_default();
-        let (result, strip) = evaluate_camera(held_out, &prepared.reference, &package, &run, &params, steps, &Similarity3::IDENTITY)?;
+        let (result, strip) = evaluate_camera(held_out, &prepared.reference, &package, &run, &params, steps, &HeldOutPose::CALIBRATED)?;
         write_strip(&options.out.join(strip_name(capture, held_out)), &[&strip[..]])?;
         results.push(result);
     }
@@ -290,8 +292,9 @@ impl Steps {
 /// Renders camera `held_out` of `reference` from `package` at the time steps of `steps` with
 /// each of [`METHODS`] and shows the nearest input as is; returns the scores and the middle
 /// frame's strip. The moving pixels of each frame are those that differ from the camera's
-/// temporal median over the steps scored ([`scores::moving_mask`]). `package_from_reference`
-/// maps the reference's world into the package's (the identity where both are calibrated).
+/// temporal median over the steps scored ([`scores::moving_mask`]). `pose` puts the
+/// reference's camera into the package's world ([`HeldOutPose::CALIBRATED`] where both are
+/// calibrated).
 fn evaluate_camera(
     held_out: &str,
     reference: &ScenePackage,
@@ -299,7 +302,7 @@ fn evaluate_camera(
     run: &PrepRun,
     defaults: &RenderParams,
     steps: Steps,
-    package_from_reference: &Similarity3,
+    pose: &HeldOutPose,
 ) -> anyhow::Result<(CameraResult, Strip)> {
     let k = reference
         .manifest()
@@ -331,7 +334,7 @@ fn evaluate_camera(
     for t in scored.clone() {
         let reference_camera = reference.camera(k, t + shift)?;
         let mut camera = reference_camera;
-        camera.camera_from_world = package_from_reference.transform_camera_from_world(&reference_camera.camera_from_world);
+        camera.camera_from_world = pose.camera_from_world(&reference_camera.camera_from_world);
         let truth = RgbRaster::from_rgb8(&truths[(t - scored.start) as usize]);
         let moving = moving_mask(&truth, &median_frame, MOVING_THRESHOLD, MOVING_DILATION_PX);
         moving_share += moving.data.iter().filter(|&&m| m > 0.0).count() as f64 / moving.data.len().max(1) as f64;
@@ -351,7 +354,7 @@ fn evaluate_camera(
             shown.push((out.color, out.depth));
         }
         for (errors, m) in depth_errors.iter_mut().zip([0, blend_index]) {
-            errors.extend(relative_depth_errors(&shown[m].1, &own, package_from_reference.scale));
+            errors.extend(relative_depth_errors(&shown[m].1, &own, pose.package_from_reference.scale));
         }
         // The inputs already hold every input camera, frame and the cloud of this step.
         let input_poses: Vec<_> = inputs.views.iter().map(|v| v.camera.camera_from_world).collect();

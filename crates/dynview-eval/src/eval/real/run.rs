@@ -48,8 +48,9 @@ pub struct Options {
     #[arg(long)]
     pub unsync: bool,
     /// Prepare the Panoptic arcs' cameras also without their calibration, from our own
-    /// structure from motion, and compare the held-out camera rendered from each package
-    /// (`own_poses.md`) instead of the leave-one-out tables.
+    /// structure from motion, and compare the held-out camera rendered from each package, its
+    /// pose as mapped and registered against the package (`own_poses.md`), instead of the
+    /// leave-one-out tables.
     #[arg(long, conflicts_with = "unsync")]
     pub own_poses: bool,
 }

@@ -14,9 +14,9 @@ use std::process::Command;
 use anyhow::{Context, bail};
 use serde::Deserialize;
 
+use super::register::HeldOutPose;
 use super::run::Options;
 use super::{Prepared, Steps, captures_and_work, evaluate_camera, held_out_cameras, open};
-use crate::align::Similarity3;
 use crate::datasets::real_captures::RealCapture;
 use crate::runs::prep::prep_once;
 
@@ -150,8 +150,8 @@ fn evaluate_one(capture: RealCapture, options: &Options, root: &Path, prepared: 
     let steps = package.time_step_count().min(sync_package.time_step_count());
     let params = options.params.clone().unwrap_or_default();
     let scored = Steps { package: 0..steps, reference_shift: first_frame as u32 };
-    let (unsync, _) = evaluate_camera(held_out, &prepared.reference, &package, &run, &params, scored.clone(), &Similarity3::IDENTITY)?;
-    let (sync, _) = evaluate_camera(held_out, &prepared.reference, &sync_package, &sync_run, &params, scored, &Similarity3::IDENTITY)?;
+    let (unsync, _) = evaluate_camera(held_out, &prepared.reference, &package, &run, &params, scored.clone(), &HeldOutPose::CALIBRATED)?;
+    let (sync, _) = evaluate_camera(held_out, &prepared.reference, &sync_package, &sync_run, &params, scored, &HeldOutPose::CALIBRATED)?;
     let figures = |r: &super::run::CameraResult| {
         let s = &r.scores[0];
         [s.psnr_db.corrected, s.static_psnr_db.corrected, s.moving_psnr_db.corrected]
