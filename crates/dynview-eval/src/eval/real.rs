@@ -289,6 +289,16 @@ impl Steps {
     }
 }
 
+/// The index of camera `name` in `package`.
+fn camera_index(package: &ScenePackage, name: &str) -> anyhow::Result<usize> {
+    package
+        .manifest()
+        .cameras
+        .iter()
+        .position(|c| c.name == name)
+        .with_context(|| format!("{}: no camera {name}", package.root().display()))
+}
+
 /// Renders camera `held_out` of `reference` from `package` at the time steps of `steps` with
 /// each of [`METHODS`] and shows the nearest input as is; returns the scores and the middle
 /// frame's strip. The moving pixels of each frame are those that differ from the camera's
@@ -304,12 +314,7 @@ fn evaluate_camera(
     steps: Steps,
     pose: &HeldOutPose,
 ) -> anyhow::Result<(CameraResult, Strip)> {
-    let k = reference
-        .manifest()
-        .cameras
-        .iter()
-        .position(|c| c.name == held_out)
-        .with_context(|| format!("{}: no camera {held_out}", reference.root().display()))?;
+    let k = camera_index(reference, held_out)?;
     let shift = steps.reference_shift;
     let scored = steps.package.clone();
     if scored.is_empty() || scored.end > package.time_step_count() || scored.end + shift > reference.time_step_count() {

@@ -23,8 +23,8 @@ use dynview_core::scene::ScenePackage;
 use dynview_core::{RgbRaster, Rigid3};
 use glam::DVec3;
 
-use super::Steps;
 use super::scores::color_corrected;
+use super::{Steps, camera_index};
 use crate::align::Similarity3;
 
 /// Time steps rendered for each trial pose.
@@ -108,12 +108,7 @@ pub(super) fn register_held_out(
     steps: &Steps,
     package_from_reference: Similarity3,
 ) -> anyhow::Result<HeldOutPose> {
-    let k = reference
-        .manifest()
-        .cameras
-        .iter()
-        .position(|c| c.name == held_out)
-        .with_context(|| format!("{}: no camera {held_out}", reference.root().display()))?;
+    let k = camera_index(reference, held_out)?;
     let shift = steps.reference_shift;
     let mut samples = Vec::new();
     for t in sample_steps(steps.package.clone()) {
