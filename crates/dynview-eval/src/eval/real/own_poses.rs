@@ -28,7 +28,7 @@ use dynview_core::scene::ScenePackage;
 
 use super::register::{HeldOutPose, Registration, register_held_out};
 use super::run::{CameraResult, Options};
-use super::{PosesFrom, Prepared, Steps, captures_and_work, evaluate_camera, held_out_cameras};
+use super::{PosesFrom, Prepared, Steps, camera_index, captures_and_work, evaluate_camera, held_out_cameras};
 use crate::align::Similarity3;
 use crate::datasets::real_captures::RealCapture;
 use crate::runs::prep::PrepRun;
@@ -137,7 +137,9 @@ fn renders(
     let steps = || Steps::all(reference, package);
     let mapped_pose = HeldOutPose { package_from_reference, registration: Registration::NONE };
     let (mapped, _) = evaluate_camera(held_out, reference, package, run, params, steps(), &mapped_pose)?;
-    let registered_pose = register_held_out(held_out, reference, package, params, &steps(), package_from_reference)?;
+    let k = camera_index(reference, held_out)?;
+    let Steps { package: scored, reference_shift } = steps();
+    let registered_pose = register_held_out(reference, k, package, params, scored, reference_shift, package_from_reference)?;
     let registration = registered_pose.registration;
     println!(
         "{held_out} registered against {}: turned {:.3} degrees, shifted {:.4} (package units); colour-corrected PSNR of the samples {:.2} -> {:.2} dB, {} poses rendered",

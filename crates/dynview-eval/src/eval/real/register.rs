@@ -24,7 +24,6 @@ use dynview_core::{RgbRaster, Rigid3};
 use glam::DVec3;
 
 use super::scores::color_corrected;
-use super::{Steps, camera_index};
 use crate::align::Similarity3;
 
 /// Time steps rendered for each trial pose.
@@ -98,22 +97,22 @@ impl HeldOutPose {
     }
 }
 
-/// Registers `held_out` (a camera of `reference`) against `package`, starting from its
-/// calibrated pose mapped through `package_from_reference`, over the time steps of `steps`.
+/// Registers camera `k` of `reference` against `package`, starting from its calibrated pose
+/// mapped through `package_from_reference`, over the package's time steps `scored` (the
+/// reference's step of the same moment is `reference_shift` later).
 pub(super) fn register_held_out(
-    held_out: &str,
     reference: &ScenePackage,
+    k: usize,
     package: &ScenePackage,
     params: &RenderParams,
-    steps: &Steps,
+    scored: std::ops::Range<u32>,
+    reference_shift: u32,
     package_from_reference: Similarity3,
 ) -> anyhow::Result<HeldOutPose> {
-    let k = camera_index(reference, held_out)?;
-    let shift = steps.reference_shift;
     let mut samples = Vec::new();
-    for t in sample_steps(steps.package.clone()) {
-        let truth = RgbRaster::from_rgb8(&reference.read_frame(k, t + shift)?.to_rgb8());
-        let mut camera = reference.camera(k, t + shift)?;
+    for t in sample_steps(scored) {
+        let truth = RgbRaster::from_rgb8(&reference.read_frame(k, t + reference_shift)?.to_rgb8());
+        let mut camera = reference.camera(k, t + reference_shift)?;
         camera.camera_from_world = package_from_reference.transform_camera_from_world(&camera.camera_from_world);
         samples.push(Sample { camera, inputs: inputs_at(package, t, params)?, truth });
     }
