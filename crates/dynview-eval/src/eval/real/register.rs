@@ -37,7 +37,7 @@ const HALVINGS: u32 = 4;
 /// Most moves along one direction in a row before the next direction is tried.
 const MOST_MOVES_IN_A_ROW: u32 = 6;
 /// The search sweeps no more once it has rendered this many poses (each at every sample; a
-/// sweep renders at most 72 more); a search of the Panoptic arcs renders 70-160.
+/// sweep renders at most 72 more); a search of the Panoptic arcs renders 73-130.
 const MOST_TRIALS: usize = 400;
 
 /// One time step the search renders: the camera as mapped and the real frame.
