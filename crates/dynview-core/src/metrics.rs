@@ -12,6 +12,13 @@ pub fn psnr(a: &RgbRaster, b: &RgbRaster) -> f64 {
 
 /// PSNR over the pixels where `mask > 0` (all pixels without a mask).
 pub fn psnr_masked(a: &RgbRaster, b: &RgbRaster, mask: Option<&ScalarRaster>) -> f64 {
+    let mse = mse_masked(a, b, mask);
+    if mse == 0.0 { f64::INFINITY } else { -10.0 * mse.log10() }
+}
+
+/// Mean squared error over the channels of the pixels where `mask > 0` (all pixels without a
+/// mask; 0 where none counts).
+pub fn mse_masked(a: &RgbRaster, b: &RgbRaster, mask: Option<&ScalarRaster>) -> f64 {
     assert_eq!((a.width, a.height), (b.width, b.height), "psnr of images of different sizes");
     let mut sum = 0.0f64;
     let mut count = 0usize;
@@ -24,8 +31,7 @@ pub fn psnr_masked(a: &RgbRaster, b: &RgbRaster, mask: Option<&ScalarRaster>) ->
         }
         count += 3;
     }
-    let mse = sum / count.max(1) as f64;
-    if mse == 0.0 { f64::INFINITY } else { -10.0 * mse.log10() }
+    sum / count.max(1) as f64
 }
 
 const SSIM_C1: f64 = 0.01 * 0.01;
@@ -178,6 +184,14 @@ mod tests {
         let mut mask = ScalarRaster::filled(4, 4, 0.0);
         mask.data[0] = 1.0;
         assert!((psnr_masked(&a, &b, Some(&mask)) - 20.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn the_error_is_the_mean_over_pixels_and_channels() {
+        let truth = RgbRaster::filled(2, 1, [0.5; 3]);
+        let shown = RgbRaster::from_vec(2, 1, vec![[0.5; 3], [1.0, 0.5, 0.5]]).unwrap();
+        assert!((mse_masked(&shown, &truth, None) - 0.25 / 6.0).abs() < 1e-9);
+        assert_eq!(mse_masked(&truth, &truth, None), 0.0);
     }
 
     #[test]

@@ -31,8 +31,7 @@ use super::run::{CameraResult, Options};
 use super::{PosesFrom, Prepared, Steps, camera_index, captures_and_work, evaluate_camera, held_out_cameras};
 use crate::align::Similarity3;
 use crate::datasets::real_captures::RealCapture;
-use crate::runs::prep::PrepRun;
-use crate::runs::prep::align_packages;
+use crate::runs::prep::{PrepRun, align_packages};
 
 /// How our SfM placed the input cameras, against the calibration.
 pub(super) struct Placement {
@@ -164,7 +163,7 @@ input cameras and time steps after that alignment (centre errors in % of the dia
 is colour-corrected (see `real.md`), whole frame, static and moving pixels.\n\n\
 Registered: the held-out camera's pose (as mapped) corrected against each package before it is scored, the package held \
 fixed, as methods that find their own poses are evaluated (six degrees of freedom, the full method's colour-corrected error \
-over the static pixels of three time steps, a pattern search; `register.rs`); the correction's rotation is given in degrees, \
+over the whole frame at three time steps, a pattern search; `register.rs`); the correction's rotation is given in degrees, \
 calibrated / own.\n\n";
 
 fn cell(result: &CameraResult) -> String {

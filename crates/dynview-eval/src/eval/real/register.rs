@@ -17,6 +17,7 @@
 
 use anyhow::Context;
 use dynview_core::Camera;
+use dynview_core::metrics::mse_masked;
 use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer, TimeStepInputs};
 use dynview_core::rotation::matrix_from_angle_axis;
 use dynview_core::scene::ScenePackage;
@@ -145,14 +146,12 @@ fn register(samples: &[Sample], defaults: &RenderParams) -> anyhow::Result<Regis
             let mut camera = s.camera;
             camera.camera_from_world = correction.compose(&s.camera.camera_from_world);
             let out = StreamingRenderer::new().render(&params, &camera, &s.inputs, &mut RenderHooks::default())?;
-            sum += mse(&color_corrected(&out.color, &s.truth), &s.truth);
+            sum += mse_masked(&color_corrected(&out.color, &s.truth), &s.truth, None);
         }
         Ok(sum / samples.len() as f64)
     };
-    let steps0 = [FIRST_ROTATION_STEP_RAD, FIRST_ROTATION_STEP_RAD, FIRST_ROTATION_STEP_RAD]
-        .into_iter()
-        .chain([FIRST_SHIFT_SHARE * distance; 3])
-        .collect::<Vec<_>>();
+    let shift_step = FIRST_SHIFT_SHARE * distance;
+    let steps0 = [FIRST_ROTATION_STEP_RAD, FIRST_ROTATION_STEP_RAD, FIRST_ROTATION_STEP_RAD, shift_step, shift_step, shift_step];
     let mut x = [0.0f64; 6];
     let before = cost(&x)?;
     let mut best = before;
@@ -214,12 +213,6 @@ fn scene_distance(sample: &Sample) -> f64 {
     *depths.select_nth_unstable_by(middle, f64::total_cmp).1
 }
 
-/// Mean squared error over every pixel and channel (0 for an empty image).
-fn mse(shown: &RgbRaster, truth: &RgbRaster) -> f64 {
-    let sum: f64 = shown.data.iter().zip(&truth.data).map(|(s, t)| (0..3).map(|c| f64::from(s[c] - t[c]).powi(2)).sum::<f64>()).sum();
-    sum / (3 * shown.data.len()).max(1) as f64
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -239,14 +232,6 @@ mod tests {
         let moved = registration.apply(&pose).transform_point(p);
         assert!((moved - (pose.transform_point(p) + DVec3::new(0.5, 0.0, 0.0))).length() < 1e-12);
         assert!(registration.rotation_deg().abs() < 1e-12);
-    }
-
-    #[test]
-    fn the_error_is_the_mean_over_pixels_and_channels() {
-        let truth = RgbRaster::filled(2, 1, [0.5; 3]);
-        let shown = RgbRaster::from_vec(2, 1, vec![[0.5; 3], [1.0, 0.5, 0.5]]).unwrap();
-        assert!((mse(&shown, &truth) - 0.25 / 6.0).abs() < 1e-9);
-        assert_eq!(mse(&truth, &truth), 0.0);
     }
 
     /// A floor at y = -1 and a wall at z = -3, textured finely enough that a pixel's shift shows.
