@@ -144,6 +144,11 @@ pub struct Args {
     /// plate repair to take it (0 to 1; 0 repairs nothing, as `--no-plate-repair`).
     #[arg(long, default_value_t = PlateCloudOptions::default().repair_min_share, conflicts_with = "no_plate_repair")]
     plate_repair_min_share: f32,
+    /// Drop a point of the static cloud grown from the plates that as many cameras contradict
+    /// as see it: it stands in front of everything else they see there, and their plates show
+    /// another colour (stereo matched a pattern at the wrong depth).
+    #[arg(long, conflicts_with = "no_plates")]
+    plate_contradiction: bool,
     /// No points from the visual hull of what moves (by default, with plates of four cameras
     /// or more, rays through each camera's foreground give moving things without stereo points
     /// a depth where they enter the space every other camera's foreground allows).
@@ -328,6 +333,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     if let Some(plates) = options.package.plates.as_mut() {
         plates.repair_min_share = if args.no_plate_repair { 0.0 } else { args.plate_repair_min_share };
+        plates.drop_contradicted = args.plate_contradiction;
     }
     if !(0.0..=1.0).contains(&args.adjust_still_principal_points) {
         bail!("--adjust-still-principal-points must be between 0 and 1, found {}", args.adjust_still_principal_points);

@@ -11,6 +11,10 @@
 //! 3. A camera *sees* a dense point when the point lands inside its plate where the plate is
 //!    confident ([`PlateCloudOptions::min_confidence`]) and shows the point's color
 //!    ([`PlateCloudOptions::seen_tolerance`]); a point seen by fewer than two cameras is dropped.
+//!    With [`PlateCloudOptions::drop_contradicted`], so is a point that as many cameras
+//!    contradict: it lands inside their plate where it is confident, in front of every other
+//!    dense point there, and the plate shows another colour (stereo matched a pattern at the
+//!    wrong depth, and the cameras that look through the point see the wall behind it).
 //! 4. The point is lent to step `t` where most of the cameras that see it, and at least two,
 //!    show their plate's color there in the step's frame ([`PlateCloudOptions::color_tolerance`]):
 //!    where something moved in front of it, the step's own points stand instead.
@@ -24,6 +28,7 @@
 
 use dynview_camera::Radial;
 use dynview_core::Camera;
+use dynview_core::raster::ScalarRaster;
 use dynview_core::scene::PointCloud;
 use glam::DVec3;
 use nalgebra::Vector3;
@@ -33,6 +38,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::densify::{DensifyOptions, densify};
+use super::free_space::static_depth_map;
 use super::plate_repair::repair_plate;
 use super::plates::{Plate, PlateEstimator, PlateOptions};
 use super::static_cloud::{StaticCloud, StepFrames, agreeing_cameras, difference, sample};
@@ -63,6 +69,9 @@ pub struct PlateCloudOptions {
     /// it to replace the plate's where the points other cameras see show that colour (0 turns
     /// the repair off; [`super::plate_repair`]).
     pub repair_min_share: f32,
+    /// Drop a dense point that at least as many cameras contradict as see it (the module's
+    /// step 3).
+    pub drop_contradicted: bool,
 }
 
 impl Default for PlateCloudOptions {
@@ -81,6 +90,7 @@ impl Default for PlateCloudOptions {
             color_tolerance: 0.06,
             voxel_px: 2.0,
             repair_min_share: 0.15,
+            drop_contradicted: false,
         }
     }
 }
@@ -229,13 +239,16 @@ fn seen_points(
             })
             .collect()
     };
+    let contradicting = options.drop_contradicted.then(|| Contradiction::new(cameras, plates, positions, colors));
     let per_point: Vec<SeenPoint> = positions
         .par_iter()
         .zip(colors)
         .filter_map(|(position, &color)| {
             let p = DVec3::new(position.x, position.y, position.z);
             let shown = seen_in(p, color);
-            (shown.iter().filter(|s| s.is_some()).count() >= 2).then_some((p, color, shown))
+            let seen = shown.iter().filter(|s| s.is_some()).count();
+            let contradicted = contradicting.as_ref().map_or(0, |c| c.cameras(p, color, options));
+            (seen >= 2 && contradicted < seen).then_some((p, color, shown))
         })
         .collect();
     let mut kept = Kept { points: PointCloud::default(), shown: Vec::new(), seen: Vec::new() };
@@ -247,6 +260,58 @@ fn seen_points(
     }
     kept
 }
+
+/// Per camera with a plate, the depth of the nearest dense point at each pixel: what a camera
+/// contradicts a point with ([`PlateCloudOptions::drop_contradicted`]).
+struct Contradiction<'a> {
+    cameras: &'a [Vec<Camera>],
+    plates: &'a [Option<Plate>],
+    nearest_depth_m: Vec<Option<ScalarRaster>>,
+}
+
+/// A point counts as in front of every other dense point where its depth is within this share
+/// of the nearest one's.
+const IN_FRONT_SHARE: f64 = 0.05;
+
+impl<'a> Contradiction<'a> {
+    fn new(cameras: &'a [Vec<Camera>], plates: &'a [Option<Plate>], positions: &[Vector3<f64>], colors: &[[u8; 3]]) -> Self {
+        let cloud = PointCloud {
+            positions_world: positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(),
+            colors: colors.to_vec(),
+        };
+        let nearest_depth_m = (0..cameras.len())
+            .map(|c| {
+                let camera = cameras[c].first().filter(|_| plates.get(c).is_some_and(Option::is_some))?;
+                Some(static_depth_map(camera, &cloud, CONTRADICTION_FOOTPRINT_PX))
+            })
+            .collect();
+        Self { cameras, plates, nearest_depth_m }
+    }
+
+    /// How many cameras contradict a point at `p` of colour `color`: it lands inside their
+    /// plate where the plate is confident, no other dense point stands in front of it there, and
+    /// the plate shows another colour.
+    fn cameras(&self, p: DVec3, color: [u8; 3], options: &PlateCloudOptions) -> usize {
+        let color = color.map(|v| f32::from(v) / 255.0);
+        (0..self.cameras.len())
+            .filter(|&c| {
+                let (Some(plate), Some(Some(nearest))) = (self.plates.get(c).and_then(Option::as_ref), self.nearest_depth_m.get(c)) else {
+                    return false;
+                };
+                let Some((pixel, depth_m)) = self.cameras[c].first().and_then(|camera| camera.project_world(p)) else { return false };
+                let (Some(index), Some(shown)) = (nearest_index(&plate.image, pixel.x, pixel.y), sample(&plate.image, pixel.x, pixel.y))
+                else {
+                    return false;
+                };
+                let in_front = depth_m <= f64::from(nearest.data[index]) * (1.0 + IN_FRONT_SHARE);
+                plate.confidence[index] >= options.min_confidence && in_front && difference(shown, color) > options.seen_tolerance
+            })
+            .count()
+    }
+}
+
+/// Radius (px) over which each dense point covers a camera's nearest-depth map.
+const CONTRADICTION_FOOTPRINT_PX: usize = 2;
 
 fn plate_of(plates: &[Option<Plate>], c: usize) -> &Plate {
     plates[c].as_ref().expect("cameras with a plate only")
@@ -361,6 +426,52 @@ mod tests {
                 assert_eq!(lent, behind.len(), "step {t}: every point is lent");
             }
         }
+    }
+
+    #[test]
+    fn a_point_that_more_cameras_contradict_than_see_is_dropped_with_the_contradiction_test() {
+        // A wall with a plain red band: a point half way to it, painted red, lands on the band in
+        // the two cameras at x = -0.4 and 0 (so both "see" it) and on the textured wall in the
+        // three others, which look through it at another colour.
+        const BAND: image::Rgb<u8> = image::Rgb([230, 20, 20]);
+        let color_at = |p: DVec3| if (-0.05..0.45).contains(&p.x) { BAND } else { wall_color(p) };
+        let cameras: Vec<Vec<Camera>> = [-0.8, -0.4, 0.0, 0.4, 0.8].into_iter().map(|x| vec![camera(x); 2]).collect();
+        let frames: Vec<StepFrames> = (0..2)
+            .map(|_| {
+                cameras
+                    .iter()
+                    .map(|c| {
+                        image::RgbImage::from_fn(96, 72, |u, v| {
+                            color_at(c[0].unproject_world(DVec2::new(f64::from(u), f64::from(v)), WALL_Z))
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        let plates = estimate_plates(&cameras, |t| Ok(frames[t].clone()), &PlateOptions::default()).expect("in memory");
+        let floater = Vector3::new(0.0, 0.0, WALL_Z / 2.0);
+        let mut positions = vec![floater];
+        let mut colors = vec![BAND.0];
+        for i in 0..200 {
+            let (x, y) = (-0.6 + 1.2 * f64::from(i % 20) / 19.0, -0.4 + 0.8 * f64::from(i / 20) / 9.0);
+            positions.push(Vector3::new(x, y, WALL_Z));
+            colors.push(color_at(DVec3::new(x, y, WALL_Z)).0);
+        }
+        let on_wall = |kept: &Kept| kept.points.positions_world.iter().filter(|p| f64::from(p[2]) == WALL_Z).count();
+        let floats = |kept: &Kept| kept.points.positions_world.iter().any(|p| f64::from(p[2]) < WALL_Z);
+        let without = seen_points(&cameras, &plates, &positions, &colors, &PlateCloudOptions::default());
+        assert!(floats(&without), "seen by two cameras, the point is kept without the test");
+        let options = PlateCloudOptions { drop_contradicted: true, ..PlateCloudOptions::default() };
+        let with = seen_points(&cameras, &plates, &positions, &colors, &options);
+        assert!(!floats(&with), "three cameras contradict the point that two see");
+        // Of the wall, only points within a pixel of the band's edges go (their plates mix the
+        // two colours there, so cameras disagree on them).
+        let pixel_m = WALL_Z / 80.0;
+        for p in without.points.positions_world.iter().filter(|p| !with.points.positions_world.contains(p) && f64::from(p[2]) == WALL_Z) {
+            let x = f64::from(p[0]);
+            assert!((x + 0.05).abs() < pixel_m || (x - 0.45).abs() < pixel_m, "a wall point away from the band's edges dropped: {p:?}");
+        }
+        assert!(on_wall(&with) >= 190, "{} of 200 wall points kept", on_wall(&with));
     }
 
     #[test]
