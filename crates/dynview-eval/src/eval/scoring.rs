@@ -53,9 +53,9 @@ pub struct Options {
     /// (`target/eval/<layout>-plain-movers/`).
     #[arg(long)]
     pub plain_movers: bool,
-    /// An extra argument for the pipeline's `dynview prep` runs on our own poses (repeatable;
-    /// e.g. `--prep-arg=--centred-principal-point`). Those runs then work in folders of their
-    /// own, named after the arguments.
+    /// An extra argument for the pipeline's `dynview prep` runs on our own poses, and with
+    /// `--unsync` for every run (repeatable; e.g. `--prep-arg=--centred-principal-point`). Those
+    /// runs then work in folders of their own, named after the arguments.
     #[arg(long = "prep-arg", allow_hyphen_values = true)]
     pub prep_args: Vec<String>,
     /// Instead of the tables: the event filmed by unsynchronized phones, aligned by prep from

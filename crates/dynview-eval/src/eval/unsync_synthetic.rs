@@ -20,7 +20,7 @@ use dynview_synth::{SYNTH_MARKER, SynthConfig, SynthReport};
 use serde::Deserialize;
 
 use crate::eval::scoring::{Options, VIDEOS_DIR, load_sequence, render_sequence};
-use crate::runs::prep::prep_once;
+use crate::runs::prep::{prep_args_suffix, prep_once};
 use crate::runs::programs::dynview_binary;
 
 #[derive(Deserialize)]
@@ -84,8 +84,11 @@ pub fn run(options: &Options) -> anyhow::Result<()> {
         let mean = out.iter().zip(&moving.1).map(|((c, _), truth)| psnr(c, truth)).sum::<f64>() / steps.max(1) as f64;
         Ok((mean, steps))
     };
-    let control_args = vec!["--poses".to_string(), event.join("colmap").display().to_string()];
-    let control = prep_once(&dynview, &event.join(VIDEOS_DIR), &root.join("prep-true-poses"), &control_args, options.fresh)?;
+    // `--prep-arg`s go to every run, each then in a folder of its own.
+    let suffix = prep_args_suffix(&options.prep_args);
+    let control_args = [vec!["--poses".to_string(), event.join("colmap").display().to_string()], options.prep_args.clone()].concat();
+    let control =
+        prep_once(&dynview, &event.join(VIDEOS_DIR), &root.join(format!("prep-true-poses{suffix}")), &control_args, options.fresh)?;
     let (control_psnr, control_steps) = score(&ScenePackage::open(control.scene_dir())?)?;
     let mut rows =
         vec![Row { method: "the rig, synchronized (no phones)".into(), cameras: Vec::new(), psnr_db: control_psnr, steps: control_steps }];
@@ -100,6 +103,7 @@ pub fn run(options: &Options) -> anyhow::Result<()> {
         let mut args: Vec<String> =
             ["--poses", &colmap, "--fps", &config.fps.to_string(), "--start-at", &start].iter().map(|s| s.to_string()).collect();
         args.extend(sync);
+        args.extend(options.prep_args.iter().cloned());
         args
     };
     // The control: the same phones (a portrait one sees another part of the scene), started on
@@ -108,7 +112,13 @@ pub fn run(options: &Options) -> anyhow::Result<()> {
     let in_sync: SynthReport = serde_json::from_str(&text).context("synth.json")?;
     let in_sync = in_sync.time_alignment.context("the synchronized phones have no time_alignment")?;
     let args = phones_args(&synchronized_phones, &in_sync, offsets(&in_sync));
-    let run = prep_once(&dynview, &synchronized_phones.join(VIDEOS_DIR), &root.join("prep-phones-synchronized"), &args, options.fresh)?;
+    let run = prep_once(
+        &dynview,
+        &synchronized_phones.join(VIDEOS_DIR),
+        &root.join(format!("prep-phones-synchronized{suffix}")),
+        &args,
+        options.fresh,
+    )?;
     let (psnr_db, steps) = score(&ScenePackage::open(run.scene_dir())?)?;
     rows.push(Row { method: "the same phones, synchronized (control)".into(), cameras: Vec::new(), psnr_db, steps });
     // The true clocks given by hand first: what the phones' own timing costs, alignment aside.
@@ -121,7 +131,8 @@ pub fn run(options: &Options) -> anyhow::Result<()> {
         ("audio", vec!["--sync".into(), "audio".into()]),
     ] {
         let args = phones_args(&unsync_event, &truth, sync);
-        let run = prep_once(&dynview, &unsync_event.join(VIDEOS_DIR), &root.join(format!("prep-unsync-{label}")), &args, options.fresh)?;
+        let run =
+            prep_once(&dynview, &unsync_event.join(VIDEOS_DIR), &root.join(format!("prep-unsync-{label}{suffix}")), &args, options.fresh)?;
         let report: Report = serde_json::from_str(&fs::read_to_string(run.out.join("report.json"))?).context("report.json")?;
         let (psnr_db, steps) = score(&ScenePackage::open(run.scene_dir())?)?;
         let method = match label {
