@@ -86,9 +86,9 @@ pub fn run(options: &Options) -> anyhow::Result<()> {
     };
     // `--prep-arg`s go to every run, each then in a folder of its own.
     let suffix = prep_args_suffix(&options.prep_args);
+    let folder = |name: &str| root.join(format!("{name}{suffix}"));
     let control_args = [vec!["--poses".to_string(), event.join("colmap").display().to_string()], options.prep_args.clone()].concat();
-    let control =
-        prep_once(&dynview, &event.join(VIDEOS_DIR), &root.join(format!("prep-true-poses{suffix}")), &control_args, options.fresh)?;
+    let control = prep_once(&dynview, &event.join(VIDEOS_DIR), &folder("prep-true-poses"), &control_args, options.fresh)?;
     let (control_psnr, control_steps) = score(&ScenePackage::open(control.scene_dir())?)?;
     let mut rows =
         vec![Row { method: "the rig, synchronized (no phones)".into(), cameras: Vec::new(), psnr_db: control_psnr, steps: control_steps }];
@@ -112,13 +112,7 @@ pub fn run(options: &Options) -> anyhow::Result<()> {
     let in_sync: SynthReport = serde_json::from_str(&text).context("synth.json")?;
     let in_sync = in_sync.time_alignment.context("the synchronized phones have no time_alignment")?;
     let args = phones_args(&synchronized_phones, &in_sync, offsets(&in_sync));
-    let run = prep_once(
-        &dynview,
-        &synchronized_phones.join(VIDEOS_DIR),
-        &root.join(format!("prep-phones-synchronized{suffix}")),
-        &args,
-        options.fresh,
-    )?;
+    let run = prep_once(&dynview, &synchronized_phones.join(VIDEOS_DIR), &folder("prep-phones-synchronized"), &args, options.fresh)?;
     let (psnr_db, steps) = score(&ScenePackage::open(run.scene_dir())?)?;
     rows.push(Row { method: "the same phones, synchronized (control)".into(), cameras: Vec::new(), psnr_db, steps });
     // The true clocks given by hand first: what the phones' own timing costs, alignment aside.
@@ -131,8 +125,7 @@ pub fn run(options: &Options) -> anyhow::Result<()> {
         ("audio", vec!["--sync".into(), "audio".into()]),
     ] {
         let args = phones_args(&unsync_event, &truth, sync);
-        let run =
-            prep_once(&dynview, &unsync_event.join(VIDEOS_DIR), &root.join(format!("prep-unsync-{label}{suffix}")), &args, options.fresh)?;
+        let run = prep_once(&dynview, &unsync_event.join(VIDEOS_DIR), &folder(&format!("prep-unsync-{label}")), &args, options.fresh)?;
         let report: Report = serde_json::from_str(&fs::read_to_string(run.out.join("report.json"))?).context("report.json")?;
         let (psnr_db, steps) = score(&ScenePackage::open(run.scene_dir())?)?;
         let method = match label {

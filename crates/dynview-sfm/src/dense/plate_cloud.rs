@@ -219,7 +219,9 @@ struct Kept {
 type SeenPoint = (DVec3, [u8; 3], Vec<Option<[f32; 3]>>);
 
 /// A camera *sees* a point where it lands inside its plate, the plate is confident and shows
-/// the point's colour; the points seen by fewer than two cameras are dropped.
+/// the point's colour; the points seen by fewer than two cameras are dropped, and with
+/// [`PlateCloudOptions::drop_contradicted`] those that as many cameras contradict (the plate is
+/// confident there and shows another colour, and no other dense point stands in front).
 fn seen_points(
     cameras: &[Vec<Camera>],
     plates: &[Option<Plate>],
@@ -227,27 +229,39 @@ fn seen_points(
     colors: &[[u8; 3]],
     options: &PlateCloudOptions,
 ) -> Kept {
-    let seen_in = |p: DVec3, color: [u8; 3]| -> Vec<Option<[f32; 3]>> {
+    let nearest_depth_m = options.drop_contradicted.then(|| nearest_depth_maps(cameras, plates, positions, colors));
+    // Per camera the plate's colour where it sees the point, and how many contradict it.
+    let look = |p: DVec3, color: [u8; 3]| -> (Vec<Option<[f32; 3]>>, usize) {
         let color = color.map(|v| f32::from(v) / 255.0);
-        (0..cameras.len())
+        let mut contradicted = 0;
+        let shown = (0..cameras.len())
             .map(|c| {
                 let plate = plates.get(c)?.as_ref()?;
-                let (pixel, _) = cameras[c].first()?.project_world(p)?;
+                let (pixel, depth_m) = cameras[c].first()?.project_world(p)?;
                 let index = nearest_index(&plate.image, pixel.x, pixel.y)?;
                 let shown = sample(&plate.image, pixel.x, pixel.y)?;
-                (plate.confidence[index] >= options.min_confidence && difference(shown, color) <= options.seen_tolerance).then_some(shown)
+                if plate.confidence[index] < options.min_confidence {
+                    return None;
+                }
+                if difference(shown, color) <= options.seen_tolerance {
+                    return Some(shown);
+                }
+                let nearest = nearest_depth_m.as_ref().and_then(|maps| maps[c].as_ref());
+                if nearest.is_some_and(|nearest| depth_m <= f64::from(nearest.data[index]) * (1.0 + IN_FRONT_SHARE)) {
+                    contradicted += 1;
+                }
+                None
             })
-            .collect()
+            .collect();
+        (shown, contradicted)
     };
-    let contradicting = options.drop_contradicted.then(|| Contradiction::new(cameras, plates, positions, colors));
     let per_point: Vec<SeenPoint> = positions
         .par_iter()
         .zip(colors)
         .filter_map(|(position, &color)| {
             let p = DVec3::new(position.x, position.y, position.z);
-            let shown = seen_in(p, color);
+            let (shown, contradicted) = look(p, color);
             let seen = shown.iter().filter(|s| s.is_some()).count();
-            let contradicted = contradicting.as_ref().map_or(0, |c| c.cameras(p, color, options));
             (seen >= 2 && contradicted < seen).then_some((p, color, shown))
         })
         .collect();
@@ -261,57 +275,30 @@ fn seen_points(
     kept
 }
 
-/// Per camera with a plate, the depth of the nearest dense point at each pixel: what a camera
-/// contradicts a point with ([`PlateCloudOptions::drop_contradicted`]).
-struct Contradiction<'a> {
-    cameras: &'a [Vec<Camera>],
-    plates: &'a [Option<Plate>],
-    nearest_depth_m: Vec<Option<ScalarRaster>>,
-}
-
 /// A point counts as in front of every other dense point where its depth is within this share
 /// of the nearest one's.
 const IN_FRONT_SHARE: f64 = 0.05;
 
-impl<'a> Contradiction<'a> {
-    fn new(cameras: &'a [Vec<Camera>], plates: &'a [Option<Plate>], positions: &[Vector3<f64>], colors: &[[u8; 3]]) -> Self {
-        let cloud = PointCloud {
-            positions_world: positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(),
-            colors: colors.to_vec(),
-        };
-        let nearest_depth_m = (0..cameras.len())
-            .map(|c| {
-                let camera = cameras[c].first().filter(|_| plates.get(c).is_some_and(Option::is_some))?;
-                Some(static_depth_map(camera, &cloud, CONTRADICTION_FOOTPRINT_PX))
-            })
-            .collect();
-        Self { cameras, plates, nearest_depth_m }
-    }
-
-    /// How many cameras contradict a point at `p` of colour `color`: it lands inside their
-    /// plate where the plate is confident, no other dense point stands in front of it there, and
-    /// the plate shows another colour.
-    fn cameras(&self, p: DVec3, color: [u8; 3], options: &PlateCloudOptions) -> usize {
-        let color = color.map(|v| f32::from(v) / 255.0);
-        (0..self.cameras.len())
-            .filter(|&c| {
-                let (Some(plate), Some(Some(nearest))) = (self.plates.get(c).and_then(Option::as_ref), self.nearest_depth_m.get(c)) else {
-                    return false;
-                };
-                let Some((pixel, depth_m)) = self.cameras[c].first().and_then(|camera| camera.project_world(p)) else { return false };
-                let (Some(index), Some(shown)) = (nearest_index(&plate.image, pixel.x, pixel.y), sample(&plate.image, pixel.x, pixel.y))
-                else {
-                    return false;
-                };
-                let in_front = depth_m <= f64::from(nearest.data[index]) * (1.0 + IN_FRONT_SHARE);
-                plate.confidence[index] >= options.min_confidence && in_front && difference(shown, color) > options.seen_tolerance
-            })
-            .count()
-    }
-}
-
 /// Radius (px) over which each dense point covers a camera's nearest-depth map.
 const CONTRADICTION_FOOTPRINT_PX: usize = 2;
+
+/// Per camera with a plate, the depth of the nearest dense point at each pixel: what a camera
+/// contradicts a point with ([`PlateCloudOptions::drop_contradicted`]).
+fn nearest_depth_maps(
+    cameras: &[Vec<Camera>],
+    plates: &[Option<Plate>],
+    positions: &[Vector3<f64>],
+    colors: &[[u8; 3]],
+) -> Vec<Option<ScalarRaster>> {
+    let cloud =
+        PointCloud { positions_world: positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(), colors: colors.to_vec() };
+    (0..cameras.len())
+        .map(|c| {
+            let camera = cameras[c].first().filter(|_| plates.get(c).is_some_and(Option::is_some))?;
+            Some(static_depth_map(camera, &cloud, CONTRADICTION_FOOTPRINT_PX))
+        })
+        .collect()
+}
 
 fn plate_of(plates: &[Option<Plate>], c: usize) -> &Plate {
     plates[c].as_ref().expect("cameras with a plate only")
