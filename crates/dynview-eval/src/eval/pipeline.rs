@@ -94,10 +94,17 @@ pub fn run(
     // poses cost end to end.
     let true_poses = event.join("colmap");
     if true_poses.join("images.txt").is_file() {
-        let true_out = root.join("prep-true-poses");
-        let args = vec!["--poses".to_string(), true_poses.display().to_string()];
+        // The `--prep-arg`s as well, so that every row measures the same prep.
+        let true_out = root.join(format!("prep-true-poses{suffix}"));
+        let mut args = vec!["--poses".to_string(), true_poses.display().to_string()];
+        args.extend(options.prep_args.iter().cloned());
         let run = prep_once(&dynview, &videos, &true_out, &args, options.fresh)?;
-        let shown = format!("--poses {}", true_poses.strip_prefix(workspace_root()).unwrap_or(&true_poses).display());
+        let shown = format!(
+            "--poses {} {}",
+            true_poses.strip_prefix(workspace_root()).unwrap_or(&true_poses).display(),
+            options.prep_args.join(" ")
+        );
+        let shown = shown.trim_end().to_string();
         variants.push(evaluate_variant(TRUE_POSES, shown, &run, truth, options, moving, still, objects, frames)?);
     }
     Ok(variants)
