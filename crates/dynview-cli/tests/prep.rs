@@ -75,6 +75,8 @@ fn bad_inputs_fail_with_the_file_named() {
         let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap(), &option]);
         assert!(!ok && log.contains("--foreground-tolerance must lie between 0 and 1"), "{tolerance}: {log}");
     }
+    let (ok, log) = dynview(&["prep", "--input", empty.to_str().unwrap(), "--out", out.to_str().unwrap(), "--plate-consistent-views=0"]);
+    assert!(!ok && log.contains("--plate-consistent-views must be at least 1"), "{log}");
 }
 
 /// The visual hull's points of a prep of the hand-held event in `event` (`None` when the

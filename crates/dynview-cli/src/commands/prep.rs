@@ -149,6 +149,15 @@ pub struct Args {
     /// another colour (stereo matched a pattern at the wrong depth).
     #[arg(long, conflicts_with = "no_plates")]
     plate_contradiction: bool,
+    /// Other plates' depth maps that must agree with a pixel of a plate's for it to become a
+    /// point of the static cloud grown from the plates (the stereo's consistency test).
+    #[arg(long, default_value_t = PlateCloudOptions::default().densify.min_consistent_views, conflicts_with = "no_plates")]
+    plate_consistent_views: usize,
+    /// Other plates' depth maps that must agree with a plate pixel among those matched where its
+    /// point lands, for it to become a point: this many, or all of them where fewer were matched
+    /// (0: off; never fewer than `--plate-consistent-views`).
+    #[arg(long, default_value_t = PlateCloudOptions::default().densify.consistent_views_where_matched, conflicts_with = "no_plates")]
+    plate_matched_views: usize,
     /// No points from the visual hull of what moves (by default, with plates of four cameras
     /// or more, rays through each camera's foreground give moving things without stereo points
     /// a depth where they enter the space every other camera's foreground allows).
@@ -331,9 +340,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !(0.0..=1.0).contains(&args.plate_repair_min_share) {
         bail!("--plate-repair-min-share must be between 0 and 1, found {}", args.plate_repair_min_share);
     }
+    if args.plate_consistent_views == 0 {
+        bail!("--plate-consistent-views must be at least 1");
+    }
     if let Some(plates) = options.package.plates.as_mut() {
         plates.repair_min_share = if args.no_plate_repair { 0.0 } else { args.plate_repair_min_share };
         plates.drop_contradicted = args.plate_contradiction;
+        plates.densify.min_consistent_views = args.plate_consistent_views;
+        plates.densify.consistent_views_where_matched = args.plate_matched_views;
     }
     if !(0.0..=1.0).contains(&args.adjust_still_principal_points) {
         bail!("--adjust-still-principal-points must be between 0 and 1, found {}", args.adjust_still_principal_points);

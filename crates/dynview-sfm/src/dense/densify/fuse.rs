@@ -63,6 +63,7 @@ pub(super) fn candidates(work: &[Option<WorkView>], maps: &[Option<DepthMap>], o
                 let depth = f64::from(map.depth_m[index]);
                 let point = view.world_at(x, y, depth);
                 let (mut sum, mut color, mut count) = (point, view.rgb[index].map(u32::from), 1u32);
+                let mut matched = 0usize;
                 for (j, (other, other_map)) in work.iter().zip(maps).enumerate() {
                     let (Some(other), Some(other_map)) = (other, other_map) else { continue };
                     if j == r {
@@ -70,6 +71,7 @@ pub(super) fn candidates(work: &[Option<WorkView>], maps: &[Option<DepthMap>], o
                     }
                     let Some((pixel, z)) = other.project(&point) else { continue };
                     let Some(at) = other.index_of(&pixel).filter(|&at| kept(other_map, at)) else { continue };
+                    matched += 1;
                     let z_other = plane_depth_m(other, other_map, at, (pixel.x, pixel.y));
                     if (z_other - z).abs() <= tolerance * z {
                         sum += other.world_at(pixel.x, pixel.y, z_other);
@@ -78,6 +80,7 @@ pub(super) fn candidates(work: &[Option<WorkView>], maps: &[Option<DepthMap>], o
                         count += 1;
                     }
                 }
+                let required = required.max(options.consistent_views_where_matched.min(matched));
                 if (count - 1) as usize >= required {
                     let mean = |c: u32| ((c + count / 2) / count).min(255) as u8;
                     let candidate = Candidate {
@@ -156,6 +159,68 @@ mod tests {
 
     fn candidate(x: f64, views: u8, cost: f32) -> Candidate {
         Candidate { position_world: Vector3::new(x, 0.0, 0.0), color: [views; 3], views, cost }
+    }
+
+    /// A 32 x 32 view at `x_m` on the x axis, looking along +z (focal 32 px).
+    fn view_at(x_m: f64) -> WorkView {
+        WorkView {
+            width: 32,
+            height: 32,
+            gray: vec![0.5; 1024],
+            rgb: vec![[128; 3]; 1024],
+            focal_px: 32.0,
+            cx_px: 15.5,
+            cy_px: 15.5,
+            pose: dynview_camera::PoseMatrices { rotation: nalgebra::Matrix3::identity(), center_world: Vector3::new(x_m, 0.0, 0.0) },
+        }
+    }
+
+    /// Every pixel on a wall 5 m away, matched at no cost.
+    fn wall_map() -> DepthMap {
+        DepthMap { depth_m: vec![5.0; 1024], normal_camera: vec![[0.0, 0.0, -1.0]; 1024], cost: vec![0.0; 1024] }
+    }
+
+    #[test]
+    fn a_point_is_kept_only_when_enough_other_depth_maps_agree() {
+        let work: Vec<Option<WorkView>> = [0.0, 0.2, 0.4, 0.6].into_iter().map(|x| Some(view_at(x))).collect();
+        let mut maps: Vec<Option<DepthMap>> = (0..4).map(|_| Some(wall_map())).collect();
+        // A floater 3 m away at view 0's pixel (16, 16), matched the same wrong way by views 1
+        // and 2 (as stereo on a dark, plain wall does), not by view 3.
+        let floater = work[0].as_ref().unwrap().world_at(16.0, 16.0, 3.0);
+        for r in 0..3 {
+            let view = work[r].as_ref().unwrap();
+            let (pixel, _) = view.project(&floater).unwrap();
+            let at = view.index_of(&pixel).unwrap();
+            maps[r].as_mut().unwrap().depth_m[at] = 3.0;
+        }
+        // View 3 matched nothing where view 0's wall pixel (5, 5) lands: two other maps can agree
+        // on it, no more.
+        let corner = work[0].as_ref().unwrap().world_at(5.0, 5.0, 5.0);
+        let (pixel, _) = work[3].as_ref().unwrap().project(&corner).unwrap();
+        let at = work[3].as_ref().unwrap().index_of(&pixel).unwrap();
+        for i in [at - 33, at - 32, at - 31, at - 1, at, at + 1, at + 31, at + 32, at + 33] {
+            maps[3].as_mut().unwrap().depth_m[i] = 0.0;
+        }
+        let near = |candidates: &[Candidate]| candidates.iter().filter(|c| c.position_world.z < 4.0).count();
+        let wall = |candidates: &[Candidate]| candidates.iter().filter(|c| c.position_world.z > 4.0).count();
+        let has_corner = |candidates: &[Candidate]| candidates.iter().any(|c| (c.position_world - corner).norm() < 0.05);
+        let two =
+            DensifyOptions { min_consistent_views: 2, min_ncc: 0.5, max_relative_depth_difference: 0.01, ..DensifyOptions::default() };
+        let (kept, _) = candidates(&work, &maps, &two);
+        assert!(near(&kept) >= 1, "two other maps agreeing keep the floater");
+        assert!(has_corner(&kept));
+        let three = DensifyOptions { min_consistent_views: 3, ..two.clone() };
+        let (kept, _) = candidates(&work, &maps, &three);
+        assert_eq!(near(&kept), 0, "only two other maps agree with the floater");
+        assert!(!has_corner(&kept), "three agreeing maps asked for, two can");
+        assert!(wall(&kept) > 3000, "the wall, which every map agrees on, stays: {}", wall(&kept));
+        // Three of the maps matched where they landed: asked where matched, the floater goes (two
+        // of three agree) and the corner stays (both maps matched there agree).
+        let matched = DensifyOptions { consistent_views_where_matched: 3, ..two.clone() };
+        let (kept, _) = candidates(&work, &maps, &matched);
+        assert_eq!(near(&kept), 0, "the third matched map outvotes the floater");
+        assert!(has_corner(&kept), "where only two maps matched, two agreeing keep the point");
+        assert!(wall(&kept) > 3000);
     }
 
     #[test]

@@ -26,6 +26,13 @@ pub struct DensifyOptions {
     /// Other views whose depth maps must agree with a pixel for it to become a point (all the other
     /// depth maps when there are fewer).
     pub min_consistent_views: usize,
+    /// Other depth maps that must agree with a pixel among those matched where its point lands:
+    /// this many, or all of them where fewer were matched, and never fewer than
+    /// `min_consistent_views` (0: off). A point that stereo matched at the wrong depth on a plain
+    /// wall can find two views that made the same mistake; a third that sees the wall there
+    /// outvotes them.
+    #[serde(default)]
+    pub consistent_views_where_matched: usize,
     /// Relative margin added to the sparse points' depth range (2nd to 98th percentile) of a view.
     pub depth_range_margin: f64,
     /// Edge of the voxels that merge duplicates, in working pixels at the median depth.
@@ -47,6 +54,7 @@ impl Default for DensifyOptions {
             min_ncc: 0.6,
             max_relative_depth_difference: 0.01,
             min_consistent_views: 2,
+            consistent_views_where_matched: 0,
             depth_range_margin: 0.25,
             voxel_px: 1.0,
             seed: 0x5eed,
