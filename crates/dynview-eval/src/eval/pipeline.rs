@@ -75,6 +75,8 @@ pub fn run(
     let densified_out = root.join(format!("prep{suffix}"));
     let plain_out = root.join(format!("prep-no-densify{suffix}"));
     let mut variants = Vec::new();
+    // What a row's table shows: its own arguments, then the `--prep-arg`s every run gets.
+    let shown = |own: String| format!("{own} {}", options.prep_args.join(" ")).trim().to_string();
     let densified = prep_once(&dynview, &videos, &densified_out, &options.prep_args, options.fresh)?;
     variants.push(evaluate_variant("densified", options.prep_args.join(" "), &densified, truth, options, moving, still, objects, frames)?);
     // Same poses as the densified run (its poses.json), so the rows differ by the clouds alone.
@@ -83,13 +85,8 @@ pub fn run(
     let mut plain_args = vec!["--no-densify".to_string(), "--poses".into(), poses.display().to_string()];
     plain_args.extend(options.prep_args.iter().cloned());
     let plain = prep_once(&dynview, &videos, &plain_out, &plain_args, options.fresh)?;
-    let shown = format!(
-        "--no-densify --poses {} {}",
-        poses.strip_prefix(workspace_root()).unwrap_or(&poses).display(),
-        options.prep_args.join(" ")
-    );
-    let shown = shown.trim_end().to_string();
-    variants.push(evaluate_variant("sparse (--no-densify)", shown, &plain, truth, options, moving, still, objects, frames)?);
+    let plain_shown = shown(format!("--no-densify --poses {}", poses.strip_prefix(workspace_root()).unwrap_or(&poses).display()));
+    variants.push(evaluate_variant("sparse (--no-densify)", plain_shown, &plain, truth, options, moving, still, objects, frames)?);
     // The same prep on the event's true poses and intrinsics (its COLMAP model): what our own
     // poses cost end to end.
     let true_poses = event.join("colmap");
@@ -99,13 +96,8 @@ pub fn run(
         let mut args = vec!["--poses".to_string(), true_poses.display().to_string()];
         args.extend(options.prep_args.iter().cloned());
         let run = prep_once(&dynview, &videos, &true_out, &args, options.fresh)?;
-        let shown = format!(
-            "--poses {} {}",
-            true_poses.strip_prefix(workspace_root()).unwrap_or(&true_poses).display(),
-            options.prep_args.join(" ")
-        );
-        let shown = shown.trim_end().to_string();
-        variants.push(evaluate_variant(TRUE_POSES, shown, &run, truth, options, moving, still, objects, frames)?);
+        let true_shown = shown(format!("--poses {}", true_poses.strip_prefix(workspace_root()).unwrap_or(&true_poses).display()));
+        variants.push(evaluate_variant(TRUE_POSES, true_shown, &run, truth, options, moving, still, objects, frames)?);
     }
     Ok(variants)
 }

@@ -198,7 +198,8 @@ mod tests {
         let corner = work[0].as_ref().unwrap().world_at(5.0, 5.0, 5.0);
         let (pixel, _) = work[3].as_ref().unwrap().project(&corner).unwrap();
         let at = work[3].as_ref().unwrap().index_of(&pixel).unwrap();
-        for i in [at - 33, at - 32, at - 31, at - 1, at, at + 1, at + 31, at + 32, at + 33] {
+        let (x, y) = (at % 32, at / 32);
+        for i in (y - 1..=y + 1).flat_map(|y| (x - 1..=x + 1).map(move |x| y * 32 + x)) {
             maps[3].as_mut().unwrap().depth_m[i] = 0.0;
         }
         let near = |candidates: &[Candidate]| candidates.iter().filter(|c| c.position_world.z < 4.0).count();
