@@ -153,9 +153,9 @@ pub struct Args {
     /// point of the static cloud grown from the plates (the stereo's consistency test).
     #[arg(long, default_value_t = PlateCloudOptions::default().densify.min_consistent_views, conflicts_with = "no_plates")]
     plate_consistent_views: usize,
-    /// Other plates' depth maps that must agree with a plate pixel among those matched where its
-    /// point lands, for it to become a point: this many, or all of them where fewer were matched
-    /// (0: off; never fewer than `--plate-consistent-views`).
+    /// Other plates' depth maps that must agree with a plate pixel where more than this many
+    /// were matched where its point lands, for it to become a point (0: off; never fewer than
+    /// `--plate-consistent-views`, which alone applies where fewer were matched).
     #[arg(long, default_value_t = PlateCloudOptions::default().densify.consistent_views_where_matched, conflicts_with = "no_plates")]
     plate_matched_views: usize,
     /// No points from the visual hull of what moves (by default, with plates of four cameras

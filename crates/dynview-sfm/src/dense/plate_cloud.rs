@@ -83,6 +83,7 @@ impl Default for PlateCloudOptions {
                 max_side_px: 960,
                 source_views: 4,
                 best_sources: 2,
+                consistent_views_where_matched: 3,
                 ..DensifyOptions::default()
             },
             min_confidence: 0.5,

@@ -80,7 +80,10 @@ pub(super) fn candidates(work: &[Option<WorkView>], maps: &[Option<DepthMap>], o
                         count += 1;
                     }
                 }
-                let required = required.max(options.consistent_views_where_matched.min(matched));
+                // Where more maps matched than asked for, that many must agree; a point fewer
+                // maps saw keeps the plain requirement.
+                let asked = options.consistent_views_where_matched;
+                let required = if matched > asked { required.max(asked) } else { required };
                 if (count - 1) as usize >= required {
                     let mean = |c: u32| ((c + count / 2) / count).min(255) as u8;
                     let candidate = Candidate {
@@ -182,10 +185,10 @@ mod tests {
 
     #[test]
     fn a_point_is_kept_only_when_enough_other_depth_maps_agree() {
-        let work: Vec<Option<WorkView>> = [0.0, 0.2, 0.4, 0.6].into_iter().map(|x| Some(view_at(x))).collect();
-        let mut maps: Vec<Option<DepthMap>> = (0..4).map(|_| Some(wall_map())).collect();
+        let work: Vec<Option<WorkView>> = [0.0, 0.2, 0.4, 0.6, 1.0].into_iter().map(|x| Some(view_at(x))).collect();
+        let mut maps: Vec<Option<DepthMap>> = (0..5).map(|_| Some(wall_map())).collect();
         // A floater 3 m away at view 0's pixel (16, 16), matched the same wrong way by views 1
-        // and 2 (as stereo on a dark, plain wall does), not by view 3.
+        // and 2 (as stereo on a dark, plain wall does), not by views 3 and 4, which see the wall.
         let floater = work[0].as_ref().unwrap().world_at(16.0, 16.0, 3.0);
         for r in 0..3 {
             let view = work[r].as_ref().unwrap();
@@ -193,9 +196,10 @@ mod tests {
             let at = view.index_of(&pixel).unwrap();
             maps[r].as_mut().unwrap().depth_m[at] = 3.0;
         }
-        // View 3 matched nothing where view 0's wall pixel (5, 5) lands: two other maps can agree
-        // on it, no more.
+        // View 4 does not see view 0's wall pixel (5, 5) and view 3 matched nothing where it
+        // lands: two other maps can agree on it, no more.
         let corner = work[0].as_ref().unwrap().world_at(5.0, 5.0, 5.0);
+        assert!(work[4].as_ref().unwrap().project(&corner).and_then(|(p, _)| work[4].as_ref().unwrap().index_of(&p)).is_none());
         let (pixel, _) = work[3].as_ref().unwrap().project(&corner).unwrap();
         let at = work[3].as_ref().unwrap().index_of(&pixel).unwrap();
         let (x, y) = (at % 32, at / 32);
@@ -215,13 +219,21 @@ mod tests {
         assert_eq!(near(&kept), 0, "only two other maps agree with the floater");
         assert!(!has_corner(&kept), "three agreeing maps asked for, two can");
         assert!(wall(&kept) > 3000, "the wall, which every map agrees on, stays: {}", wall(&kept));
-        // Three of the maps matched where they landed: asked where matched, the floater goes (two
-        // of three agree) and the corner stays (both maps matched there agree).
+        // Four other maps matched where the floater lands: asked for three where more than three
+        // matched, the floater goes (two agree) and the corner stays (only two maps matched there).
         let matched = DensifyOptions { consistent_views_where_matched: 3, ..two.clone() };
         let (kept, _) = candidates(&work, &maps, &matched);
-        assert_eq!(near(&kept), 0, "the third matched map outvotes the floater");
+        assert_eq!(near(&kept), 0, "the fourth matched map outvotes the floater");
         assert!(has_corner(&kept), "where only two maps matched, two agreeing keep the point");
         assert!(wall(&kept) > 3000);
+        // With three other maps matched where it lands, two agreeing still keep the floater.
+        let (kept, _) = candidates(&work[..4], &maps[..4], &matched);
+        assert!(near(&kept) >= 1, "three matched, not more: the plain two suffice");
+        // The plates ask for this by default.
+        let plates = DensifyOptions { min_ncc: 0.5, ..crate::dense::plate_cloud::PlateCloudOptions::default().densify };
+        let (kept, _) = candidates(&work, &maps, &plates);
+        assert_eq!(near(&kept), 0, "the plates' defaults drop the floater");
+        assert!(has_corner(&kept), "and keep the corner");
     }
 
     #[test]

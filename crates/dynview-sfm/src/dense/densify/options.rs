@@ -26,11 +26,11 @@ pub struct DensifyOptions {
     /// Other views whose depth maps must agree with a pixel for it to become a point (all the other
     /// depth maps when there are fewer).
     pub min_consistent_views: usize,
-    /// Other depth maps that must agree with a pixel among those matched where its point lands:
-    /// this many, or all of them where fewer were matched, and never fewer than
-    /// `min_consistent_views` (0: off). A point that stereo matched at the wrong depth on a plain
-    /// wall can find two views that made the same mistake; a third that sees the wall there
-    /// outvotes them.
+    /// Other depth maps that must agree with a pixel where more than this many were matched
+    /// (kept a depth) where its point lands; never fewer than `min_consistent_views`, which
+    /// alone applies where fewer were matched (0: off). A point that stereo matched at the wrong
+    /// depth on a plain wall can find two views that made the same mistake; where a fourth view
+    /// sees the wall there, the two no longer suffice.
     #[serde(default)]
     pub consistent_views_where_matched: usize,
     /// Relative margin added to the sparse points' depth range (2nd to 98th percentile) of a view.
