@@ -12,7 +12,7 @@ use dynview_core::render::{Method, RenderHooks, RenderParams, StreamingRenderer,
 use dynview_core::{RgbRaster, ScalarRaster};
 use dynview_interchange::camera_path::{PathFrame, parse_path};
 
-use crate::eval::objects::ObjectTruth;
+use crate::eval::objects::{ObjectTruth, depth_errors_cell};
 use crate::paths::{results_dir, workspace_root};
 
 /// Options of `dynview-eval eval` (`cargo xtask eval`): the synthetic event.
@@ -145,8 +145,13 @@ pub fn evaluate_method(
         ms_per_frame: ms,
         moving_object_depth_pct: objects.depth_errors_pct(&moving_out.iter().map(|(_, d)| d).collect::<Vec<_>>(), truth_per_rendered),
     };
+    let objects_shown = if row.moving_object_depth_pct.is_empty() {
+        String::new()
+    } else {
+        format!("  moving objects' depth error {} %", depth_errors_cell(&row.moving_object_depth_pct))
+    };
     println!(
-        "{:<12} PSNR {:.2} dB  SSIM {:.4}  static PSNR {:.2} dB  flicker {:.5}  {:.0} ms/frame",
+        "{:<12} PSNR {:.2} dB  SSIM {:.4}  static PSNR {:.2} dB  flicker {:.5}  {:.0} ms/frame{objects_shown}",
         method.label(),
         row.psnr_moving,
         row.ssim_moving,
