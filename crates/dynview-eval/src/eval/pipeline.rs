@@ -78,7 +78,7 @@ pub fn run(
     // What a row's table shows: its own arguments, then the `--prep-arg`s every run gets.
     let shown = |own: String| format!("{own} {}", options.prep_args.join(" ")).trim().to_string();
     let densified = prep_once(&dynview, &videos, &densified_out, &options.prep_args, options.fresh)?;
-    variants.push(evaluate_variant("densified", options.prep_args.join(" "), &densified, truth, options, moving, still, objects, frames)?);
+    variants.push(evaluate_variant("densified", shown(String::new()), &densified, truth, options, moving, still, objects, frames)?);
     // Same poses as the densified run (its poses.json), so the rows differ by the clouds alone.
     let poses = densified_out.join("poses.json");
     // The `--prep-arg`s too: the sparse run is on our poses, in a folder named after them.

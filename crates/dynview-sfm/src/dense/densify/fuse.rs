@@ -50,6 +50,9 @@ pub(super) fn candidates(work: &[Option<WorkView>], maps: &[Option<DepthMap>], o
     let kept = |map: &DepthMap, index: usize| map.depth_m[index] > 0.0 && map.cost[index] <= max_cost;
     // With few depth maps, every other one must agree.
     let required = options.min_consistent_views.min(maps.iter().flatten().count().saturating_sub(1));
+    // Where more maps matched than this, this many must agree; a point fewer maps saw keeps the
+    // plain requirement.
+    let asked_where_matched = options.consistent_views_where_matched;
     let per_view: Vec<Vec<(Candidate, f64)>> = (0..work.len())
         .into_par_iter()
         .map(|r| {
@@ -80,10 +83,7 @@ pub(super) fn candidates(work: &[Option<WorkView>], maps: &[Option<DepthMap>], o
                         count += 1;
                     }
                 }
-                // Where more maps matched than asked for, that many must agree; a point fewer
-                // maps saw keeps the plain requirement.
-                let asked = options.consistent_views_where_matched;
-                let required = if matched > asked { required.max(asked) } else { required };
+                let required = if matched > asked_where_matched { required.max(asked_where_matched) } else { required };
                 if (count - 1) as usize >= required {
                     let mean = |c: u32| ((c + count / 2) / count).min(255) as u8;
                     let candidate = Candidate {
@@ -187,21 +187,21 @@ mod tests {
     fn a_point_is_kept_only_when_enough_other_depth_maps_agree() {
         let work: Vec<Option<WorkView>> = [0.0, 0.2, 0.4, 0.6, 1.0].into_iter().map(|x| Some(view_at(x))).collect();
         let mut maps: Vec<Option<DepthMap>> = (0..5).map(|_| Some(wall_map())).collect();
+        let view = |r: usize| work[r].as_ref().unwrap();
         // A floater 3 m away at view 0's pixel (16, 16), matched the same wrong way by views 1
         // and 2 (as stereo on a dark, plain wall does), not by views 3 and 4, which see the wall.
-        let floater = work[0].as_ref().unwrap().world_at(16.0, 16.0, 3.0);
-        for r in 0..3 {
-            let view = work[r].as_ref().unwrap();
-            let (pixel, _) = view.project(&floater).unwrap();
-            let at = view.index_of(&pixel).unwrap();
-            maps[r].as_mut().unwrap().depth_m[at] = 3.0;
+        let floater = view(0).world_at(16.0, 16.0, 3.0);
+        for (r, map) in maps.iter_mut().enumerate().take(3) {
+            let (pixel, _) = view(r).project(&floater).unwrap();
+            let at = view(r).index_of(&pixel).unwrap();
+            map.as_mut().unwrap().depth_m[at] = 3.0;
         }
         // View 4 does not see view 0's wall pixel (5, 5) and view 3 matched nothing where it
         // lands: two other maps can agree on it, no more.
-        let corner = work[0].as_ref().unwrap().world_at(5.0, 5.0, 5.0);
-        assert!(work[4].as_ref().unwrap().project(&corner).and_then(|(p, _)| work[4].as_ref().unwrap().index_of(&p)).is_none());
-        let (pixel, _) = work[3].as_ref().unwrap().project(&corner).unwrap();
-        let at = work[3].as_ref().unwrap().index_of(&pixel).unwrap();
+        let corner = view(0).world_at(5.0, 5.0, 5.0);
+        assert!(view(4).project(&corner).and_then(|(p, _)| view(4).index_of(&p)).is_none());
+        let (pixel, _) = view(3).project(&corner).unwrap();
+        let at = view(3).index_of(&pixel).unwrap();
         let (x, y) = (at % 32, at / 32);
         for i in (y - 1..=y + 1).flat_map(|y| (x - 1..=x + 1).map(move |x| y * 32 + x)) {
             maps[3].as_mut().unwrap().depth_m[i] = 0.0;
