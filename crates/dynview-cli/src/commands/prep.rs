@@ -170,9 +170,10 @@ pub struct Args {
     no_moving_plates: bool,
     /// Fewest rays of the visual hull a connected region of a camera's foreground gets: small
     /// ones (a ball far from the cameras) are sampled more finely, down to every pixel. Off (0)
-    /// by default: on the synthetic event it brings a plain 30 cm ball's depth error from 6.0%
-    /// to 1.9% with 400, but on the real Panoptic arcs the full method's lead over the blend in
-    /// the moving regions shrinks and its SSIM falls (docs/results/moving.md).
+    /// by default: on the synthetic events 400 brings a plain 30 cm ball's depth error from 5.2%
+    /// to 1.9% and the full method up by about 0.5 dB, but on the real Panoptic arcs its SSIM
+    /// falls and arc 2's moving regions lose, however small the regions it is kept to
+    /// (docs/results/moving.md).
     #[arg(long, value_name = "RAYS", default_value_t = 0, conflicts_with = "no_hull")]
     hull_region_rays: usize,
     /// Cells of the visual hull's ray grid around a hull point whose own stereo points move it
